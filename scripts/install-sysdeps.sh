@@ -1,0 +1,18 @@
+#!/bin/sh
+# Install the system libraries caustica needs when they are missing:
+# Mesa's EGL and llvmpipe (headless OpenGL 4.5 on the CPU) and Python's venv.
+set -e
+need=""
+ldconfig -p | grep -q 'libEGL_mesa.so' || need="$need libegl1 libegl-mesa0 libgl1-mesa-dri"
+ldconfig -p | grep -q 'libEGL.so.1' || need="$need libegl1"
+python3 -c 'import ensurepip, venv' 2>/dev/null || need="$need python3-venv"
+if [ -n "$need" ]; then
+    if [ "$(id -u)" != 0 ]; then
+        echo "caustica: missing system packages:$need; run: sudo apt-get install -y$need" >&2
+        exit 2
+    fi
+    echo "caustica: installing system packages:$need"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq $need >/dev/null
+fi

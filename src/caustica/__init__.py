@@ -1,0 +1,23 @@
+"""caustica: real-time reflections, refractions and caustics on the GPU, measured against exact paths."""
+from .errors import CausticaError, GLUnavailableError, MeshError, OutputError, SceneError, TechniqueError
+
+__version__ = "0.1.0"
+
+
+def load_scene(path_or_preset):
+    """Load a TOML scene file or a built-in preset by name."""
+    from .scene.io import load_scene as _load
+
+    return _load(path_or_preset)
+
+
+def __getattr__(name):
+    if name == "Renderer":
+        from .renderer import Renderer
+
+        return Renderer
+    raise AttributeError(name)
+
+
+__all__ = ["load_scene", "Renderer", "CausticaError", "GLUnavailableError", "MeshError", "OutputError",
+           "SceneError", "TechniqueError"]

@@ -1,0 +1,40 @@
+"""Typed errors. Each carries a one-line message naming the problem and the fix.
+
+The CLI prints ``caustica: <message>`` and exits with code 2 for any of them.
+"""
+
+
+class CausticaError(Exception):
+    """Base class of every error caustica raises on bad input or a missing system part."""
+
+
+class SceneError(CausticaError, ValueError):
+    """A scene file, preset or scene object is invalid."""
+
+
+class MeshError(SceneError):
+    """A mesh file is missing, unreadable, empty or holds non-finite vertices."""
+
+
+class EnvironmentImageError(SceneError):
+    """An environment image cannot be read."""
+
+
+class TechniqueError(CausticaError, ValueError):
+    """An unknown technique or an invalid technique parameter."""
+
+
+class GLUnavailableError(CausticaError, RuntimeError):
+    """No usable OpenGL 4.3 core context (EGL or Mesa missing, or the GL too old)."""
+
+
+class OutputError(CausticaError, OSError):
+    """An output file cannot be written (missing directory, unknown format)."""
+
+
+def closest_name(name: str, candidates) -> str:
+    """A ' (did you mean X?)' hint for the candidate nearest to ``name``, or ''."""
+    import difflib
+
+    match = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.5)
+    return f" (did you mean '{match[0]}'?)" if match else ""

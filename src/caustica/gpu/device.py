@@ -1,0 +1,53 @@
+"""GpuDevice: the context and the pools every pass uses (shaders, targets, meshes)."""
+from __future__ import annotations
+
+import numpy as np
+
+from .context import describe, shared_context
+from .meshes import MeshCache
+from .shaders import ShaderLibrary
+from .targets import TargetPool
+
+
+class GpuDevice:
+    def __init__(self, ctx=None):
+        self.ctx = ctx or shared_context()
+        self.shaders = ShaderLibrary(self.ctx)
+        self.targets = TargetPool(self.ctx)
+        self.meshes = MeshCache(self.ctx)
+        self.info = describe(self.ctx)
+        self.cache: dict = {}  # results reused across frames (e.g. shadow maps), keyed by scene state
+        self._environments: dict[int, tuple] = {}
+
+    @property
+    def max_texture_size(self) -> int:
+        return self.info["max_texture_size"]
+
+    def environment_texture(self, environment):
+        """The environment image as an RGB32F texture: linear filter, wrap in x, clamp in y."""
+        key = id(environment.image)
+        entry = self._environments.get(key)
+        if entry is None or entry[0] is not environment.image:
+            if entry is not None:
+                entry[1].release()
+            h, w = environment.image.shape[:2]
+            tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(environment.image, dtype="f4").tobytes(), dtype="f4")
+            tex.repeat_x, tex.repeat_y = True, False
+            import moderngl
+
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            entry = (environment.image, tex)
+            self._environments[key] = entry
+        return entry[1]
+
+    def finish(self) -> None:
+        self.ctx.finish()
+
+    def release(self) -> None:
+        self.shaders.release()
+        self.targets.release()
+        self.meshes.release()
+        for _, tex in self._environments.values():
+            tex.release()
+        self._environments.clear()
+        self.cache.clear()

@@ -1,0 +1,71 @@
+"""Meshes on the GPU: one vertex/index buffer pair per mesh, one vertex array per program."""
+from __future__ import annotations
+
+import numpy as np
+
+
+class GpuMesh:
+    """Interleaved object-space positions and normals plus triangle indices."""
+
+    def __init__(self, ctx, mesh):
+        data = np.hstack([mesh.vertices, mesh.normals]).astype("f4")
+        self.vbo = ctx.buffer(data.tobytes())
+        self.ibo = ctx.buffer(mesh.faces.astype("i4").tobytes())
+        self.ctx = ctx
+        self._arrays: dict[int, object] = {}
+
+    def vertex_array(self, program):
+        vao = self._arrays.get(program.glo)
+        if vao is None:
+            layout = "3f 3f" if "in_normal" in program else "3f 12x"
+            names = ["in_position", "in_normal"] if "in_normal" in program else ["in_position"]
+            vao = self.ctx.vertex_array(program, [(self.vbo, layout, *names)], self.ibo, index_element_size=4)
+            self._arrays[program.glo] = vao
+        return vao
+
+    def render(self, program) -> None:
+        self.vertex_array(program).render()
+
+    def release(self) -> None:
+        for vao in self._arrays.values():
+            vao.release()
+        self.vbo.release()
+        self.ibo.release()
+
+
+class MeshCache:
+    """GpuMesh per mesh content, shared across frames."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._meshes: dict[str, GpuMesh] = {}
+
+    def get(self, mesh) -> GpuMesh:
+        key = mesh.content_hash()
+        if key not in self._meshes:
+            self._meshes[key] = GpuMesh(self.ctx, mesh)
+        return self._meshes[key]
+
+    def release(self) -> None:
+        for m in self._meshes.values():
+            m.release()
+        self._meshes.clear()
+
+
+def mat4_bytes(m: np.ndarray) -> bytes:
+    """A row-major numpy matrix as GLSL's column-major bytes."""
+    return np.asarray(m, dtype="f4").T.tobytes()
+
+
+def set_uniform(program, name: str, value) -> None:
+    """Write a uniform if the program uses it (drivers drop unused ones)."""
+    if name not in program:
+        return
+    member = program[name]
+    if isinstance(value, np.ndarray):
+        matrix = value.ndim == 2 and value.shape[0] == value.shape[1] and member.array_length == 1
+        dtype = "f4" if value.dtype.kind == "f" else "i4"
+        # numpy is row-major, GLSL matrices column-major.
+        member.write(np.ascontiguousarray((value.T if matrix else value).astype(dtype)).tobytes())
+    else:
+        member.value = value

@@ -1,0 +1,72 @@
+"""Passes declare what they read and write; a technique wires them by channel name.
+
+After Falcor's RenderPassReflection: a reader sees the data flow from the
+declarations alone. ``Frame.channels`` is the blackboard the passes share.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One named output of a pass: its format and what it means."""
+
+    name: str
+    format: str
+    meaning: str
+
+
+@dataclass
+class Frame:
+    """Everything one render of one image shares: GPU resources, scene, camera, parameters, channels."""
+
+    gpu: Any  # caustica.gpu.device.GpuDevice
+    scene: Any
+    camera: Any
+    params: Any
+    channels: dict[str, Any] = field(default_factory=dict)
+
+    def read(self, name: str):
+        return self.channels[name]
+
+    def write(self, name: str, value) -> None:
+        self.channels[name] = value
+
+
+class Pass:
+    """A render stage. Subclasses set ``reads`` (channel names) and ``writes`` (Channels)."""
+
+    reads: ClassVar[tuple[str, ...]] = ()
+    writes: ClassVar[tuple[Channel, ...]] = ()
+
+    def run(self, frame: Frame) -> None:
+        raise NotImplementedError
+
+
+class PassWiringError(RuntimeError):
+    """A pass reads a channel nobody wrote, or fails to write what it declares."""
+
+
+def run_passes(passes, frame: Frame) -> None:
+    """Run passes in order, checking each reads only what an earlier pass wrote."""
+    for stage in passes:
+        missing = [name for name in stage.reads if name not in frame.channels]
+        if missing:
+            raise PassWiringError(f"{type(stage).__name__} reads {missing}, which no earlier pass writes")
+        stage.run(frame)
+        unwritten = [c.name for c in stage.writes if c.name not in frame.channels]
+        if unwritten:
+            raise PassWiringError(f"{type(stage).__name__} declares {unwritten} but did not write them")
+
+
+def describe_passes(passes) -> str:
+    """A readable data-flow listing: each pass, what it reads, what it writes."""
+    lines = []
+    for stage in passes:
+        lines.append(f"{type(stage).__name__}: {(stage.__doc__ or '').strip().splitlines()[0]}")
+        lines.append(f"  reads:  {', '.join(stage.reads) or '-'}")
+        for c in stage.writes:
+            lines.append(f"  writes: {c.name} ({c.format}): {c.meaning}")
+    return "\n".join(lines)

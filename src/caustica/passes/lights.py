@@ -1,0 +1,182 @@
+"""Light samples and shadow maps (distance maps) for diffuse receivers.
+
+Directional lights: orthographic map fitted around the scene. Spot lights: a
+perspective map over the outer cone. Point lights (and each point of a line
+light): a six-face atlas, 6N x N, in the face layout of ``CUBE_FORWARD`` /
+``CUBE_UP``. Every map stores the distance to the light in r32f, so receivers
+compare distances directly (with a small relative bias and 3x3 PCF).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ..errors import TechniqueError
+from ..gpu.meshes import set_uniform
+from ..scene.lights import DirectionalLight, SpotLight
+from ..scene.transform import look_at_view_from_world, orthographic_clip_from_view, perspective_clip_from_view
+from .base import Channel, Frame, Pass
+
+MAX_LIGHTS = 12
+LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT = 0, 1, 2
+CUBE_FORWARD = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
+CUBE_UP = np.array([[0, 1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1], [0, 1, 0], [0, 1, 0]], dtype=np.float64)
+
+
+@dataclass
+class LightSample:
+    """One shadowed emitter as the shaders see it (a line light gives several)."""
+
+    type: int
+    position: np.ndarray
+    direction: np.ndarray
+    intensity: np.ndarray
+    cone_cos: tuple[float, float] = (1.0, 1.0)
+    clip_from_world: np.ndarray | None = None  # directional and spot maps
+
+
+def light_samples(scene) -> list[LightSample]:
+    """Expand the scene's lights into point/directional/spot samples."""
+    center = scene.bounds().mean(axis=0)
+    radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+    samples: list[LightSample] = []
+    for light in scene.lights:
+        if isinstance(light, DirectionalLight):
+            origin = center - light.direction * 2.0 * radius
+            view = look_at_view_from_world(origin, center, _any_up(light.direction))
+            clip = orthographic_clip_from_view(radius, radius, 0.01 * radius, 4.0 * radius) @ view
+            samples.append(LightSample(LIGHT_DIRECTIONAL, origin, light.direction, light.intensity, clip_from_world=clip))
+        elif isinstance(light, SpotLight):
+            view = look_at_view_from_world(light.position, light.position + light.direction, _any_up(light.direction))
+            far = np.linalg.norm(light.position - center) + 2 * radius
+            clip = perspective_clip_from_view(2 * light.outer_angle + 2.0, 1.0, 0.01 * radius, far) @ view
+            cones = (float(np.cos(np.radians(light.inner_angle))), float(np.cos(np.radians(light.outer_angle))))
+            samples.append(LightSample(LIGHT_SPOT, light.position, light.direction, light.intensity, cones, clip))
+        else:
+            for position, intensity in light.point_samples():
+                samples.append(LightSample(LIGHT_POINT, position, np.array([0.0, -1.0, 0.0]), intensity))
+    if len(samples) > MAX_LIGHTS:
+        raise TechniqueError(
+            f"the scene has {len(samples)} light samples but at most {MAX_LIGHTS} are supported; "
+            "use fewer lights or fewer line-light samples"
+        )
+    return samples
+
+
+def _any_up(direction: np.ndarray) -> np.ndarray:
+    return np.array([0.0, 0.0, 1.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
+
+
+def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) -> None:
+    """Draw objects with the shared mesh vertex stage."""
+    set_uniform(program, "clip_from_world", clip_from_world)
+    for obj in objects:
+        m = obj.world_from_object()
+        set_uniform(program, "world_from_object", m)
+        set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+        frame.gpu.meshes.get(obj.mesh).render(program)
+
+
+class ShadowMaps(Pass):
+    """Distance-to-light maps for every light sample (reused while lights and objects stay put)."""
+
+    reads = ()
+    writes = (
+        Channel("light_samples", "list", "point/directional/spot samples with their shadow projections"),
+        Channel("shadow_maps", "r32f", "per light sample: distance to the light (6-face atlas for points)"),
+    )
+
+    def __init__(self, size: int = 1024):
+        self.size = size
+
+    def run(self, frame: Frame) -> None:
+        samples = light_samples(frame.scene)
+        key = ("shadow_maps", self.size, _scene_state_key(frame.scene))
+        maps = frame.gpu.cache.get(key)
+        if maps is None:
+            _evict(frame.gpu.cache, "shadow_maps")
+            maps = [self._render(frame, s) for s in samples]
+            frame.gpu.cache[key] = maps
+        frame.write("light_samples", samples)
+        frame.write("shadow_maps", maps)
+
+    def _render(self, frame: Frame, sample: LightSample):
+        ctx, gpu, n = frame.gpu.ctx, frame.gpu, self.size
+        faces = 6 if sample.type == LIGHT_POINT else 1
+        color = ctx.texture((n * faces, n), 1, dtype="f4")
+        depth = ctx.depth_renderbuffer((n * faces, n))
+        fbo = ctx.framebuffer([color], depth)
+        along = 1 if sample.type == LIGHT_DIRECTIONAL else 0
+        program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/distance.frag", {"ALONG_DIRECTION": along})
+        set_uniform(program, "origin", sample.position.astype("f4"))
+        set_uniform(program, "direction", sample.direction.astype("f4"))
+        fbo.use()
+        fbo.clear(1e30, 1e30, 1e30, 1e30, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        radius = 0.5 * np.linalg.norm(np.ptp(frame.scene.bounds(), axis=0)) + 1e-6
+        for face in range(faces):
+            fbo.viewport = (face * n, 0, n, n)
+            if sample.type == LIGHT_POINT:
+                p = sample.position
+                view = look_at_view_from_world(p, p + CUBE_FORWARD[face], CUBE_UP[face])
+                far = np.linalg.norm(p - frame.scene.bounds().mean(axis=0)) + 2 * radius
+                clip = perspective_clip_from_view(90.0, 1.0, 1e-3 * radius, far) @ view
+            else:
+                clip = sample.clip_from_world
+            draw_objects(frame, program, frame.scene.objects, clip)
+        fbo.release()
+        depth.release()
+        color.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return color
+
+
+def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int, shadow_bias: float = 2e-3) -> None:
+    """Set the lighting.glsl uniforms and bind shadow maps from texture unit ``first_unit``."""
+    count = len(samples)
+    set_uniform(program, "light_count", count)
+    if count == 0:
+        return
+
+    def pad(rows, width):
+        out = np.zeros((MAX_LIGHTS, width), dtype="f4")
+        out[:count] = rows
+        return out
+
+    set_uniform(program, "light_type", np.array([s.type for s in samples] + [0] * (MAX_LIGHTS - count), dtype="i4"))
+    set_uniform(program, "light_position", pad([s.position for s in samples], 3))
+    set_uniform(program, "light_direction", pad([s.direction for s in samples], 3))
+    set_uniform(program, "light_intensity", pad([s.intensity for s in samples], 3))
+    set_uniform(program, "light_cone_cos", pad([s.cone_cos for s in samples], 2))
+    clips = np.zeros((MAX_LIGHTS, 4, 4), dtype="f4")
+    for i, s in enumerate(samples):
+        clips[i] = s.clip_from_world if s.clip_from_world is not None else np.eye(4)
+    if "light_clip_from_world" in program:
+        program["light_clip_from_world"].write(np.ascontiguousarray(clips.transpose(0, 2, 1)).tobytes())
+    set_uniform(program, "cube_forward", CUBE_FORWARD.astype("f4"))
+    set_uniform(program, "cube_up", CUBE_UP.astype("f4"))
+    set_uniform(program, "shadow_bias", shadow_bias)
+    units = []
+    for i in range(MAX_LIGHTS):
+        unit = first_unit + min(i, count - 1)
+        units.append(unit)
+    for i, tex in enumerate(maps):
+        tex.use(first_unit + i)
+    if "shadow_map" in program:
+        program["shadow_map"].write(np.array(units, dtype="i4").tobytes())
+
+
+def _scene_state_key(scene) -> tuple:
+    """What shadow maps depend on: lights and object geometry and placement."""
+    parts = [repr(light) for light in scene.lights]
+    for obj in scene.objects:
+        parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
+    return tuple(parts)
+
+
+def _evict(cache: dict, tag: str) -> None:
+    for key in [k for k in cache if isinstance(k, tuple) and k and k[0] == tag]:
+        for tex in cache.pop(key):
+            tex.release()

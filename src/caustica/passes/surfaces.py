@@ -1,0 +1,103 @@
+"""Camera-view passes shared by techniques: back-face distance, background, surface shading."""
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from .base import Channel, Frame, Pass
+from .lights import bind_lights, draw_objects
+
+MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
+
+
+class BackFaceDistance(Pass):
+    """Eye distance to the farthest back face of the glass objects (0 where there is none)."""
+
+    reads = ()
+    writes = (Channel("back_depth", "r32f", "eye distance to the farthest back face of the refractors"),)
+
+    def run(self, frame: Frame) -> None:
+        gpu, ctx = frame.gpu, frame.gpu.ctx
+        size = frame.camera.size
+        target = gpu.targets.texture(size, "r32f")
+        depth = gpu.targets.texture(size, "depth")
+        fbo = gpu.targets.framebuffer([target], depth)
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
+        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
+        ctx.cull_face = "front"
+        ctx.depth_func = ">"
+        program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/distance.frag", {"ALONG_DIRECTION": 0})
+        set_uniform(program, "origin", frame.camera.position.astype("f4"))
+        draw_objects(frame, program, frame.scene.objects_of("glass"), frame.camera.clip_from_world())
+        ctx.depth_func = "<"
+        ctx.cull_face = "back"
+        ctx.disable(moderngl.CULL_FACE)
+        gpu.targets.give_back(depth)
+        frame.write("back_depth", target)
+
+
+class ShadeSurfaces(Pass):
+    """Environment background, then every object shaded by a surface fragment shader.
+
+    The default shader is the env-map baseline; techniques pass their own
+    fragment shader and extra uniforms for refractors.
+    """
+
+    reads = ("light_samples", "shadow_maps", "back_depth")
+    writes = (
+        Channel("color", "rgba32f", "linear radiance seen by the camera"),
+        Channel("depth", "depth", "camera depth buffer"),
+    )
+
+    def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None):
+        self.fragment = fragment
+        self.defines = defines or {}
+        self.material_override = material_override
+
+    def run(self, frame: Frame) -> None:
+        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
+        color = gpu.targets.texture(camera.size, "rgba32f")
+        depth = gpu.targets.texture(camera.size, "depth")
+        fbo = gpu.targets.framebuffer([color], depth)
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        environment = gpu.environment_texture(scene.environment)
+        environment.use(0)
+        frame.read("back_depth").use(1)
+
+        # Background: the environment through every pixel.
+        ctx.disable(moderngl.DEPTH_TEST)
+        background = gpu.shaders.program("passes/fullscreen.vert", "passes/background.frag")
+        set_uniform(background, "environment", 0)
+        set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
+        set_uniform(background, "intensity_scale", float(scene.intensity_scale))
+        ctx.vertex_array(background, []).render(moderngl.TRIANGLES, vertices=3)
+
+        # Objects over it.
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        program = gpu.shaders.program("common/mesh_vertex.glsl", self.fragment, self.defines)
+        set_uniform(program, "environment", 0)
+        set_uniform(program, "back_depth", 1)
+        set_uniform(program, "camera_position", camera.position.astype("f4"))
+        set_uniform(program, "intensity_scale", float(scene.intensity_scale))
+        set_uniform(program, "irradiance_sh", scene.environment.irradiance_sh().astype("f4"))
+        bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=4)
+        clip_from_world = camera.clip_from_world()
+        for obj in scene.objects:
+            material = self.material_override or obj.material
+            set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
+            set_uniform(program, "material_color", _material_color(material))
+            if material.kind == "glass":
+                set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
+                set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+            draw_objects(frame, program, [obj], clip_from_world)
+        frame.write("color", color)
+        frame.write("depth", depth)
+
+
+def _material_color(material) -> np.ndarray:
+    return np.asarray(getattr(material, "color", np.ones(3)), dtype="f4")

@@ -1,0 +1,16 @@
+"""Scene model: pure data, no GL imports."""
+from .camera import Camera, fov_x_from_fov_y, fov_y_from_fov_x
+from .environment import Environment, direction_to_uv, load_environment, procedural_environment, uv_to_direction
+from .lights import DirectionalLight, LineLight, PointLight, SpotLight
+from .materials import Diffuse, Glass, Mirror, water
+from .mesh import Mesh, load_mesh
+from .scene import Scene, SceneObject
+from .transform import Transform
+
+__all__ = [
+    "Camera", "fov_x_from_fov_y", "fov_y_from_fov_x",
+    "Environment", "direction_to_uv", "uv_to_direction", "load_environment", "procedural_environment",
+    "DirectionalLight", "LineLight", "PointLight", "SpotLight",
+    "Diffuse", "Glass", "Mirror", "water",
+    "Mesh", "load_mesh", "Scene", "SceneObject", "Transform",
+]

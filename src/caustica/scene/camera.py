@@ -1,0 +1,94 @@
+"""Pinhole camera, OpenGL convention: -Z forward, +Y up, vertical field of view."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .transform import look_at_view_from_world, perspective_clip_from_view
+
+
+def fov_y_from_fov_x(fov_x_degrees: float, width: int, height: int) -> float:
+    """Vertical field of view for a horizontal one at the given image size."""
+    half = math.radians(fov_x_degrees) / 2.0
+    return math.degrees(2.0 * math.atan(math.tan(half) * height / width))
+
+
+def fov_x_from_fov_y(fov_y_degrees: float, width: int, height: int) -> float:
+    return fov_y_from_fov_x(fov_y_degrees, height, width)
+
+
+@dataclass
+class Camera:
+    """Where the eye is and what it sees. ``size`` is (width, height) in pixels."""
+
+    position: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 4.0]))
+    look_at: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    fov_y: float = 40.0
+    near: float = 0.05
+    far: float = 100.0
+    size: tuple[int, int] = (512, 512)
+
+    def __post_init__(self):
+        self.position = np.asarray(self.position, dtype=np.float64)
+        self.look_at = np.asarray(self.look_at, dtype=np.float64)
+        self.up = np.asarray(self.up, dtype=np.float64)
+        self.size = (int(self.size[0]), int(self.size[1]))
+        if not 0.0 < self.fov_y < 180.0:
+            raise ValueError(f"field of view {self.fov_y} must lie strictly between 0 and 180 degrees")
+        if not 0.0 < self.near < self.far:
+            raise ValueError(f"near ({self.near}) and far ({self.far}) must satisfy 0 < near < far")
+        if self.size[0] <= 0 or self.size[1] <= 0:
+            raise ValueError(f"image size {self.size[0]}x{self.size[1]} must be positive; give e.g. size = [512, 512]")
+        forward = self.look_at - self.position
+        if np.linalg.norm(forward) < 1e-12:
+            raise ValueError("camera position and look_at coincide; move one of them")
+        if np.linalg.norm(np.cross(forward, self.up)) < 1e-9 * np.linalg.norm(forward) * np.linalg.norm(self.up):
+            raise ValueError("camera up is parallel to the view direction; choose another up vector")
+
+    @property
+    def aspect(self) -> float:
+        return self.size[0] / self.size[1]
+
+    @property
+    def fov_x(self) -> float:
+        return fov_x_from_fov_y(self.fov_y, *self.size)
+
+    def with_size(self, width: int, height: int) -> "Camera":
+        """The same camera at another resolution (vertical field of view kept)."""
+        return Camera(self.position, self.look_at, self.up, self.fov_y, self.near, self.far, (width, height))
+
+    def view_from_world(self) -> np.ndarray:
+        return look_at_view_from_world(self.position, self.look_at, self.up)
+
+    def clip_from_view(self) -> np.ndarray:
+        return perspective_clip_from_view(self.fov_y, self.aspect, self.near, self.far)
+
+    def clip_from_world(self) -> np.ndarray:
+        return self.clip_from_view() @ self.view_from_world()
+
+    def primary_rays(self, spp: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """World-space ray origins and unit directions, (H, W, spp, 3) each, row 0 at the top.
+
+        Samples lie on a stratified sqrt(spp) grid inside each pixel (a box filter);
+        spp = 1 shoots through pixel centres.
+        """
+        width, height = self.size
+        grid = max(1, int(round(math.sqrt(spp))))
+        offsets = (np.arange(grid) + 0.5) / grid
+        oy, ox = np.meshgrid(offsets, offsets, indexing="ij")
+        ox, oy = ox.reshape(-1), oy.reshape(-1)
+        px = np.arange(width)[None, :, None] + ox[None, None, :]
+        py = np.arange(height)[:, None, None] + oy[None, None, :]
+        tan_half = math.tan(math.radians(self.fov_y) / 2.0)
+        x_view = (2.0 * px / width - 1.0) * tan_half * self.aspect
+        y_view = (1.0 - 2.0 * py / height) * tan_half
+        x_view, y_view = np.broadcast_arrays(x_view, y_view)
+        d_view = np.stack([x_view, y_view, -np.ones_like(x_view)], axis=-1)
+        world_from_view = np.linalg.inv(self.view_from_world())
+        d = d_view @ world_from_view[:3, :3].T
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        o = np.broadcast_to(self.position, d.shape)
+        return np.ascontiguousarray(o), d

@@ -1,0 +1,114 @@
+"""Triangle meshes: vertex positions, smooth per-vertex normals, faces.
+
+Meshes are pure data (numpy); the GPU and Embree layers upload them as needed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError
+
+SUPPORTED_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".off")
+
+
+@dataclass
+class Mesh:
+    """An indexed triangle mesh in object space.
+
+    ``vertices`` (N,3) float32, ``normals`` (N,3) float32 unit length (smooth: the
+    exact oracle interpolates them), ``faces`` (M,3) int32 counter-clockwise seen
+    from outside.
+    """
+
+    vertices: np.ndarray
+    normals: np.ndarray
+    faces: np.ndarray
+    name: str = "mesh"
+    _hash: str | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32)
+        self.faces = np.ascontiguousarray(self.faces, dtype=np.int32)
+        if self.normals is None:
+            self.normals = vertex_normals(self.vertices, self.faces)
+        self.normals = np.ascontiguousarray(self.normals, dtype=np.float32)
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise MeshError when the mesh is empty, non-finite or badly indexed."""
+        if self.vertices.ndim != 2 or self.vertices.shape[1] != 3 or len(self.vertices) == 0:
+            raise MeshError(f"mesh '{self.name}' has no vertices; give a mesh with at least one triangle")
+        if self.faces.ndim != 2 or self.faces.shape[1] != 3 or len(self.faces) == 0:
+            raise MeshError(f"mesh '{self.name}' has no triangles; give a mesh with at least one triangle")
+        if not np.all(np.isfinite(self.vertices)):
+            raise MeshError(f"mesh '{self.name}' has NaN or infinite vertex positions; repair the mesh file")
+        if self.faces.min() < 0 or self.faces.max() >= len(self.vertices):
+            raise MeshError(f"mesh '{self.name}' has face indices out of range; repair the mesh file")
+        if self.normals.shape != self.vertices.shape or not np.all(np.isfinite(self.normals)):
+            raise MeshError(f"mesh '{self.name}' has invalid normals; drop them so caustica recomputes them")
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2,3) array: min and max corner."""
+        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    def content_hash(self) -> str:
+        """A stable hash of the geometry, for on-disk caches."""
+        if self._hash is None:
+            import hashlib
+
+            h = hashlib.sha1()
+            h.update(self.vertices.tobytes())
+            h.update(self.faces.tobytes())
+            self._hash = h.hexdigest()[:16]
+        return self._hash
+
+    def transformed(self, world_from_object: np.ndarray) -> "Mesh":
+        """This mesh in world space (normals by the inverse transpose)."""
+        m = np.asarray(world_from_object, dtype=np.float64)
+        v = self.vertices @ m[:3, :3].T + m[:3, 3]
+        normal_matrix = np.linalg.inv(m[:3, :3]).T
+        n = self.normals @ normal_matrix.T
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+        faces = self.faces if np.linalg.det(m[:3, :3]) > 0 else self.faces[:, ::-1]
+        return Mesh(v, n, faces, name=self.name)
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted smooth vertex normals."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    face_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, f[:, k], face_n)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where(length > 1e-30, n / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
+    return n.astype(np.float32)
+
+
+def load_mesh(path: str | Path) -> Mesh:
+    """Read OBJ, PLY, STL, OFF or glTF/GLB geometry through trimesh (scenes are merged)."""
+    path = Path(path)
+    if not path.exists():
+        raise MeshError(f"mesh file not found: {path}; check the path (relative paths are relative to the scene file)")
+    if path.suffix.lower() not in SUPPORTED_MESH_SUFFIXES:
+        raise MeshError(
+            f"unsupported mesh format '{path.suffix}' for {path}; use one of {', '.join(SUPPORTED_MESH_SUFFIXES)}"
+        )
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=True)
+    except Exception as exc:  # trimesh raises many types on malformed files
+        raise MeshError(f"cannot read mesh {path}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}; check the file") from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise MeshError(f"mesh file {path} holds no triangles; give a mesh with at least one triangle")
+    vertices = np.asarray(loaded.vertices)
+    if not np.all(np.isfinite(vertices)):
+        raise MeshError(f"mesh file {path} has NaN or infinite vertex positions; repair the mesh file")
+    faces = np.asarray(loaded.faces)
+    return Mesh(vertices, vertex_normals(vertices, faces), faces, name=path.stem)

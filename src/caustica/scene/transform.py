@@ -1,0 +1,86 @@
+"""Rigid transforms and the matrices the renderer needs.
+
+Matrix names say what they map (pbrt's xFromY): ``world_from_object``,
+``view_from_world``, ``clip_from_view``. Column vectors: p_world = M @ p_object.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must be three numbers [x, y, z]")
+    return arr
+
+
+def rotation_from_euler_degrees(rotation) -> np.ndarray:
+    """3x3 rotation: X first, then Y, then Z (R = Rz @ Ry @ Rx), angles in degrees."""
+    rx, ry, rz = np.radians(_vec3(rotation, "rotation"))
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    mx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return mz @ my @ mx
+
+
+@dataclass
+class Transform:
+    """Scale, then rotate (degrees, XYZ order), then translate to ``position``."""
+
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rotation: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    def __post_init__(self):
+        self.position = _vec3(self.position, "position")
+        self.rotation = _vec3(self.rotation, "rotation")
+        scale = np.asarray(self.scale, dtype=np.float64).reshape(-1)
+        self.scale = np.repeat(scale, 3) if scale.size == 1 else _vec3(scale, "scale")
+        if np.any(self.scale <= 0) or not np.all(np.isfinite(self.scale)):
+            raise ValueError("scale must be positive")
+
+    def world_from_object(self) -> np.ndarray:
+        m = np.eye(4)
+        m[:3, :3] = rotation_from_euler_degrees(self.rotation) @ np.diag(self.scale)
+        m[:3, 3] = self.position
+        return m
+
+
+def look_at_view_from_world(eye, target, up) -> np.ndarray:
+    """OpenGL view matrix: the camera at ``eye`` looks down -Z towards ``target``."""
+    eye, target, up = (np.asarray(x, dtype=np.float64) for x in (eye, target, up))
+    forward = target - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = right, true_up, -forward
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def perspective_clip_from_view(fov_y_degrees: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """OpenGL perspective projection (clip z in [-w, w])."""
+    f = 1.0 / np.tan(np.radians(fov_y_degrees) / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0] = f / aspect
+    m[1, 1] = f
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2.0 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def orthographic_clip_from_view(half_width: float, half_height: float, near: float, far: float) -> np.ndarray:
+    """OpenGL orthographic projection of the box [-hw,hw]x[-hh,hh]x[-far,-near]."""
+    m = np.eye(4)
+    m[0, 0] = 1.0 / half_width
+    m[1, 1] = 1.0 / half_height
+    m[2, 2] = -2.0 / (far - near)
+    m[2, 3] = -(far + near) / (far - near)
+    return m

@@ -1,0 +1,17 @@
+// Shared vertex stage for meshes: object -> world -> clip. Writes world position and normal.
+#version 430 core
+uniform mat4 world_from_object;
+uniform mat3 world_normal_from_object;
+uniform mat4 clip_from_world;
+
+in vec3 in_position;
+in vec3 in_normal;
+out vec3 world_position;
+out vec3 world_normal;
+
+void main() {
+    vec4 p = world_from_object * vec4(in_position, 1.0);
+    world_position = p.xyz;
+    world_normal = world_normal_from_object * in_normal;
+    gl_Position = clip_from_world * p;
+}

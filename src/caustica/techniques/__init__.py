@@ -1,0 +1,4 @@
+"""Rendering techniques, one module per technique."""
+from .base import Technique, get_technique, technique_names
+
+__all__ = ["Technique", "get_technique", "technique_names"]

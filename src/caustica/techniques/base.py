@@ -1,0 +1,77 @@
+"""Technique base class and registry.
+
+A technique is an ordered set of passes (or a CPU algorithm, for ``exact``),
+its parameters as a validated dataclass, and a docstring citing its paper.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from ..errors import TechniqueError, closest_name
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..renderer import Renderer
+    from ..scene import Camera, Scene
+
+_REGISTRY: dict[str, type["Technique"]] = {}
+
+
+@dataclasses.dataclass
+class NoParams:
+    """A technique without parameters."""
+
+
+class Technique:
+    """One way of rendering a scene. Subclasses set ``name``, ``summary``, ``Params``."""
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    Params: ClassVar[type] = NoParams
+    uses_gl: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.name:
+            _REGISTRY[cls.name] = cls
+
+    def make_params(self, **values: Any):
+        """Build the parameter dataclass, rejecting unknown names with a hint."""
+        fields = {f.name for f in dataclasses.fields(self.Params)}
+        for key in values:
+            if key not in fields:
+                raise TechniqueError(
+                    f"technique '{self.name}' has no parameter '{key}'{closest_name(key, fields)}; "
+                    f"its parameters are: {', '.join(sorted(fields)) or 'none'}"
+                )
+        try:
+            return self.Params(**values)
+        except (TypeError, ValueError) as exc:
+            raise TechniqueError(f"technique '{self.name}': {exc}") from None
+
+    def render(self, renderer: "Renderer", scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
+        """Return a (H, W, 3) float32 linear image, row 0 at the top."""
+        raise NotImplementedError
+
+
+def technique_names() -> list[str]:
+    _load_builtin()
+    return sorted(_REGISTRY)
+
+
+def get_technique(name: str) -> Technique:
+    _load_builtin()
+    if name not in _REGISTRY:
+        raise TechniqueError(
+            f"unknown technique '{name}'{closest_name(name, _REGISTRY)}; run 'caustica techniques' to list them"
+        )
+    return _REGISTRY[name]()
+
+
+def _load_builtin() -> None:
+    import importlib
+
+    for module in ("env_map", "exact"):
+        importlib.import_module(f"{__package__}.{module}")  # registers the built-in techniques

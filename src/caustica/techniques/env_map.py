@@ -1,0 +1,52 @@
+"""``env-map``: the single-interface baseline every paper compares against.
+
+Reflection and one refraction of the distant environment at the front
+surface, exact dielectric Fresnel, Beer-Lambert tint over the front-to-back
+thickness (Wyman, section 2 discusses this baseline; Hu and Qin fig. 10a).
+Mirrors reflect the environment. Diffuse receivers: direct light with shadow
+maps (a six-face map for point lights) plus unoccluded ambient from the
+environment's SH irradiance.
+
+Limits: one interface (the ray never leaves through the back), nothing nearby
+is seen in reflections or refractions, no caustics.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..passes.lights import ShadowMaps
+from ..passes.surfaces import BackFaceDistance, ShadeSurfaces
+from ..scene.materials import Diffuse
+from .raster import RasterTechnique
+
+
+@dataclass
+class ShadowedParams:
+    """Parameters of techniques that light diffuse receivers with shadow maps."""
+
+    shadow_map_size: int = 1024
+
+    def __post_init__(self):
+        if not 16 <= int(self.shadow_map_size) <= 8192:
+            raise ValueError(f"shadow_map_size {self.shadow_map_size} must lie in [16, 8192]")
+        self.shadow_map_size = int(self.shadow_map_size)
+
+
+class EnvMap(RasterTechnique):
+    name = "env-map"
+    summary = "Single-interface reflection/refraction of the environment with Fresnel (the baseline)"
+    Params = ShadowedParams
+
+    def build_passes(self, params):
+        return [ShadowMaps(params.shadow_map_size), BackFaceDistance(), ShadeSurfaces()]
+
+
+class Plain(RasterTechnique):
+    """``plain``: every object shaded as a grey diffuse surface; the cost floor benchmarks divide by."""
+
+    name = "plain"
+    summary = "Every object shaded diffuse with shadow maps: the cost floor for benchmarks"
+    Params = ShadowedParams
+
+    def build_passes(self, params):
+        return [ShadowMaps(params.shadow_map_size), BackFaceDistance(), ShadeSurfaces(material_override=Diffuse())]

@@ -1,0 +1,46 @@
+"""Shared driver for rasterized techniques: supersampling, pass wiring, readback."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..passes.base import Frame, run_passes
+from .base import Technique
+
+
+def supersampling_factor(spp: int) -> int:
+    """Samples per pixel become a k x k grid (k = round(sqrt(spp)))."""
+    return max(1, int(round(math.sqrt(max(1, spp)))))
+
+
+def box_downsample(image: np.ndarray, k: int) -> np.ndarray:
+    """Average k x k blocks: the box pixel filter of the reference renderers."""
+    if k == 1:
+        return image
+    h, w, c = image.shape
+    return image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
+
+
+def read_rgb(texture) -> np.ndarray:
+    """An RGBA32F texture as a (H, W, 3) float32 image, row 0 at the top."""
+    w, h = texture.size
+    data = np.frombuffer(texture.read(), dtype="f4").reshape(h, w, texture.components)
+    return np.ascontiguousarray(data[::-1, :, :3])
+
+
+class RasterTechnique(Technique):
+    """A technique made of GPU passes; ``build_passes`` wires them for given parameters."""
+
+    def build_passes(self, params) -> list:
+        raise NotImplementedError
+
+    def render(self, renderer, scene, camera, params, spp):
+        k = supersampling_factor(spp)
+        width, height = camera.size
+        frame = Frame(renderer.device, scene, camera.with_size(width * k, height * k), params)
+        self.last_frame = frame
+        run_passes(self.build_passes(params), frame)
+        image = box_downsample(read_rgb(frame.read("color")), k)
+        renderer.keep_channels(frame)
+        return image.astype(np.float32)

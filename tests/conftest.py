@@ -1,0 +1,32 @@
+"""Shared fixtures: one GL renderer per session, the shared data folder, golden-image regeneration."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def pytest_addoption(parser):
+    parser.addoption("--regen-golden", action="store_true", help="rewrite tests/golden/* from the current renderer")
+
+
+@pytest.fixture(scope="session")
+def regen_golden(request) -> bool:
+    return request.config.getoption("--regen-golden") or os.environ.get("CAUSTICA_REGEN_GOLDEN") == "1"
+
+
+@pytest.fixture(scope="session")
+def renderer():
+    from caustica.renderer import Renderer
+
+    return Renderer()
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    if not DATA.is_dir():
+        pytest.skip(f"shared data not found at {DATA}")
+    return DATA

@@ -1,0 +1,134 @@
+"""The GPU layer: shader includes with #line mapping, defines, program cache, targets, pass wiring."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from caustica.gpu.shaders import ShaderError, ShaderLibrary
+from caustica.passes.base import Channel, Frame, Pass, PassWiringError, run_passes
+
+
+@pytest.fixture()
+def ctx(renderer):
+    return renderer.device.ctx
+
+
+def _write(root, name, text):
+    path = root / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+
+
+def test_compile_error_points_at_included_file_and_line(ctx, tmp_path):
+    _write(tmp_path, "common/helper.glsl", "// helper\nfloat twice(float x) {\n    return 2.0 * x + undefined_name;\n}\n")
+    _write(tmp_path, "main.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n#include \"common/helper.glsl\"\nvoid main() { twice(1.0); }\n")
+    library = ShaderLibrary(ctx, tmp_path)
+    with pytest.raises(ShaderError) as err:
+        library.compute("main.comp")
+    assert "common/helper.glsl:3" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_error_after_include_maps_back_to_including_file(ctx, tmp_path):
+    _write(tmp_path, "common/ok.glsl", "float one() { return 1.0; }\n")
+    _write(tmp_path, "main.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n#include \"common/ok.glsl\"\nvoid main() {\n    float x = one() + oops;\n}\n")
+    with pytest.raises(ShaderError) as err:
+        ShaderLibrary(ctx, tmp_path).compute("main.comp")
+    assert "main.comp:5" in str(err.value)
+
+
+def test_unknown_include_fails_loudly(ctx, tmp_path):
+    _write(tmp_path, "main.comp", "#version 430 core\n#include \"common/nope.glsl\"\nvoid main() {}\n")
+    with pytest.raises(ShaderError, match="common/nope.glsl.*not found"):
+        ShaderLibrary(ctx, tmp_path).source("main.comp")
+
+
+def test_defines_injected_after_version_and_programs_cached(ctx, tmp_path):
+    _write(tmp_path, "value.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n"
+           "layout(std430, binding = 0) buffer Out { float result; };\nvoid main() { result = VALUE; }\n")
+    library = ShaderLibrary(ctx, tmp_path)
+    source, files = library.source("value.comp", {"VALUE": 2.5})
+    assert source.splitlines()[0] == "#version 430 core" and "#define VALUE 2.5" in source
+    program = library.compute("value.comp", {"VALUE": 2.5})
+    assert library.compute("value.comp", {"VALUE": 2.5}) is program
+    assert library.compute("value.comp", {"VALUE": 1.0}) is not program
+    buffer = ctx.buffer(reserve=4)
+    buffer.bind_to_storage_buffer(0)
+    program.run(1)
+    assert np.frombuffer(buffer.read(), "f4")[0] == 2.5
+
+
+def test_target_pool_reuses_by_size_and_format(renderer):
+    pool = renderer.device.targets
+    a = pool.texture((32, 16), "r32f")
+    pool.give_back(a)
+    assert pool.texture((32, 16), "r32f") is a
+    b = pool.texture((32, 16), "rgba32f")
+    assert b is not a and b.components == 4
+    pool.give_back(b)
+
+
+def test_pass_wiring_checks_reads_and_writes():
+    class Writes(Pass):
+        writes = (Channel("x", "r32f", "a value"),)
+
+        def run(self, frame):
+            frame.write("x", 1)
+
+    class Reads(Pass):
+        reads = ("x",)
+
+        def run(self, frame):
+            frame.write("y", frame.read("x") + 1)
+
+    class Lies(Pass):
+        writes = (Channel("z", "r32f", "never written"),)
+
+        def run(self, frame):
+            pass
+
+    frame = Frame(None, None, None, None)
+    run_passes([Writes(), Reads()], frame)
+    assert frame.read("y") == 2
+    with pytest.raises(PassWiringError, match="reads"):
+        run_passes([Reads()], Frame(None, None, None, None))
+    with pytest.raises(PassWiringError, match="did not write"):
+        run_passes([Lies()], Frame(None, None, None, None))
+
+
+def test_glsl_fresnel_matches_closed_form(renderer, tmp_path):
+    """The shaders' Fresnel equals the exact unpolarised formula; 0.04 at normal incidence for IOR 1.5."""
+    ctx = renderer.device.ctx
+    _write(tmp_path, "fresnel.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n"
+           "#include \"common/optics.glsl\"\n"
+           "layout(std430, binding = 0) buffer In { vec4 args[]; };\n"
+           "layout(std430, binding = 1) buffer Out { float result[]; };\n"
+           "void main() { uint i = gl_GlobalInvocationID.x; result[i] = fresnel_dielectric(args[i].x, args[i].y, args[i].z); }\n")
+    library = ShaderLibrary(ctx, tmp_path)
+    library._expand  # the shipped common/optics.glsl is what we test: copy it in
+    from caustica.gpu.shaders import SHADER_ROOT
+
+    _write(tmp_path, "common/optics.glsl", (SHADER_ROOT / "common/optics.glsl").read_text())
+    angles = np.radians([0.0, 30.0, 60.0, 80.0, 0.0, 30.0, 45.0])
+    etas = [(1.0, 1.5)] * 4 + [(1.5, 1.0)] * 3
+    args = np.array([[np.cos(a), ei, et, 0.0] for a, (ei, et) in zip(angles, etas)], dtype="f4")
+    inp, out = ctx.buffer(args.tobytes()), ctx.buffer(reserve=4 * len(args))
+    inp.bind_to_storage_buffer(0)
+    out.bind_to_storage_buffer(1)
+    library.compute("fresnel.comp").run(len(args))
+    got = np.frombuffer(out.read(), "f4")
+
+    def closed_form(theta, n1, n2):
+        s = n1 / n2 * np.sin(theta)
+        if s >= 1:
+            return 1.0
+        ct, ci = np.sqrt(1 - s * s), np.cos(theta)
+        rs = ((n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)) ** 2
+        rp = ((n1 * ct - n2 * ci) / (n1 * ct + n2 * ci)) ** 2
+        return 0.5 * (rs + rp)
+
+    expected = [closed_form(a, ei, et) for a, (ei, et) in zip(angles, etas)]
+    assert got[0] == pytest.approx(0.04, abs=1e-6)
+    assert got[4] == pytest.approx(0.04, abs=1e-6)
+    assert got[6] == 1.0  # 45 degrees inside glass is past the critical angle (41.8)
+    np.testing.assert_allclose(got, expected, atol=1e-5)
