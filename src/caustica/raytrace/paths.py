@@ -1,0 +1,353 @@
+"""Exact specular paths through glass and mirrors, traced wavefront style on the CPU.
+
+:func:`trace` is the radiance oracle of the ``exact`` technique. Every bounce
+processes all live rays at once with arrays. At a glass surface a ray splits
+deterministically into both branches (reflected with weight F, refracted with
+1 - F; total internal reflection reflects with weight 1), so the image has no
+noise. Beer-Lambert absorption exp(-sigma_a distance) applies per channel to
+every segment inside glass. A mirror reflects times its colour. A diffuse
+surface is shaded directly and ends the path: albedo / pi times the irradiance
+of every light (hard shadows from shadow rays; every object, glass included,
+occludes) plus albedo / pi times the unoccluded SH irradiance of the
+environment (as the rasterizer does). Rays that escape read the environment.
+
+Conventions and limits:
+
+- A ray enters a glass object where dot(d, n_geom) < 0 and leaves it where
+  dot(d, n_geom) > 0; the medium outside every object is air (IOR 1). Nested
+  or touching dielectrics are not modelled.
+- Directions use the interpolated shading normal, flipped to the side the ray
+  comes from as decided by the geometric normal; where a shading-normal
+  direction would cross to the wrong side of the face, the geometric normal
+  is used instead.
+- Glass with an Abbe number (per-channel IOR) is traced once per channel with
+  that channel's IOR.
+- No caustics on diffuse surfaces: light reaches them only directly.
+
+:func:`exit_directions` follows only the refracted branch (the angular-error
+oracle), and :func:`distance_along_negative_normal` computes Wyman's d_N.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..scene.lights import DirectionalLight, SpotLight
+from ..scene.mesh import Mesh
+from .embree_scene import RayScene
+from .optics import dot, fresnel_dielectric, reflect, refract
+
+_DIFFUSE, _MIRROR, _GLASS = 0, 1, 2
+_KIND_CODES = {"diffuse": _DIFFUSE, "mirror": _MIRROR, "glass": _GLASS}
+BATCH_SIZE = 1 << 20
+
+
+@dataclass
+class TraceStats:
+    """Path weight (mean over channels, summed over rays, divided by the ray count) that
+    :func:`trace` dropped, indexed by the depth of the branch that was cut."""
+
+    max_depth: int = 8
+    by_depth_limit: np.ndarray = field(default=None)  # branches still alive at max_depth
+    by_min_weight: np.ndarray = field(default=None)  # branches whose weight fell below min_weight
+
+    def __post_init__(self):
+        size = self.max_depth + 2
+        self.by_depth_limit = np.zeros(size) if self.by_depth_limit is None else self.by_depth_limit
+        self.by_min_weight = np.zeros(size) if self.by_min_weight is None else self.by_min_weight
+
+    @property
+    def total(self) -> float:
+        return float(self.by_depth_limit.sum() + self.by_min_weight.sum())
+
+
+@dataclass
+class _Materials:
+    """Per-object material tables, indexed by object index."""
+
+    kind: np.ndarray  # (K+1,) int; the last entry, -1, is what object index -1 (a miss) reads
+    color: np.ndarray  # (K,3) diffuse albedo or mirror reflectance
+    ior_rgb: np.ndarray  # (K,3), 1 for non-glass
+    sigma: np.ndarray  # (K,3) absorption coefficient, 0 for non-glass
+
+    @classmethod
+    def of(cls, scene) -> "_Materials":
+        mats = [o.material for o in scene.objects]
+        kind = np.array([_KIND_CODES[m.kind] for m in mats] + [-1], dtype=np.int64)
+        color = np.array([getattr(m, "color", np.ones(3)) for m in mats]).reshape(-1, 3)
+        ior = np.array([m.ior_rgb if m.kind == "glass" else np.ones(3) for m in mats]).reshape(-1, 3)
+        sigma = np.array([m.absorption_coefficient if m.kind == "glass" else np.zeros(3) for m in mats]).reshape(-1, 3)
+        return cls(kind, color, ior, sigma)
+
+    @property
+    def dispersive(self) -> bool:
+        return bool(np.any(self.ior_rgb != self.ior_rgb[:, :1]))
+
+
+@dataclass
+class _Interface:
+    """What happens where rays meet a glass surface: normals facing the ray, eta, Fresnel."""
+
+    entering: np.ndarray  # (n,) bool
+    normal: np.ndarray  # (n,3) shading normal facing against d
+    geometric_normal: np.ndarray  # (n,3) face normal facing against d
+    reflectance: np.ndarray  # (n,) F
+    reflected: np.ndarray  # (n,3)
+    refracted: np.ndarray  # (n,3), the reflection where tir
+    tir: np.ndarray  # (n,) bool
+
+
+def _facing(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray):
+    """Normals flipped to the side ``d`` comes from (decided by the geometric normal).
+
+    Returns (front, shading, geometric): ``front`` is True where the ray hits the
+    outside. Where the shading normal still faces along ``d``, the geometric one replaces it.
+    """
+    front = dot(d, geometric) < 0
+    sign = np.where(front, 1.0, -1.0)[:, None]
+    ng, ns = geometric * sign, normal * sign
+    ns = np.where((dot(d, ns) < 0)[:, None], ns, ng)
+    return front, ns, ng
+
+
+def _reflect_above(d: np.ndarray, ns: np.ndarray, ng: np.ndarray) -> np.ndarray:
+    """Reflection about the shading normal, or the geometric one where that would enter the face."""
+    r = reflect(d, ns)
+    return np.where((dot(r, ng) > 0)[:, None], r, reflect(d, ng))
+
+
+def _interface(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray, ior: np.ndarray) -> _Interface:
+    """Reflection, refraction and Fresnel reflectance where rays ``d`` meet glass of index ``ior``."""
+    entering, ns, ng = _facing(d, normal, geometric)
+    eta_i = np.where(entering, 1.0, ior)
+    eta_t = np.where(entering, ior, 1.0)
+    t, tir = refract(d, ns, eta_i / eta_t)
+    # Keep the transmitted ray on the far side of the face (the geometric normal decides).
+    wrong_side = ~tir & (dot(t, ng) >= 0)
+    if wrong_side.any():
+        t_g, tir_g = refract(d[wrong_side], ng[wrong_side], (eta_i / eta_t)[wrong_side])
+        t[wrong_side], tir[wrong_side] = t_g, tir_g
+    cos_i = -dot(d, ns)
+    reflectance = np.where(tir, 1.0, fresnel_dielectric(cos_i, eta_i, eta_t))
+    reflected = _reflect_above(d, ns, ng)
+    t = np.where(tir[:, None], reflected, t)
+    return _Interface(entering, ns, ng, reflectance, reflected, t, tir)
+
+
+def _accumulate(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
+    """out[index] += values, with repeated indices summed."""
+    for c in range(out.shape[1]):
+        out[:, c] += np.bincount(index, weights=values[:, c], minlength=len(out))
+
+
+def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo) -> np.ndarray:
+    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + SH ambient).
+
+    ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
+    ``scene.intensity_scale``.
+    """
+    irradiance = scene.environment.irradiance(normal).astype(np.float64)
+    shadow_origin = position + geometric_normal * ray_scene.epsilon
+    for light in scene.lights:
+        if isinstance(light, DirectionalLight):
+            samples = [(None, light.intensity)]
+        else:
+            samples = light.point_samples()
+        for light_position, intensity in samples:
+            if light_position is None:
+                to_light = np.broadcast_to(-light.direction, position.shape)
+                distance = np.full(len(position), np.inf)
+                falloff = np.ones(len(position))
+            else:
+                offset = light_position - position
+                distance = np.linalg.norm(offset, axis=1)
+                to_light = offset / np.maximum(distance, 1e-300)[:, None]
+                falloff = 1.0 / np.maximum(distance, 1e-300) ** 2
+                if isinstance(light, SpotLight):
+                    falloff = falloff * light.falloff(dot(-to_light, np.broadcast_to(light.direction, to_light.shape)))
+            cos = dot(normal, to_light)
+            lit = (cos > 0) & (falloff > 0)
+            if not lit.any():
+                continue
+            lit[lit] = ~ray_scene.occluded(shadow_origin[lit], to_light[lit], distance[lit] - ray_scene.epsilon)
+            irradiance[lit] += (cos * falloff)[lit, None] * intensity
+    return albedo / np.pi * irradiance * scene.intensity_scale
+
+
+def trace(
+    ray_scene: RayScene,
+    scene,
+    origins: np.ndarray,
+    dirs: np.ndarray,
+    max_depth: int = 8,
+    min_weight: float = 1e-4,
+    stats: TraceStats | None = None,
+) -> np.ndarray:
+    """Radiance (N,3) float64 along rays (N,3) through the scene's specular paths.
+
+    ``max_depth`` is the most specular interactions a path may have; a branch
+    still alive beyond it, or whose largest channel weight falls below
+    ``min_weight``, is dropped, and its weight is added to ``stats`` when given.
+    """
+    origins = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    dirs = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    materials = _Materials.of(scene)
+    dropped = TraceStats(max_depth)
+    # One pass, or one per colour channel for dispersive glass.
+    if materials.dispersive:
+        passes = [(materials.ior_rgb[:, c], np.eye(3)[c]) for c in range(3)]
+    else:
+        passes = [(materials.ior_rgb[:, 0], np.ones(3))]
+    radiance = np.zeros((len(origins), 3))
+    for start in range(0, len(origins), BATCH_SIZE):
+        sl = slice(start, start + BATCH_SIZE)
+        for ior, channel_weight in passes:
+            radiance[sl] += _trace_batch(
+                ray_scene, scene, materials, ior, channel_weight, origins[sl], dirs[sl], max_depth, min_weight, dropped
+            )
+    if stats is not None:
+        stats.max_depth = max_depth
+        stats.by_depth_limit = dropped.by_depth_limit / max(len(origins), 1)
+        stats.by_min_weight = dropped.by_min_weight / max(len(origins), 1)
+    return radiance
+
+
+def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_depth, min_weight, stats) -> np.ndarray:
+    """The wavefront loop over one batch of primary rays and one IOR per object."""
+    n = len(o)
+    out = np.zeros((n, 3))
+    pixel = np.arange(n)
+    weight = np.broadcast_to(channel_weight, (n, 3)).copy()
+    medium = np.full(n, -1, np.int64)  # glass object the ray travels in, -1 for air
+    scale = scene.intensity_scale
+    for depth in range(max_depth + 1):
+        if len(pixel) == 0:
+            break
+        hits = ray_scene.intersect(o, d)
+        # Attenuate segments inside glass (Beer-Lambert).
+        inside = (medium >= 0) & hits.hit
+        if inside.any():
+            weight[inside] *= np.exp(-materials.sigma[medium[inside]] * hits.t[inside, None])
+        # Escaped rays read the environment.
+        miss = ~hits.hit
+        if miss.any():
+            _accumulate(out, pixel[miss], weight[miss] * scene.environment.lookup(d[miss]) * scale)
+        kind = materials.kind[hits.object_index]
+        # Diffuse surfaces: direct shading, end of the path.
+        diffuse = kind == _DIFFUSE
+        if diffuse.any():
+            _, ns, ng = _facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
+            albedo = materials.color[hits.object_index[diffuse]]
+            radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo)
+            _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)
+        specular = (kind == _MIRROR) | (kind == _GLASS)
+        if depth == max_depth:
+            stats.by_depth_limit[depth + 1] += weight[specular].mean(axis=1).sum()
+            break
+        # Spawn the children of mirror and glass hits.
+        children = []  # (pixel, origin, direction, weight, medium)
+        mirror = kind == _MIRROR
+        if mirror.any():
+            _, ns, ng = _facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
+            color = materials.color[hits.object_index[mirror]]
+            r = _reflect_above(d[mirror], ns, ng)
+            children.append((pixel[mirror], hits.position[mirror], r, weight[mirror] * color, medium[mirror]))
+        glass = kind == _GLASS
+        if glass.any():
+            obj = hits.object_index[glass]
+            it = _interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
+            w, p, f = weight[glass], hits.position[glass], it.reflectance[:, None]
+            children.append((pixel[glass], p, it.reflected, w * f, medium[glass]))
+            tr = ~it.tir
+            new_medium = np.where(it.entering, obj, -1)[tr]
+            children.append((pixel[glass][tr], p[tr], it.refracted[tr], (w * (1.0 - f))[tr], new_medium))
+        if not children:
+            break
+        pixel, o, d, weight, medium = (np.concatenate(parts) for parts in zip(*children))
+        # Drop faint branches.
+        faint = weight.max(axis=1) < min_weight
+        if faint.any():
+            stats.by_min_weight[depth + 1] += weight[faint].mean(axis=1).sum()
+            keep = ~faint
+            pixel, o, d, weight, medium = pixel[keep], o[keep], d[keep], weight[keep], medium[keep]
+    return out
+
+
+@dataclass
+class RefractedPaths:
+    """Where rays leave the glass when only the refracted branch is followed."""
+
+    direction: np.ndarray  # (N,3) final direction (the input one for rays that miss all glass)
+    position: np.ndarray  # (N,3) last glass surface point (the origin if no glass was hit)
+    valid: np.ndarray  # (N,) bool: the ray ended outside glass within max_interfaces
+    path_length: np.ndarray  # (N,) distance travelled inside glass
+    transmittance: np.ndarray  # (N,) product of Fresnel transmittances (1 - F; 1 at TIR)
+    interfaces: np.ndarray  # (N,) glass surfaces met
+
+
+def follow_refraction(
+    ray_scene: RayScene, scene, origins, dirs, max_interfaces: int = 16, channel: int | None = None
+) -> RefractedPaths:
+    """Follow each ray's refracted branch through glass (TIR reflects) until it leaves all glass.
+
+    A ray is done when, outside glass, it misses everything or hits a
+    non-glass object. It is invalid when it leaks out of a glass mesh, hits a
+    non-glass object inside glass, or meets more than ``max_interfaces`` glass
+    surfaces. ``channel`` picks the per-channel IOR of dispersive glass (default: ``ior``).
+    """
+    o = np.array(origins, dtype=np.float64).reshape(-1, 3)
+    d = np.array(dirs, dtype=np.float64).reshape(-1, 3)
+    n = len(o)
+    materials = _Materials.of(scene)
+    if channel is None:
+        ior = np.array([getattr(obj.material, "ior", 1.0) for obj in scene.objects], dtype=np.float64)
+    else:
+        ior = materials.ior_rgb[:, channel]
+    result = RefractedPaths(d.copy(), o.copy(), np.zeros(n, bool), np.zeros(n), np.ones(n), np.zeros(n, np.int64))
+    active = np.arange(n)
+    inside = np.zeros(n, bool)
+    for step in range(max_interfaces + 1):
+        if len(active) == 0:
+            break
+        hits = ray_scene.intersect(o[active], d[active])
+        kind = materials.kind[hits.object_index]
+        at_glass = kind == _GLASS
+        # Finish rays that are outside glass and meet no more glass; inside ones leaked.
+        done = ~at_glass | (step == max_interfaces)
+        result.valid[active[done]] = ~inside[active[done]] & ~at_glass[done]
+        # Refract the rest (TIR reflects) and account for the path inside.
+        go = active[~done]
+        if len(go) == 0:
+            break
+        h = ~done
+        obj = hits.object_index[h]
+        it = _interface(d[go], hits.normal[h], hits.geometric_normal[h], ior[obj])
+        result.path_length[go] += np.where(inside[go], hits.t[h], 0.0)
+        result.transmittance[go] *= np.where(it.tir, 1.0, 1.0 - it.reflectance)
+        result.interfaces[go] += 1
+        inside[go] = np.where(it.tir, inside[go], it.entering)
+        o[go], d[go] = hits.position[h], it.refracted
+        result.position[go], result.direction[go] = hits.position[h], it.refracted
+        active = go
+    return result
+
+
+def exit_directions(ray_scene: RayScene, scene, origins, dirs, max_interfaces: int = 16):
+    """(exit direction (N,3), valid (N,), path length inside glass (N,)) of the refracted branch.
+
+    See :func:`follow_refraction`; the angular-error oracle for the refraction techniques.
+    """
+    paths = follow_refraction(ray_scene, scene, origins, dirs, max_interfaces)
+    return paths.direction, paths.valid, paths.path_length
+
+
+def distance_along_negative_normal(mesh: Mesh, analytic_spheres: bool = False) -> np.ndarray:
+    """Wyman's d_N: per vertex, the distance along -normal to the far side of the same mesh.
+
+    ``mesh`` in any space (distances are in its units). Vertices whose ray leaves
+    the mesh without a hit (open meshes) get 0.
+    """
+    ray_scene = RayScene.from_meshes([mesh], analytic_spheres=analytic_spheres)
+    hits = ray_scene.intersect(mesh.vertices.astype(np.float64), -mesh.normals.astype(np.float64))
+    return np.where(hits.hit, hits.t, 0.0)

@@ -1,0 +1,66 @@
+"""env-map against the CPU: the GPU environment lookup, IOR 1.0 glass, and the mirror sphere against ``exact``."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from caustica.scene import Camera, Glass, Mirror, Scene, SceneObject, Transform, procedural_environment
+from caustica.scene.shapes import sphere
+
+
+def psnr(image, reference, peak=1.0):
+    mse = np.mean((np.clip(image, 0, peak) - np.clip(reference, 0, peak)) ** 2)
+    return float("inf") if mse == 0 else 10 * np.log10(peak**2 / mse)
+
+
+def sphere_scene(material, size=(96, 96), fov_y=40.0):
+    camera = Camera(position=[0.0, 0.3, 4.0], look_at=[0.0, 0.0, 0.0], fov_y=fov_y, size=size)
+    obj = SceneObject("ball", sphere(1.0, subdivisions=5), material, Transform())
+    return Scene(camera=camera, objects=[obj], environment=procedural_environment("sky-checker"))
+
+
+def test_background_matches_cpu_environment_lookup(renderer):
+    """Every background pixel is the environment in the pixel's ray direction, as Mitsuba samples it."""
+    scene = Scene(camera=Camera(position=[0, 0, 0], look_at=[0.3, 0.4, -1.0], fov_y=80, size=(128, 96)))
+    gpu = renderer.render(scene, "env-map")
+    _, dirs = scene.camera.primary_rays()
+    cpu = scene.environment.lookup(dirs[:, :, 0])
+    assert gpu.shape == cpu.shape == (96, 128, 3)
+    assert psnr(gpu, cpu) > 45.0
+    assert np.abs(gpu - cpu).max() < 0.05 * max(1.0, cpu.max())
+
+
+def test_ior_one_glass_is_invisible(renderer):
+    """Glass of IOR 1.0 neither reflects (F = 0) nor bends: the image equals the empty scene."""
+    with_ball = renderer.render(sphere_scene(Glass(ior=1.0)), "env-map")
+    empty = sphere_scene(Glass(ior=1.0))
+    empty.objects = []
+    without = renderer.render(empty, "env-map")
+    assert psnr(with_ball, without) > 45.0
+
+
+def test_glass_absorption_follows_beer_lambert(renderer):
+    """Under a white sky, the ray through the centre sees F + (1 - F) T with T = 0.2^(2R / 1) in G and B."""
+    scene = sphere_scene(Glass(1.5, absorption_color=[1.0, 0.2, 0.2], absorption_distance=1.0), size=(97, 97))
+    scene.environment = procedural_environment("white")
+    image = renderer.render(scene, "env-map")
+    centre = image[48, 48]
+    fresnel = 0.04  # ((1.5 - 1) / (1.5 + 1))^2 at normal incidence
+    assert centre[0] == pytest.approx(1.0, abs=1e-3)
+    assert centre[1] == pytest.approx(fresnel + (1 - fresnel) * 0.2**2, abs=2e-3)
+    assert centre[2] == pytest.approx(centre[1], abs=1e-5)
+
+
+def test_mirror_sphere_agrees_with_exact(renderer):
+    """A single mirror bounce is exact for both: env-map within 45 dB PSNR (sRGB) of the oracle at 4 spp.
+
+    Measured 56.9 dB on llvmpipe; the residual is the tessellated silhouette and
+    interpolated normals against the exact sphere.
+    """
+    from caustica.images import linear_to_srgb
+
+    scene = sphere_scene(Mirror([0.9, 0.9, 0.9]))
+    raster = renderer.render(scene, "env-map", spp=4)
+    exact = renderer.render(scene, "exact", spp=4)
+    value = psnr(linear_to_srgb(np.clip(raster, 0, 1)), linear_to_srgb(np.clip(exact, 0, 1)))
+    assert value > 45.0, value
