@@ -27,6 +27,9 @@ class Mesh:
     normals: np.ndarray
     faces: np.ndarray
     name: str = "mesh"
+    # (center, radius) in object space when the mesh tessellates an exact sphere:
+    # the exact oracle then intersects the true sphere (raytrace/embree_scene.py).
+    analytic_sphere: tuple | None = None
     _hash: str | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
@@ -102,13 +105,15 @@ def load_mesh(path: str | Path) -> Mesh:
     import trimesh
 
     try:
-        loaded = trimesh.load(str(path), force="mesh", process=True)
+        # Unprocessed first: processing silently drops the faces of non-finite vertices.
+        loaded = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on malformed files
         raise MeshError(f"cannot read mesh {path}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}; check the file") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"mesh file {path} holds no triangles; give a mesh with at least one triangle")
-    vertices = np.asarray(loaded.vertices)
-    if not np.all(np.isfinite(vertices)):
+    if not np.all(np.isfinite(np.asarray(loaded.vertices))):
         raise MeshError(f"mesh file {path} has NaN or infinite vertex positions; repair the mesh file")
+    loaded.process()
+    vertices = np.asarray(loaded.vertices)
     faces = np.asarray(loaded.faces)
     return Mesh(vertices, vertex_normals(vertices, faces), faces, name=path.stem)

@@ -1,0 +1,253 @@
+"""Image files in and out: float32 linear RGB arrays (H, W, 3), row 0 at the top.
+
+Reads OpenEXR (through the OpenEXR package), Radiance .hdr (our own RGBE
+reader) and 8-bit PNG/JPEG (through Pillow, decoded from sRGB). Writes PNG
+(8-bit sRGB, after exposure), OpenEXR (float32 linear) and .hdr (flat RGBE).
+Every failure is a one-line error naming the file and the fix; writes go to a
+temporary file in the target directory first, so a failed write leaves nothing.
+"""
+from __future__ import annotations
+
+import os
+import re
+import secrets
+from pathlib import Path
+
+import numpy as np
+
+from .errors import EnvironmentImageError, OutputError
+
+READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
+WRITE_SUFFIXES = (".png", ".exr")
+
+
+def linear_to_srgb(x) -> np.ndarray:
+    """Exact sRGB encoding curve (IEC 61966-2-1) of linear values."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def srgb_to_linear(x) -> np.ndarray:
+    """Exact sRGB decoding curve: the inverse of :func:`linear_to_srgb`."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.where(x <= 0.04045, x / 12.92, np.power((np.maximum(x, 0.04045) + 0.055) / 1.055, 2.4))
+
+
+def _first_line(exc: BaseException) -> str:
+    """An exception's message reduced to one line (its type name when empty)."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+# Reading ---------------------------------------------------------------------
+
+
+def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError) -> np.ndarray:
+    """Read an image as (H, W, 3) float32 linear RGB; failures raise ``error`` with one line."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if not path.is_file():
+        raise error(f"image file not found: {path}; check the path (relative paths are relative to the scene file)")
+    if suffix not in READ_SUFFIXES:
+        raise error(f"unsupported image format '{path.suffix}' for {path}; use one of {', '.join(READ_SUFFIXES)}")
+    reader = {".exr": _read_exr, ".hdr": _read_hdr}.get(suffix, _read_8bit)
+    try:
+        image = reader(path)
+    except Exception as exc:  # our decoders raise ValueError; OpenEXR and Pillow raise many types
+        raise error(f"cannot read image {path}: {_first_line(exc)}; "
+                    f"check that it is a valid {suffix[1:]} file or re-export it") from None
+    if image.ndim != 3 or image.shape[2] != 3 or image.size == 0:
+        raise error(f"image {path} has shape {image.shape}; give an RGB image")
+    return np.ascontiguousarray(image, dtype=np.float32)
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    """R, G, B channels (or a single Y channel, replicated) of an OpenEXR file."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        channels = {name: ch.pixels for name, ch in exr.channels().items()}
+    if all(c in channels for c in "RGB"):
+        planes = [channels[c] for c in "RGB"]
+    elif "Y" in channels:
+        planes = [channels["Y"]] * 3
+    else:
+        raise ValueError(f"no R, G, B or Y channel (found {', '.join(sorted(channels)) or 'none'})")
+    return np.stack([np.asarray(p, dtype=np.float32) for p in planes], axis=-1)
+
+
+def _read_8bit(path: Path) -> np.ndarray:
+    """PNG/JPEG through Pillow, decoded from sRGB to linear."""
+    from PIL import Image
+
+    with Image.open(path) as img:
+        img.load()
+        if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+            gray = np.asarray(img, dtype=np.float64) / 65535.0
+            encoded = np.repeat(gray[..., None], 3, axis=-1)
+        else:
+            encoded = np.asarray(img.convert("RGB"), dtype=np.float64) / 255.0
+    return srgb_to_linear(encoded).astype(np.float32)
+
+
+_RESOLUTION = re.compile(rb"^([-+])Y\s+(\d+)\s+\+X\s+(\d+)\s*$")
+
+
+def _read_hdr(path: Path) -> np.ndarray:
+    """Radiance RGBE: header, resolution line, flat or new-style RLE scanlines."""
+    data = path.read_bytes()
+    if not (data.startswith(b"#?RADIANCE") or data.startswith(b"#?RGBE")):
+        raise ValueError("missing '#?RADIANCE' signature")
+    # Header: lines up to an empty one.
+    end = data.find(b"\n\n")
+    if end < 0:
+        raise ValueError("header has no terminating empty line")
+    for line in data[:end].split(b"\n")[1:]:
+        if line.startswith(b"FORMAT=") and line.strip() != b"FORMAT=32-bit_rle_rgbe":
+            raise ValueError(f"unsupported pixel format {line[7:].decode(errors='replace').strip()}")
+    # Resolution line: -Y H +X W (rows top to bottom) or +Y H +X W (bottom to top).
+    res_end = data.find(b"\n", end + 2)
+    match = _RESOLUTION.match(data[end + 2 : res_end if res_end >= 0 else len(data)])
+    if match is None:
+        raise ValueError("unsupported resolution line (expected '-Y height +X width')")
+    height, width = int(match.group(2)), int(match.group(3))
+    if height == 0 or width == 0:
+        raise ValueError("image has zero size")
+    rgbe = _decode_scanlines(memoryview(data)[res_end + 1 :], width, height)
+    if match.group(1) == b"+":
+        rgbe = rgbe[::-1]
+    return rgbe_to_float(rgbe)
+
+
+def _decode_scanlines(buf: memoryview, width: int, height: int) -> np.ndarray:
+    """(H, W, 4) uint8 RGBE from flat or new-style run-length encoded scanlines."""
+    out = np.empty((height, width, 4), dtype=np.uint8)
+    pos = 0
+    for row in range(height):
+        head = bytes(buf[pos : pos + 4])
+        is_rle = 8 <= width < 32768 and len(head) == 4 and head[0] == 2 and head[1] == 2 and not head[2] & 0x80
+        if is_rle:
+            if (head[2] << 8) | head[3] != width:
+                raise ValueError(f"scanline {row} length does not match the image width")
+            pos += 4
+            for channel in range(4):
+                pos = _decode_rle_channel(buf, pos, out[row, :, channel])
+        else:
+            count = width * 4
+            if pos + count > len(buf):
+                raise ValueError(f"file ends inside scanline {row}")
+            out[row] = np.frombuffer(buf[pos : pos + count], dtype=np.uint8).reshape(width, 4)
+            pos += count
+    return out
+
+
+def _decode_rle_channel(buf: memoryview, pos: int, dest: np.ndarray) -> int:
+    """Decode one channel of a new-style RLE scanline into ``dest``; return the next position."""
+    x, width = 0, len(dest)
+    try:
+        while x < width:
+            code = buf[pos]
+            if code > 128:  # a run: one byte repeated code - 128 times
+                count = code - 128
+                if x + count > width:
+                    raise ValueError("run-length data overruns the scanline")
+                dest[x : x + count] = buf[pos + 1]
+                pos += 2
+            else:  # a literal block of ``code`` bytes
+                count = code
+                if count == 0 or x + count > width or pos + 1 + count > len(buf):
+                    raise ValueError("bad run-length literal block")
+                dest[x : x + count] = np.frombuffer(buf[pos + 1 : pos + 1 + count], dtype=np.uint8)
+                pos += 1 + count
+            x += count
+    except IndexError:
+        raise ValueError("file ends inside run-length data") from None
+    return pos
+
+
+def rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
+    """(..., 4) uint8 RGBE to (..., 3) float32, each mantissa at the centre of its bin."""
+    exponent = rgbe[..., 3].astype(np.int32)
+    scale = np.where(exponent > 0, np.ldexp(1.0, exponent - 136), 0.0)
+    return ((rgbe[..., :3].astype(np.float64) + 0.5) * scale[..., None]).astype(np.float32)
+
+
+def float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
+    """(..., 3) non-negative floats to (..., 4) uint8 RGBE (inverse of :func:`rgbe_to_float`)."""
+    rgb = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0)
+    brightest = rgb.max(axis=-1)
+    mantissa, exponent = np.frexp(brightest)
+    visible = brightest > 1e-32
+    scale = np.where(visible, mantissa * 256.0 / np.where(visible, brightest, 1.0), 0.0)
+    out = np.zeros(rgb.shape[:-1] + (4,), dtype=np.uint8)
+    out[..., :3] = np.clip(np.floor(rgb * scale[..., None]), 0, 255)
+    out[..., 3] = np.where(visible, np.clip(exponent + 128, 0, 255), 0)
+    return out
+
+
+# Writing ---------------------------------------------------------------------
+
+
+def write_image(path: str | Path, image: np.ndarray, exposure: float = 0.0) -> Path:
+    """Write .png (8-bit sRGB of image * 2**exposure, clipped) or .exr (float32 linear)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in WRITE_SUFFIXES:
+        raise OutputError(f"unsupported output format '{path.suffix}' for {path}; use .png or .exr")
+    image = _checked_image(image, path)
+    if suffix == ".png":
+        encoded = linear_to_srgb(np.clip(image * 2.0 ** float(exposure), 0.0, 1.0))
+        return _write_atomic(path, lambda tmp: _write_png(tmp, np.round(encoded * 255.0).astype(np.uint8)))
+    return _write_atomic(path, lambda tmp: _write_exr(tmp, image))
+
+
+def write_hdr(path: str | Path, image: np.ndarray) -> Path:
+    """Write a Radiance .hdr with flat (uncompressed) RGBE scanlines."""
+    path = Path(path)
+    image = _checked_image(image, path)
+    height, width = image.shape[:2]
+    header = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n".encode()
+    payload = header + float_to_rgbe(image).tobytes()
+    return _write_atomic(path, lambda tmp: Path(tmp).write_bytes(payload))
+
+
+def _checked_image(image, path: Path) -> np.ndarray:
+    """The image as float32 (H, W, 3), or OutputError when it is not finite RGB."""
+    arr = np.asarray(image)
+    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise OutputError(f"cannot write {path}: image has shape {arr.shape}; expected (height, width, 3) RGB")
+    arr = arr.astype(np.float32)
+    if not np.all(np.isfinite(arr)):
+        raise OutputError(f"cannot write {path}: image holds NaN or infinite values; fix the render first")
+    return arr
+
+
+def _write_png(tmp: str, pixels: np.ndarray) -> None:
+    from PIL import Image
+
+    Image.fromarray(pixels).save(tmp, format="PNG")
+
+
+def _write_exr(tmp: str, image: np.ndarray) -> None:
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image, dtype=np.float32)}) as exr:
+        exr.write(tmp)
+
+
+def _write_atomic(path: Path, write) -> Path:
+    """Call ``write(temp_path)`` in the target directory, then rename over ``path``."""
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise OutputError(f"output directory {directory} does not exist; create it first")
+    # Created like any new file (mode 0o666 less the umask), unlike mkstemp's 0o600.
+    tmp = str(directory / f".{path.name}.{secrets.token_hex(6)}.tmp")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except Exception as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise OutputError(f"cannot write {path}: {_first_line(exc)}; check permissions and free space") from None
+    return path

@@ -1,0 +1,364 @@
+"""TOML scene files (and built-in presets) to :class:`Scene`.
+
+Every key is checked: an unknown key, a wrong type or an out-of-range value
+raises :class:`SceneError` (or its mesh/environment subclasses) with one line
+that names the key as ``table[index].key`` and says how to fix it. The format:
+
+    name = "demo"                  # optional
+    intensity_scale = 1.0
+    [camera]                       # position, look_at, up, fov_y or fov_x (degrees), near, far, size
+    [environment]                  # file = "env.exr" (relative to the scene file) or procedural = "sky-checker"
+    [[lights]]                     # type = "point" | "directional" | "spot" | "line"
+    [[objects]]                    # shape = "sphere" (+ its parameters) or mesh = "file.obj";
+                                   # position (alias center), rotation (degrees), scale, material = {type = ...}
+"""
+from __future__ import annotations
+
+import inspect
+import math
+import tomllib
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SceneError, closest_name
+from .camera import Camera, fov_y_from_fov_x
+from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment, procedural_environment
+from .lights import DirectionalLight, LineLight, PointLight, SpotLight
+from .materials import Diffuse, Glass, Mirror, water
+from .mesh import Mesh, load_mesh
+from .scene import Scene, SceneObject
+from .shapes import SHAPES
+from .transform import Transform
+
+MAX_IMAGE_SIZE = 16384
+_REQUIRED = object()
+
+# Value kinds a key can hold, each with the phrase used in error messages.
+NUMBER, INTEGER, BOOLEAN, STRING, VEC3, RGB = "number", "integer", "boolean", "string", "vec3", "rgb"
+_KIND_TEXT = {
+    NUMBER: "a number", INTEGER: "an integer", BOOLEAN: "true or false", STRING: "a string",
+    VEC3: "three numbers [x, y, z]", RGB: "a number or three numbers [r, g, b]",
+    "numbers2": "a number or two numbers", "numbers3": "a number or three numbers",
+}
+
+CAMERA_KEYS = {"position": VEC3, "look_at": VEC3, "up": VEC3, "fov_x": NUMBER, "fov_y": NUMBER,
+               "near": NUMBER, "far": NUMBER, "size": "size"}
+LIGHT_KEYS = {
+    "point": {"position": VEC3, "intensity": RGB},
+    "directional": {"direction": VEC3, "intensity": RGB},
+    "spot": {"position": VEC3, "direction": VEC3, "look_at": VEC3, "intensity": RGB,
+             "inner_angle": NUMBER, "outer_angle": NUMBER},
+    "line": {"start": VEC3, "end": VEC3, "intensity": RGB, "samples": INTEGER},
+}
+_GLASS_KEYS = {"ior": NUMBER, "absorption_color": RGB, "absorption_distance": NUMBER, "abbe": NUMBER}
+MATERIALS = {
+    "glass": (Glass, _GLASS_KEYS),
+    "water": (water, _GLASS_KEYS),
+    "diffuse": (Diffuse, {"color": RGB}),
+    "mirror": (Mirror, {"color": RGB}),
+}
+OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, "position": VEC3,
+               "rotation": VEC3, "scale": "scale", "material": "material"}
+
+
+def load_scene(source: str | Path) -> Scene:
+    """A built-in preset by name, or a TOML scene file."""
+    from .presets import PRESETS, preset_names
+
+    if isinstance(source, str) and source in PRESETS:
+        return PRESETS[source]()
+    path = Path(source)
+    if not path.exists():
+        if path.suffix == "" and path.parent == Path("."):
+            raise SceneError(f"unknown preset '{source}'{closest_name(str(source), PRESETS)}; "
+                             f"presets: {', '.join(preset_names())} (or give a .toml scene file)")
+        raise SceneError(f"scene file not found: {path}; check the path (presets: {', '.join(preset_names())})")
+    if not path.is_file():
+        raise SceneError(f"scene path {path} is not a file; give a .toml scene file")
+    return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem)
+
+
+def _read_toml(path: Path) -> dict:
+    """The TOML document in ``path``, or SceneError with the parser's line and column."""
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file {path} is not UTF-8 text; save it as UTF-8 TOML") from None
+    except OSError as exc:
+        raise SceneError(f"cannot read scene file {path}: {exc.strerror or exc}; check its permissions") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"TOML syntax error in {path}: {str(exc).splitlines()[0]}; fix the scene file") from None
+
+
+def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "scene") -> Scene:
+    """A Scene from a parsed TOML document; relative file paths resolve against ``base_dir``."""
+    top = _Table(data, "", {"name": STRING, "intensity_scale": NUMBER, "camera": "table", "environment": "table",
+                            "lights": "array", "objects": "array"})
+    base_dir = Path(base_dir)
+    return Scene(
+        camera=_camera(top.table("camera")),
+        objects=_objects(top.tables("objects"), base_dir),
+        lights=[_light(t, f"lights[{i}]") for i, t in enumerate(top.tables("lights"))],
+        environment=_environment(top.table("environment"), base_dir),
+        intensity_scale=top.get("intensity_scale", NUMBER, 1.0, positive=True),
+        name=top.get("name", STRING, default_name),
+    )
+
+
+@contextmanager
+def _context(where: str):
+    """Re-raise ValueErrors from the scene dataclasses as SceneError prefixed with ``where``."""
+    try:
+        yield
+    except SceneError as exc:
+        if str(exc).startswith(where):  # already names its key
+            raise
+        raise type(exc)(f"{where}: {exc}") from None
+    except (ValueError, TypeError) as exc:
+        raise SceneError(f"{where}: {exc}") from None
+
+
+class _Table:
+    """One TOML table being read: strict key check and typed getters naming ``where.key`` on error."""
+
+    def __init__(self, data, where: str, keys: dict):
+        if not isinstance(data, dict):
+            raise SceneError(f"{where} must be a table (e.g. [{where}] or {where} = {{...}})")
+        self.data, self.where, self.keys = data, where, keys
+        for key in data:
+            if key not in keys:
+                place = where or "the scene's top level"
+                raise SceneError(f"unknown key '{key}' in {place}{closest_name(key, keys)}; "
+                                 f"allowed keys: {', '.join(keys)}")
+
+    def name(self, key: str) -> str:
+        return f"{self.where}.{key}" if self.where else key
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.data
+
+    def get(self, key: str, kind: str, default=_REQUIRED, positive: bool = False):
+        """The value of ``key`` converted to ``kind``; ``default`` when absent (SceneError if required)."""
+        if key not in self.data:
+            if default is _REQUIRED:
+                raise SceneError(f"{self.where} needs '{key}'; add {key} = <{_KIND_TEXT.get(kind, kind)}>")
+            return default
+        value = _convert(self.data[key], kind)
+        if value is None:
+            raise SceneError(f"{self.name(key)} must be {_KIND_TEXT[kind]} (got {self.data[key]!r})")
+        if positive and not np.all(np.asarray(value) > 0):
+            raise SceneError(f"{self.name(key)} must be positive (got {self.data[key]!r})")
+        return value
+
+    def table(self, key: str) -> dict:
+        """A sub-table (empty when absent)."""
+        return self.data.get(key, {})
+
+    def tables(self, key: str) -> list[dict]:
+        """An array of tables ([[key]]), empty when absent."""
+        value = self.data.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+            raise SceneError(f"{key} must be an array of tables: write each entry under [[{key}]]")
+        return value
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _convert(value, kind: str):
+    """``value`` as ``kind`` (float, int, bool, str, or a float64 array), or None when it does not fit."""
+    if kind == NUMBER:
+        return float(value) if _is_number(value) else None
+    if kind == INTEGER:
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+    if kind == BOOLEAN:
+        return value if isinstance(value, bool) else None
+    if kind == STRING:
+        return value if isinstance(value, str) else None
+    if kind in (VEC3, RGB) or kind.startswith("numbers"):
+        count = 3 if kind in (VEC3, RGB) else int(kind[len("numbers"):])
+        if kind != VEC3 and _is_number(value):
+            return np.full(count, float(value))
+        ok = isinstance(value, list) and len(value) == count and all(_is_number(v) for v in value)
+        return np.array(value, dtype=np.float64) if ok else None
+    raise AssertionError(f"unknown value kind {kind}")
+
+
+def _numbers(count: int) -> str:
+    """The kind 'a number or ``count`` numbers' (a single number is repeated)."""
+    kind = f"numbers{count}"
+    assert kind in _KIND_TEXT, f"no message for {kind}"
+    return kind
+
+
+# Tables ------------------------------------------------------------------------
+
+
+def _camera(data: dict) -> Camera:
+    table = _Table(data, "camera", CAMERA_KEYS)
+    size = _image_size(table)
+    if "fov_x" in table and "fov_y" in table:
+        raise SceneError("camera has both fov_x and fov_y; give only one of them")
+    fov_y = table.get("fov_y", NUMBER, 40.0)
+    if "fov_x" in table:
+        fov_x = table.get("fov_x", NUMBER)
+        if not 0.0 < fov_x < 180.0:
+            raise SceneError(f"camera.fov_x {fov_x} must lie strictly between 0 and 180 degrees")
+        fov_y = fov_y_from_fov_x(fov_x, *size)
+    with _context("camera"):
+        return Camera(
+            position=table.get("position", VEC3, [0.0, 0.0, 4.0]),
+            look_at=table.get("look_at", VEC3, [0.0, 0.0, 0.0]),
+            up=table.get("up", VEC3, [0.0, 1.0, 0.0]),
+            fov_y=fov_y,
+            near=table.get("near", NUMBER, 0.05),
+            far=table.get("far", NUMBER, 100.0),
+            size=size,
+        )
+
+
+def _image_size(table: _Table) -> tuple[int, int]:
+    value = table.data.get("size", [512, 512])
+    if not (isinstance(value, list) and len(value) == 2 and all(_convert(v, INTEGER) is not None for v in value)):
+        raise SceneError(f"camera.size must be two integers [width, height] (got {value!r})")
+    if not all(1 <= v <= MAX_IMAGE_SIZE for v in value):
+        raise SceneError(f"camera.size {value} must lie between 1 and {MAX_IMAGE_SIZE} pixels a side")
+    return int(value[0]), int(value[1])
+
+
+def _environment(data: dict, base_dir: Path) -> Environment:
+    table = _Table(data, "environment", {"file": STRING, "procedural": STRING})
+    if "file" in table and "procedural" in table:
+        raise SceneError("environment has both file and procedural; give only one of them")
+    with _context("environment"):
+        if "file" in table:
+            return load_environment(base_dir / table.get("file", STRING))
+        name = table.get("procedural", STRING, "sky-checker")
+        if name not in PROCEDURAL_ENVIRONMENTS:
+            raise SceneError(f"procedural '{name}' is unknown{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
+                             f"choose one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
+        return procedural_environment(name)
+
+
+def _typed(data: dict, where: str, kinds: dict, role: str) -> tuple[str, dict]:
+    """The ``type`` of a light or material table, checked against ``kinds``, and the keys for it."""
+    if not isinstance(data, dict):
+        raise SceneError(f"{where} must be a table with a type, e.g. {{ type = '{next(iter(kinds))}' }}")
+    kind = data.get("type")
+    if not isinstance(kind, str) or kind not in kinds:
+        hint = closest_name(kind, kinds) if isinstance(kind, str) else ""
+        what = f"type {kind!r} is unknown{hint}" if "type" in data else "needs a type"
+        raise SceneError(f"{where} {what}; choose a {role} type from {', '.join(kinds)}")
+    return kind, {"type": STRING, **kinds[kind]}
+
+
+def _light(data: dict, where: str):
+    kind, keys = _typed(data, where, LIGHT_KEYS, "light")
+    table = _Table(data, where, keys)
+    intensity = table.get("intensity", RGB, np.full(3, 10.0 if kind != "directional" else 3.0))
+    with _context(where):
+        if kind == "point":
+            return PointLight(table.get("position", VEC3), intensity)
+        if kind == "directional":
+            return DirectionalLight(table.get("direction", VEC3), intensity)
+        if kind == "line":
+            return LineLight(table.get("start", VEC3), table.get("end", VEC3), intensity,
+                             table.get("samples", INTEGER, 8))
+        position = table.get("position", VEC3)
+        if ("direction" in table) == ("look_at" in table):
+            raise SceneError("a spot light needs exactly one of direction or look_at")
+        direction = table.get("direction", VEC3) if "direction" in table else table.get("look_at", VEC3) - position
+        return SpotLight(position, direction, intensity, table.get("inner_angle", NUMBER, 20.0),
+                         table.get("outer_angle", NUMBER, 30.0))
+
+
+def _material(data, where: str):
+    """A material table (or just its type name as a string); diffuse grey when absent."""
+    if data is None:
+        return Diffuse()
+    if isinstance(data, str):
+        data = {"type": data}
+    kind, keys = _typed(data, where, {k: v[1] for k, v in MATERIALS.items()}, "material")
+    table = _Table(data, where, keys)
+    values = {key: table.get(key, keys[key]) for key in data if key != "type"}
+    with _context(where):
+        return MATERIALS[kind][0](**values)
+
+
+def _shape_keys(shape: str) -> dict:
+    """The parameters a shape takes (from its function signature) and their kinds (from the defaults)."""
+    keys = {}
+    for name, param in inspect.signature(SHAPES[shape]).parameters.items():
+        default = param.default
+        if isinstance(default, bool):
+            keys[name] = BOOLEAN
+        elif isinstance(default, int):
+            keys[name] = INTEGER
+        elif isinstance(default, tuple):
+            keys[name] = _numbers(len(default))
+        else:
+            keys[name] = NUMBER
+    return keys
+
+
+def _objects(entries: list[dict], base_dir: Path) -> list[SceneObject]:
+    objects, meshes, owner = [], {}, {}
+    for i, data in enumerate(entries):
+        where = f"objects[{i}]"
+        obj = _object(data, where, base_dir, meshes)
+        if obj.name in owner:
+            if "name" in data:
+                raise SceneError(f"{where}.name '{obj.name}' is already used by {owner[obj.name]}; "
+                                 "give each object its own name")
+            obj.name = f"{obj.name}-{i}"
+        owner[obj.name] = where
+        objects.append(obj)
+    return objects
+
+
+def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) -> SceneObject:
+    if not isinstance(data, dict):
+        raise SceneError(f"{where} must be a table")
+    # What the geometry is decides which keys are allowed.
+    if ("shape" in data) == ("mesh" in data):
+        raise SceneError(f"{where} needs exactly one of shape = '<name>' or mesh = '<file>'; "
+                         f"shapes: {', '.join(SHAPES)}")
+    shape = data.get("shape")
+    if shape is not None and (not isinstance(shape, str) or shape not in SHAPES):
+        hint = closest_name(shape, SHAPES) if isinstance(shape, str) else ""
+        raise SceneError(f"{where}.shape {shape!r} is unknown{hint}; choose one of {', '.join(SHAPES)}")
+    shape_keys = _shape_keys(shape) if shape else {}
+    table = _Table(data, where, {**OBJECT_KEYS, **shape_keys})
+    if "center" in table and "position" in table:
+        raise SceneError(f"{where} has both center and position; give only one of them")
+    with _context(where):
+        if shape:
+            mesh = _shape(shape, {key: table.get(key, kind) for key, kind in shape_keys.items() if key in table}, where)
+        else:
+            path = (base_dir / table.get("mesh", STRING)).resolve()
+            if path not in meshes:
+                meshes[path] = load_mesh(path)
+            mesh = meshes[path]
+        transform = Transform(
+            position=table.get("position" if "position" in table else "center", VEC3, np.zeros(3)),
+            rotation=table.get("rotation", VEC3, np.zeros(3)),
+            scale=table.get("scale", _numbers(3), np.ones(3), positive=True),
+        )
+    material = _material(data.get("material"), f"{where}.material")
+    name = table.get("name", STRING, shape or Path(data.get("mesh", "mesh")).stem)
+    return SceneObject(name, mesh, material, transform)
+
+
+def _shape(shape: str, params: dict, where: str) -> Mesh:
+    """The shape's mesh; its parameter errors read ``objects[i].radius must ...``."""
+    try:
+        return SHAPES[shape](**params)
+    except ValueError as exc:
+        message = str(exc)
+        joint = "." if message.split(" ", 1)[0] in _shape_keys(shape) else ": "
+        raise SceneError(f"{where}{joint}{message}") from None

@@ -1,0 +1,359 @@
+"""Procedural meshes with analytic normals, in object space, centred at the origin.
+
+Faces are counter-clockwise seen from outside. Closed shapes are watertight once
+coincident vertices are merged: hard edges (box edges, cylinder caps, lens rims)
+repeat their vertices with each side's own normal.
+
+Most shapes are built from one of two parametric grids whose triangle normal is
+dP/dcol x dP/drow: surfaces of revolution about +Y (columns go around the axis,
+rows follow a profile walked counter-clockwise in the (r, y) half plane, so the
+normal points outward) and tubes around a closed curve.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .mesh import Mesh
+
+
+# Grid helpers ------------------------------------------------------------------
+
+
+def _positive(**values) -> None:
+    """ValueError naming the first parameter that is not a positive finite number."""
+    for name, value in values.items():
+        arr = np.asarray(value, dtype=np.float64)
+        if not np.all(np.isfinite(arr) & (arr > 0)):
+            raise ValueError(f"{name} must be positive (got {arr.tolist()})")
+
+
+def _dims(size, n: int, name: str = "size") -> np.ndarray:
+    """``size`` as ``n`` positive numbers (a single number stands for all of them)."""
+    arr = np.asarray(size, dtype=np.float64).reshape(-1)
+    if arr.size == 1:
+        arr = np.repeat(arr, n)
+    if arr.size != n:
+        raise ValueError(f"{name} must be one number or {n} numbers (got {size})")
+    _positive(**{name: arr})
+    return arr
+
+
+def _count(name: str, value: int, minimum: int) -> int:
+    """An integer resolution parameter, at least ``minimum``."""
+    if int(value) != value or value < minimum:
+        raise ValueError(f"{name} must be an integer of at least {minimum} (got {value})")
+    return int(value)
+
+
+def _grid_faces(rows: int, cols: int, wrap_rows: bool = False, wrap_cols: bool = False) -> np.ndarray:
+    """Two triangles per grid cell of a row-major vertex grid; normal = d/dcol x d/drow."""
+    i, j = np.meshgrid(np.arange(rows if wrap_rows else rows - 1), np.arange(cols if wrap_cols else cols - 1),
+                       indexing="ij")
+    i, j = i.reshape(-1), j.reshape(-1)
+    i1, j1 = (i + 1) % rows, (j + 1) % cols
+    a, b, c, d = i * cols + j, i * cols + j1, i1 * cols + j1, i1 * cols + j
+    return np.concatenate([np.stack([a, b, c], axis=1), np.stack([a, c, d], axis=1)])
+
+
+def _merge(parts, name: str) -> Mesh:
+    """One mesh from (vertices, normals, faces) parts, each indexing its own vertices."""
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+    vertices = np.concatenate([p[0] for p in parts])
+    normals = np.concatenate([p[1] for p in parts])
+    faces = np.concatenate([p[2] + off for p, off in zip(parts, offsets)])
+    return Mesh(vertices, normals, faces, name=name)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _revolve(r, y, nr, ny, segments: int, closed: bool = False):
+    """Surface of revolution about +Y of a profile (r, y) with profile normals (nr, ny).
+
+    The profile must run counter-clockwise in the (r, y) half plane for outward
+    normals. Profile points with r = 0 are poles: their ring collapses to one
+    vertex. ``closed`` joins the last profile point back to the first.
+    """
+    r, y, nr, ny = (np.asarray(a, dtype=np.float64) for a in (r, y, nr, ny))
+    phi = 2.0 * np.pi * np.arange(segments) / segments
+    s, c = np.sin(phi)[None, :], np.cos(phi)[None, :]
+    shape = (len(r), segments)
+    vertices = np.stack([r[:, None] * s, np.broadcast_to(y[:, None], shape), r[:, None] * c], axis=-1).reshape(-1, 3)
+    normals = np.stack([nr[:, None] * s, np.broadcast_to(ny[:, None], shape), nr[:, None] * c], axis=-1).reshape(-1, 3)
+    faces = _grid_faces(len(r), segments, wrap_rows=closed, wrap_cols=True)
+    # Collapse each pole ring onto its first vertex, drop the degenerate triangles, compact.
+    index = np.arange(len(vertices)).reshape(len(r), segments)
+    index[r == 0.0] = index[r == 0.0][:, :1]
+    faces = index.reshape(-1)[faces]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])]
+    used, faces = np.unique(faces, return_inverse=True)
+    return vertices[used], normals[used], faces.reshape(-1, 3)
+
+
+def _strip(points, normal, segments: int):
+    """A revolved straight profile segment with one constant profile normal (a flat or cylindrical band)."""
+    (r0, y0), (r1, y1) = points
+    return _revolve([r0, r1], [y0, y1], [normal[0]] * 2, [normal[1]] * 2, segments)
+
+
+def _y_to_z(part):
+    """Rotate a part by +90 degrees about X so that +Y becomes +Z (winding is kept)."""
+    vertices, normals, faces = part
+    swap = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    return vertices @ swap.T, normals @ swap.T, faces
+
+
+# Shapes ------------------------------------------------------------------------
+
+
+def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
+    """Icosphere: an icosahedron subdivided ``subdivisions`` times, exactly radial normals."""
+    _positive(radius=radius)
+    subdivisions = _count("subdivisions", subdivisions, 0)
+    t = (1.0 + math.sqrt(5.0)) / 2.0
+    vertices = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
+                         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=np.float64)
+    faces = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+                      [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+                      [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]])
+    vertices = _unit(vertices)
+    for _ in range(subdivisions):
+        # Split every edge once at its midpoint (shared by both faces), four triangles per face.
+        edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        unique_edges, edge_of = np.unique(edges, axis=0, return_inverse=True)
+        mid = len(vertices) + edge_of.reshape(-1, 3)
+        vertices = np.concatenate([vertices, _unit(vertices[unique_edges].mean(axis=1))])
+        a, b, c = faces.T
+        ab, bc, ca = mid.T
+        faces = np.concatenate([np.stack(f, axis=1) for f in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    return Mesh(vertices * radius, vertices, faces, name="sphere", analytic_sphere=(np.zeros(3), float(radius)))
+
+
+def plane(size=(2.0, 2.0), resolution: int = 1) -> Mesh:
+    """A ``size`` = (width along X, depth along Z) rectangle at y = 0 facing +Y, ``resolution`` cells a side."""
+    return _heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane")
+
+
+def _heightfield(size, resolution: int, height, name: str) -> Mesh:
+    """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz)."""
+    width, depth = _dims(size, 2)
+    n = _count("resolution", resolution, 1) + 1
+    # Rows follow X and columns Z, so that d/dcol x d/drow = +Z x +X = +Y.
+    x, z = np.meshgrid(np.linspace(-width / 2, width / 2, n), np.linspace(-depth / 2, depth / 2, n), indexing="ij")
+    y, dydx, dydz = height(x, z)
+    vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    normals = _unit(np.stack([-dydx, np.ones_like(y), -dydz], axis=-1)).reshape(-1, 3)
+    return Mesh(vertices, normals, _grid_faces(n, n), name=name)
+
+
+def box(size=(1.0, 1.0, 1.0)) -> Mesh:
+    """Axis-aligned box of edge lengths ``size``: 24 vertices, flat face normals."""
+    half = _dims(size, 3) / 2.0
+    vertices, normals, faces = [], [], []
+    for axis in range(3):
+        u_axis, v_axis = (axis + 1) % 3, (axis + 2) % 3  # e_u x e_v = e_axis
+        for sign in (1.0, -1.0):
+            normal = np.zeros(3)
+            normal[axis] = sign
+            corners = []
+            for du, dv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):  # CCW about e_axis
+                p = np.zeros(3)
+                p[axis], p[u_axis], p[v_axis] = sign * half[axis], du * sign * half[u_axis], dv * half[v_axis]
+                corners.append(p)
+            base = len(vertices)
+            vertices += corners
+            normals += [normal] * 4
+            faces += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
+    return Mesh(np.array(vertices) * 1.0, np.array(normals), np.array(faces), name="box")
+
+
+def torus(major_radius: float = 1.0, minor_radius: float = 0.3, segments: int = 96, sides: int = 48) -> Mesh:
+    """Torus about the Y axis (lying in the XZ plane) with analytic normals."""
+    _positive(major_radius=major_radius, minor_radius=minor_radius)
+    if minor_radius >= major_radius:
+        raise ValueError(f"minor_radius ({minor_radius}) must be smaller than major_radius ({major_radius})")
+    theta = 2.0 * np.pi * np.arange(_count("sides", sides, 3)) / sides
+    nr, ny = np.cos(theta), np.sin(theta)  # counter-clockwise around the tube cross-section
+    part = _revolve(major_radius + minor_radius * nr, minor_radius * ny, nr, ny,
+                    _count("segments", segments, 3), closed=True)
+    return _merge([part], "torus")
+
+
+def torus_knot(p: int = 2, q: int = 3, radius: float = 1.0, tube_radius: float = 0.15,
+               segments: int = 256, sides: int = 24) -> Mesh:
+    """A tube of ``tube_radius`` around the (p, q) torus knot of outer radius ``radius``, about Y.
+
+    The curve winds p times around the Y axis and q times through the hole:
+    rho(t) = radius (2 + cos qt) / 3, height radius sin(qt) / 3. Normals come
+    from a parallel-transport frame along the curve, closed up by spreading the
+    leftover twist evenly.
+    """
+    _positive(radius=radius, tube_radius=tube_radius)
+    p, q = _count("p", p, 1), _count("q", q, 1)
+    if math.gcd(p, q) != 1:
+        raise ValueError(f"p ({p}) and q ({q}) must be coprime for a knot (a single closed curve)")
+    n, m = _count("segments", segments, 8), _count("sides", sides, 3)
+    # Curve and tangent (analytic derivative).
+    t = 2.0 * np.pi * np.arange(n) / n
+    rho, drho = radius * (2.0 + np.cos(q * t)) / 3.0, -radius * q * np.sin(q * t) / 3.0
+    curve = np.stack([rho * np.cos(p * t), radius * np.sin(q * t) / 3.0, rho * np.sin(p * t)], axis=-1)
+    tangent = _unit(np.stack([drho * np.cos(p * t) - p * rho * np.sin(p * t), radius * q * np.cos(q * t) / 3.0,
+                              drho * np.sin(p * t) + p * rho * np.cos(p * t)], axis=-1))
+    # Parallel transport a normal along the curve (rotate it from one tangent to the next).
+    normal = np.empty_like(curve)
+    start = np.cross(tangent[0], [0.0, 1.0, 0.0])
+    normal[0] = _unit(start if np.linalg.norm(start) > 1e-6 else np.cross(tangent[0], [1.0, 0.0, 0.0]))
+    for k in range(1, n + 1):
+        transported = _transport(normal[k - 1], tangent[k - 1], tangent[k % n])
+        if k < n:
+            normal[k] = transported
+    # Spread the twist left when the frame comes back to the start evenly over the loop.
+    twist = math.atan2(np.dot(np.cross(transported, normal[0]), tangent[0]), np.dot(transported, normal[0]))
+    angle = twist * np.arange(n) / n
+    binormal = np.cross(tangent, normal)
+    normal, binormal = (np.cos(angle)[:, None] * normal + np.sin(angle)[:, None] * binormal,
+                        -np.sin(angle)[:, None] * normal + np.cos(angle)[:, None] * binormal)
+    # Tube: columns around the cross-section, rows along the curve.
+    phi = 2.0 * np.pi * np.arange(m) / m
+    out = np.cos(phi)[None, :, None] * normal[:, None, :] + np.sin(phi)[None, :, None] * binormal[:, None, :]
+    vertices = (curve[:, None, :] + tube_radius * out).reshape(-1, 3)
+    return Mesh(vertices, out.reshape(-1, 3), _grid_faces(n, m, wrap_rows=True, wrap_cols=True), name="torus-knot")
+
+
+def _transport(v: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
+    """Rotate ``v`` by the minimal rotation that takes unit tangent t0 to t1 (Rodrigues)."""
+    axis = np.cross(t0, t1)
+    sin, cos = np.linalg.norm(axis), float(np.dot(t0, t1))
+    if sin < 1e-12:
+        return v
+    axis /= sin
+    rotated = v * cos + np.cross(axis, v) * sin + axis * np.dot(axis, v) * (1.0 - cos)
+    return _unit(rotated - np.dot(rotated, t1) * t1)
+
+
+def cylinder(radius: float = 1.0, height: float = 2.0, segments: int = 64, caps: bool = True) -> Mesh:
+    """Cylinder about the Y axis from y = -height/2 to height/2; smooth side, flat caps."""
+    _positive(radius=radius, height=height)
+    segments, h = _count("segments", segments, 3), height / 2.0
+    parts = [_strip([(radius, -h), (radius, h)], (1.0, 0.0), segments)]
+    if caps:
+        parts += [_strip([(0.0, -h), (radius, -h)], (0.0, -1.0), segments),
+                  _strip([(radius, h), (0.0, h)], (0.0, 1.0), segments)]
+    return _merge(parts, "cylinder")
+
+
+def ring(inner_radius: float = 0.8, outer_radius: float = 1.0, height: float = 0.5, segments: int = 128) -> Mesh:
+    """Closed annular tube about Y: outer wall, inner wall (facing the axis), top and bottom annuli."""
+    _positive(inner_radius=inner_radius, outer_radius=outer_radius, height=height)
+    if inner_radius >= outer_radius:
+        raise ValueError(f"inner_radius ({inner_radius}) must be smaller than outer_radius ({outer_radius})")
+    segments, h, ri, ro = _count("segments", segments, 3), height / 2.0, inner_radius, outer_radius
+    # The cross-section rectangle, counter-clockwise: bottom, outer wall, top, inner wall.
+    parts = [_strip([(ri, -h), (ro, -h)], (0.0, -1.0), segments), _strip([(ro, -h), (ro, h)], (1.0, 0.0), segments),
+             _strip([(ro, h), (ri, h)], (0.0, 1.0), segments), _strip([(ri, h), (ri, -h)], (-1.0, 0.0), segments)]
+    return _merge(parts, "ring")
+
+
+def _spherical_cap(aperture: float, pole_y: float, rim_y: float, convex: bool, rings: int):
+    """Profile (r, y, nr, ny) of a spherical cap from its pole (0, pole_y) to its rim (aperture, rim_y).
+
+    The sphere through both points has its centre on the axis on the rim's side
+    of the pole; the normal points away from the centre when ``convex``.
+    """
+    sag = rim_y - pole_y
+    radius = (aperture**2 + sag**2) / (2.0 * abs(sag))
+    direction = math.copysign(1.0, sag)  # from the pole towards the centre
+    centre = pole_y + direction * radius
+    theta = np.linspace(0.0, math.atan2(aperture, radius - abs(sag)), rings + 1)
+    r, y = radius * np.sin(theta), centre - direction * radius * np.cos(theta)
+    r[0], r[-1], y[0], y[-1] = 0.0, aperture, pole_y, rim_y  # exact ends, so rims meet their neighbours
+    sign = 1.0 if convex else -1.0
+    return r, y, sign * np.sin(theta), -sign * direction * np.cos(theta)
+
+
+def _lens(name: str, aperture: float, center_y: float, edge_y: float, convex: bool, segments: int, rings: int) -> Mesh:
+    """Two mirror-image spherical caps (poles at +-center_y, rims at +-edge_y) joined by a band, axis Z."""
+    segments, rings = _count("segments", segments, 3), _count("rings", rings, 1)
+    r, y, nr, ny = _spherical_cap(aperture, -center_y, -edge_y, convex, rings)
+    # Counter-clockwise: bottom cap from its pole out, the rim band, the top cap back to its pole.
+    parts = [_revolve(r, y, nr, ny, segments)]
+    if edge_y > 0:
+        parts.append(_strip([(aperture, -edge_y), (aperture, edge_y)], (1.0, 0.0), segments))
+    parts.append(_revolve(r[::-1], -y[::-1], nr[::-1], -ny[::-1], segments))
+    return _merge([_y_to_z(part) for part in parts], name)
+
+
+def biconvex_lens(radius: float = 1.0, thickness: float = 0.4, edge_thickness: float = 0.0,
+                  segments: int = 96, rings: int = 24) -> Mesh:
+    """Symmetric biconvex lens along Z: aperture ``radius``, centre ``thickness``.
+
+    Each face is a spherical cap of sag s = (thickness - edge_thickness) / 2 and
+    curvature radius R = (radius^2 + s^2) / (2 s); with edge_thickness > 0 a
+    cylindrical band joins the two rims.
+    """
+    _positive(radius=radius, thickness=thickness)
+    if not 0.0 <= edge_thickness < thickness:
+        raise ValueError(f"edge_thickness ({edge_thickness}) must lie in [0, thickness) (thickness is {thickness})")
+    return _lens("biconvex-lens", radius, thickness / 2.0, edge_thickness / 2.0, True, segments, rings)
+
+
+def biconcave_lens(radius: float = 1.0, center_thickness: float = 0.1, edge_thickness: float = 0.5,
+                   segments: int = 96, rings: int = 24) -> Mesh:
+    """Symmetric biconcave lens along Z: two concave spherical faces and a cylindrical rim band.
+
+    Sag s = (edge_thickness - center_thickness) / 2, curvature radius
+    R = (radius^2 + s^2) / (2 s).
+    """
+    _positive(radius=radius, center_thickness=center_thickness, edge_thickness=edge_thickness)
+    if not edge_thickness > center_thickness:
+        raise ValueError(f"edge_thickness ({edge_thickness}) must exceed center_thickness ({center_thickness})")
+    if edge_thickness - center_thickness > 2.0 * radius:
+        raise ValueError(f"edge_thickness - center_thickness ({edge_thickness - center_thickness}) must not exceed "
+                         f"2 * radius ({2.0 * radius}): each face is at most a hemisphere")
+    return _lens("biconcave-lens", radius, center_thickness / 2.0, edge_thickness / 2.0, False, segments, rings)
+
+
+def water_heightfield(size=(4.0, 4.0), resolution: int = 128, amplitude: float = 0.05, waves: int = 4,
+                      seed: int = 0, time: float = 0.0) -> Mesh:
+    """A water surface facing +Y: the sum of ``waves`` travelling sine waves, |y| <= amplitude.
+
+    Directions, wavelengths (0.15 to 0.5 of the larger side) and phases come
+    from ``seed``; each wave moves at the deep-water speed (omega^2 = g k), so
+    ``time`` animates it. Normals come from the analytic gradient.
+    """
+    if not (np.isfinite(amplitude) and amplitude >= 0):
+        raise ValueError(f"amplitude must be zero or positive (got {amplitude})")
+    waves = _count("waves", waves, 1)
+    rng = np.random.default_rng(int(seed))
+    angle = rng.uniform(0.0, 2.0 * np.pi, waves)
+    wavelength = rng.uniform(0.15, 0.5, waves) * float(np.max(_dims(size, 2)))
+    phase = rng.uniform(0.0, 2.0 * np.pi, waves)
+    weight = rng.uniform(0.5, 1.0, waves)
+    weight *= amplitude / weight.sum()
+    k = 2.0 * np.pi / wavelength
+    kx, kz, omega = k * np.cos(angle), k * np.sin(angle), np.sqrt(9.81 * k)
+
+    def height(x, z):
+        arg = x[..., None] * kx + z[..., None] * kz - omega * float(time) + phase
+        s, c = np.sin(arg), np.cos(arg)
+        return (s * weight).sum(-1), (c * weight * kx).sum(-1), (c * weight * kz).sum(-1)
+
+    return _heightfield(size, resolution, height, "water")
+
+
+SHAPES = {
+    "sphere": sphere,
+    "plane": plane,
+    "box": box,
+    "torus": torus,
+    "torus-knot": torus_knot,
+    "cylinder": cylinder,
+    "biconvex-lens": biconvex_lens,
+    "biconcave-lens": biconcave_lens,
+    "water": water_heightfield,
+    "ring": ring,
+}
+"""Shape names as scene files spell them."""
