@@ -9,6 +9,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: demo test bench setup sysdeps clean
 
 demo: $(STAMP)
+	@mkdir -p out
 	$(VENV)/bin/caustica render caustic-sphere -o out/demo.png
 
 test: $(STAMP)
