@@ -203,6 +203,7 @@ class RayScene:
             diagonal = 1.0
         # Default tnear: a scale-aware offset that skips the surface a ray starts on.
         self.epsilon = 1e-5 * max(diagonal, 1e-12)
+        self.rays_traced = 0  # every ray through intersect() and occluded(), for throughput figures
 
     # -- queries -----------------------------------------------------------------
 
@@ -230,6 +231,7 @@ class RayScene:
         d = np.ascontiguousarray(dirs, dtype=np.float64).reshape(-1, 3)
         tnear = self.epsilon if tnear is None else float(tnear)
         n = len(o)
+        self.rays_traced += n
         out = Hits(
             hit=np.zeros(n, bool),
             t=np.full(n, np.inf),
@@ -303,6 +305,7 @@ class RayScene:
         d = np.ascontiguousarray(dirs, dtype=np.float64).reshape(-1, 3)
         tnear = self.epsilon if tnear is None else float(tnear)
         max_t = np.broadcast_to(np.asarray(max_t, dtype=np.float64), (len(o),))
+        self.rays_traced += len(o)
         blocked = np.zeros(len(o), bool)
 
         def run(sl: slice) -> None:
