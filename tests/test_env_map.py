@@ -64,3 +64,23 @@ def test_mirror_sphere_agrees_with_exact(renderer):
     exact = renderer.render(scene, "exact", spp=4)
     value = psnr(linear_to_srgb(np.clip(raster, 0, 1)), linear_to_srgb(np.clip(exact, 0, 1)))
     assert value > 45.0, value
+
+
+def test_exit_directions_are_the_single_refraction(renderer):
+    """env-map's debug output: T1 = refract(view, N, 1/ior) at the front surface, undefined off the refractor."""
+    from caustica.raytrace.optics import refract
+
+    scene = sphere_scene(Glass(1.5), size=(33, 33))
+    dirs, valid = renderer.exit_directions(scene, "env-map")
+    origins, rays = scene.camera.primary_rays()
+    rays = rays[:, :, 0]
+    assert valid[16, 16] and not valid[0, 0]
+    # Closed form at a few pixels: intersect the unit sphere, refract once.
+    for row, col in [(16, 16), (10, 20), (22, 12)]:
+        o, d = origins[row, col, 0], rays[row, col]
+        b = np.dot(o, d)
+        t = -b - np.sqrt(b * b - (np.dot(o, o) - 1.0))
+        n = o + t * d
+        expected, _ = refract(d[None], n[None], 1.0 / 1.5)
+        angle = np.degrees(np.arccos(np.clip(np.dot(dirs[row, col], expected[0]) / np.linalg.norm(dirs[row, col]), -1, 1)))
+        assert angle < 0.5, (row, col, angle)  # tessellated sphere: interpolated normals, flat facets

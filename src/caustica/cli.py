@@ -1,4 +1,4 @@
-"""Command line: ``caustica render | techniques | info``.
+"""Command line: ``caustica render | compare | bench | techniques | presets | info``.
 
 Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
 """
@@ -32,6 +32,23 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def _names(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one name, comma-separated")
+    return names
+
+
+def _sizes(text: str) -> list[int]:
+    try:
+        sizes = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"sizes '{text}' must look like 256,512,1024") from None
+    if not sizes or min(sizes) < 1:
+        raise argparse.ArgumentTypeError(f"sizes '{text}' must be positive integers")
+    return sizes
+
+
 def _param(text: str) -> tuple[str, object]:
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"parameter '{text}' must look like name=value")
@@ -60,6 +77,28 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
 
+    comp = sub.add_parser("compare", help="every technique against the reference: time, PSNR, relMSE, SSIM, FLIP per region")
+    comp.add_argument("scene", help="a .toml scene file or a preset name")
+    comp.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated (default env-map,exact)")
+    comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
+    comp.add_argument("--spp", type=int, default=4, help="samples per pixel of the techniques (default 4)")
+    comp.add_argument("--reference-spp", type=int, default=256, help="Mitsuba samples per pixel (cached; default 256)")
+    comp.add_argument("--frames", type=int, default=5, help="timed frames after a warm-up (default 5)")
+    comp.add_argument("--json", help="write the figures as JSON here")
+    comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
+
+    bench = sub.add_parser("bench", help="ms per frame, per-pass ms, ratio to plain shading, time-to-quality vs Mitsuba")
+    bench.add_argument("--scenes", type=_names, default=["glass-sphere", "caustic-sphere"], help="comma-separated scenes or presets")
+    bench.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated techniques")
+    bench.add_argument("--sizes", type=_sizes, default=[256, 512, 1024], help="comma-separated image sides (default 256,512,1024)")
+    bench.add_argument("--frames", type=int, default=5, help="timed frames after a warm-up (default 5)")
+    bench.add_argument("--quality-size", type=int, default=256, help="image side of the time-to-quality runs (default 256)")
+    bench.add_argument("--reference-spp", type=int, default=1024, help="spp of the reference for time-to-quality (cached)")
+    bench.add_argument("--max-spp", type=int, default=256, help="largest Mitsuba spp tried for time-to-quality")
+    bench.add_argument("--no-mitsuba", action="store_true", help="skip the time-to-quality comparison")
+    bench.add_argument("--json", help="write the figures as JSON here")
+    bench.add_argument("--plot", help="write ms-vs-resolution and error-vs-time plots (PNG) here")
+
     sub.add_parser("techniques", help="list the techniques")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
@@ -84,11 +123,7 @@ def cmd_render(args) -> int:
     from .renderer import Renderer
     from .techniques import get_technique
 
-    output = Path(args.output)
-    if output.suffix.lower() not in OUTPUT_SUFFIXES:
-        raise OutputError(f"output '{output}' must end in .png or .exr")
-    if not output.parent.is_dir():
-        raise OutputError(f"output directory '{output.parent}' does not exist; create it first")
+    output = _check_output(args.output, OUTPUT_SUFFIXES)
     if args.spp < 1 or args.frames < 1:
         raise CausticaError("--spp and --frames must be at least 1")
     technique = get_technique(args.technique)
@@ -105,6 +140,86 @@ def cmd_render(args) -> int:
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
     print(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
           f"{statistics.median(timings):.1f} ms per frame on {where}")
+    return 0
+
+
+def _check_output(path: str | None, suffixes: tuple[str, ...]) -> Path | None:
+    """Fail before any work when an output cannot be written."""
+    if path is None:
+        return None
+    out = Path(path)
+    if out.suffix.lower() not in suffixes:
+        raise OutputError(f"output '{out}' must end in {' or '.join(suffixes)}")
+    if not out.parent.is_dir():
+        raise OutputError(f"output directory '{out.parent}' does not exist; create it first")
+    return out
+
+
+def _write_json(path: Path, data) -> None:
+    import json
+
+    from .images import write_atomic
+
+    write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=2)))
+
+
+def cmd_compare(args) -> int:
+    from . import load_scene
+    from .bench.compare import compare, format_table
+    from .bench.sheet import contact_sheet, save_sheet
+    from .techniques import get_technique
+
+    json_path = _check_output(args.json, (".json",))
+    sheet_path = _check_output(args.sheet, (".png",))
+    if args.spp < 1 or args.frames < 1 or args.reference_spp < 1:
+        raise CausticaError("--spp, --reference-spp and --frames must be at least 1")
+    for name in args.techniques:
+        get_technique(name)
+    scene = load_scene(args.scene)
+    result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.frames,
+                     reference_spp=args.reference_spp, log=lambda m: print(m, file=sys.stderr))
+    print(format_table(result))
+    if json_path:
+        _write_json(json_path, result.to_json())
+        print(f"wrote {json_path}")
+    if sheet_path:
+        rows = [(r.technique, r.image, r.error_map) for r in result.results]
+        save_sheet(contact_sheet(rows, result.reference_image, "reference: " + result.reference.split(" (")[0]), sheet_path)
+        print(f"wrote {sheet_path}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from . import load_scene
+    from .bench.harness import plot, speed_rows, time_to_quality
+    from .techniques import get_technique
+
+    json_path = _check_output(args.json, (".json",))
+    plot_path = _check_output(args.plot, (".png",))
+    if args.frames < 1:
+        raise CausticaError("--frames must be at least 1")
+    for name in args.techniques:
+        get_technique(name)
+    scenes = [load_scene(name) for name in args.scenes]
+    rows, quality = [], []
+    for scene in scenes:
+        rows += speed_rows(scene, args.techniques, args.sizes, args.frames)
+    if not args.no_mitsuba:
+        try:
+            import mitsuba  # noqa: F401
+        except ImportError:
+            print("caustica: time-to-quality skipped: Mitsuba is not installed (pip install 'caustica[reference]')",
+                  file=sys.stderr)
+        else:
+            for scene in scenes:
+                quality.append(time_to_quality(scene, args.techniques, args.quality_size, args.reference_spp,
+                                               args.max_spp, args.frames))
+    if json_path:
+        _write_json(json_path, {"frames": rows, "time_to_quality": quality})
+        print(f"wrote {json_path}")
+    if plot_path:
+        plot(rows, quality, plot_path)
+        print(f"wrote {plot_path}")
     return 0
 
 
@@ -140,7 +255,7 @@ def cmd_info(args) -> int:
     return 0
 
 
-COMMANDS = {"render": cmd_render, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
+COMMANDS = {"render": cmd_render, "compare": cmd_compare, "bench": cmd_bench, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

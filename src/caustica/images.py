@@ -197,8 +197,8 @@ def write_image(path: str | Path, image: np.ndarray, exposure: float = 0.0) -> P
     image = _checked_image(image, path)
     if suffix == ".png":
         encoded = linear_to_srgb(np.clip(image * 2.0 ** float(exposure), 0.0, 1.0))
-        return _write_atomic(path, lambda tmp: _write_png(tmp, np.round(encoded * 255.0).astype(np.uint8)))
-    return _write_atomic(path, lambda tmp: _write_exr(tmp, image))
+        return write_atomic(path, lambda tmp: _write_png(tmp, np.round(encoded * 255.0).astype(np.uint8)))
+    return write_atomic(path, lambda tmp: _write_exr(tmp, image))
 
 
 def write_hdr(path: str | Path, image: np.ndarray) -> Path:
@@ -208,7 +208,7 @@ def write_hdr(path: str | Path, image: np.ndarray) -> Path:
     height, width = image.shape[:2]
     header = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n".encode()
     payload = header + float_to_rgbe(image).tobytes()
-    return _write_atomic(path, lambda tmp: Path(tmp).write_bytes(payload))
+    return write_atomic(path, lambda tmp: Path(tmp).write_bytes(payload))
 
 
 def _checked_image(image, path: Path) -> np.ndarray:
@@ -236,7 +236,7 @@ def _write_exr(tmp: str, image: np.ndarray) -> None:
         exr.write(tmp)
 
 
-def _write_atomic(path: Path, write) -> Path:
+def write_atomic(path: Path, write) -> Path:
     """Call ``write(temp_path)`` in the target directory, then rename over ``path``."""
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():

@@ -14,14 +14,17 @@ class Renderer:
     """Render scenes with any technique: ``Renderer((512, 512)).render(scene, technique="env-map")``.
 
     ``size`` (width, height) overrides the scene camera's size; None keeps it.
-    The GL context is created on first use of a GPU technique.
+    The GL context is created on first use of a GPU technique. With
+    ``profile_passes``, ``last_pass_ms`` holds each pass's milliseconds.
     """
 
-    def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False):
+    def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False):
         self.size = None if size is None else (int(size[0]), int(size[1]))
         self._device = None
         self._keep = keep_channels
         self.channels: dict = {}
+        self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
+        self.last_pass_ms: dict[str, float] = {}
 
     @property
     def device(self):
@@ -70,12 +73,37 @@ class Renderer:
                 )
 
     def keep_channels(self, frame) -> None:
-        """Remember the last frame's intermediate channels (for inspection) when asked to."""
-        self.channels = dict(frame.channels) if self._keep else {}
-        for name in ("back_depth", "color", "depth"):
-            texture = frame.channels.get(name)
-            if texture is not None and not self._keep:
+        """Return the frame's pooled textures, or keep them readable (``keep_channels=True``)."""
+        if self._keep:
+            self.channels = dict(frame.channels)
+            return
+        self.channels = {}
+        for texture in frame.channels.values():
+            if frame.gpu.targets.is_lent(texture):
                 frame.gpu.targets.give_back(texture)
+
+    def exit_directions(self, scene: Scene, technique: str, **params):
+        """Per-pixel exit directions (H, W, 3) and validity (H, W) at pixel centres, or None.
+
+        Defined for techniques whose passes write the ``exit_direction`` channel.
+        """
+        from .techniques.raster import read_rgba
+
+        keep, self._keep = self._keep, True
+        try:
+            self.render(scene, technique, spp=1, **params)
+            texture = self.channels.get("exit_direction")
+            result = None
+            if texture is not None:
+                data = read_rgba(texture)
+                result = (data[..., :3].copy(), data[..., 3] > 0.5)
+            for value in self.channels.values():
+                if self.device.targets.is_lent(value):
+                    self.device.targets.give_back(value)
+            self.channels = {}
+            return result
+        finally:
+            self._keep = keep
 
     def info(self) -> dict:
         return self.device.info

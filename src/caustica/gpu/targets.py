@@ -27,21 +27,30 @@ class TargetPool:
     def __init__(self, ctx):
         self.ctx = ctx
         self._free: dict[TargetKey, list] = {}
+        self._lent: set[int] = set()  # GL names of textures handed out and not yet returned
         self._framebuffers: dict[tuple, object] = {}
 
     def texture(self, size: tuple[int, int], fmt: str):
         key = TargetKey((int(size[0]), int(size[1])), fmt)
         free = self._free.get(key)
         if free:
-            return free.pop()
-        if fmt not in FORMATS:
+            texture = free.pop()
+        elif fmt not in FORMATS:
             raise ValueError(f"unknown render target format '{fmt}'; use one of {', '.join(FORMATS)}")
-        components, dtype = FORMATS[fmt]
-        if dtype == "depth":
-            return self.ctx.depth_texture(key.size)
-        return self.ctx.texture(key.size, components, dtype=dtype)
+        elif FORMATS[fmt][1] == "depth":
+            texture = self.ctx.depth_texture(key.size)
+        else:
+            components, dtype = FORMATS[fmt]
+            texture = self.ctx.texture(key.size, components, dtype=dtype)
+        self._lent.add(texture.glo)
+        return texture
+
+    def is_lent(self, texture) -> bool:
+        """Whether ``texture`` came from this pool and is still out."""
+        return getattr(texture, "glo", None) in self._lent
 
     def give_back(self, texture) -> None:
+        self._lent.discard(texture.glo)
         fmt = "depth" if texture.depth else next(
             name for name, (c, d) in FORMATS.items() if c == texture.components and d == texture.dtype
         )

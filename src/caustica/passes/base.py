@@ -27,6 +27,7 @@ class Frame:
     camera: Any
     params: Any
     channels: dict[str, Any] = field(default_factory=dict)
+    pass_ms: dict[str, float] | None = None  # filled with per-pass milliseconds when not None
 
     def read(self, name: str):
         return self.channels[name]
@@ -55,10 +56,30 @@ def run_passes(passes, frame: Frame) -> None:
         missing = [name for name in stage.reads if name not in frame.channels]
         if missing:
             raise PassWiringError(f"{type(stage).__name__} reads {missing}, which no earlier pass writes")
-        stage.run(frame)
+        if frame.pass_ms is None:
+            stage.run(frame)
+        else:
+            frame.pass_ms[type(stage).__name__] = _timed_ms(frame, stage)
         unwritten = [c.name for c in stage.writes if c.name not in frame.channels]
         if unwritten:
             raise PassWiringError(f"{type(stage).__name__} declares {unwritten} but did not write them")
+
+
+def _timed_ms(frame: Frame, stage: Pass) -> float:
+    """Milliseconds of one pass: a GPU timer query on real GPUs, finish() and wall clock on llvmpipe."""
+    import time
+
+    ctx = frame.gpu.ctx
+    if frame.gpu.info["is_software"]:
+        ctx.finish()
+        start = time.perf_counter()
+        stage.run(frame)
+        ctx.finish()
+        return (time.perf_counter() - start) * 1000.0
+    query = ctx.query(time=True)
+    with query:
+        stage.run(frame)
+    return query.elapsed / 1e6
 
 
 def describe_passes(passes) -> str:

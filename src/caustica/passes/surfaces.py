@@ -49,6 +49,7 @@ class ShadeSurfaces(Pass):
     reads = ("light_samples", "shadow_maps", "back_depth")
     writes = (
         Channel("color", "rgba32f", "linear radiance seen by the camera"),
+        Channel("exit_direction", "rgba32f", "world direction of the light path leaving a refractor; w = 1 where defined"),
         Channel("depth", "depth", "camera depth buffer"),
     )
 
@@ -60,10 +61,11 @@ class ShadeSurfaces(Pass):
     def run(self, frame: Frame) -> None:
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         color = gpu.targets.texture(camera.size, "rgba32f")
+        exit_direction = gpu.targets.texture(camera.size, "rgba32f")
         depth = gpu.targets.texture(camera.size, "depth")
-        fbo = gpu.targets.framebuffer([color], depth)
+        fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
-        fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         environment = gpu.environment_texture(scene.environment)
         environment.use(0)
         frame.read("back_depth").use(1)
@@ -96,6 +98,7 @@ class ShadeSurfaces(Pass):
                 set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
             draw_objects(frame, program, [obj], clip_from_world)
         frame.write("color", color)
+        frame.write("exit_direction", exit_direction)
         frame.write("depth", depth)
 
 

@@ -22,11 +22,16 @@ def box_downsample(image: np.ndarray, k: int) -> np.ndarray:
     return image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
 
 
-def read_rgb(texture) -> np.ndarray:
-    """An RGBA32F texture as a (H, W, 3) float32 image, row 0 at the top."""
+def read_rgba(texture) -> np.ndarray:
+    """A float texture as a (H, W, components) float32 array, row 0 at the top."""
     w, h = texture.size
     data = np.frombuffer(texture.read(), dtype="f4").reshape(h, w, texture.components)
-    return np.ascontiguousarray(data[::-1, :, :3])
+    return np.ascontiguousarray(data[::-1])
+
+
+def read_rgb(texture) -> np.ndarray:
+    """An RGBA32F texture as a (H, W, 3) float32 image, row 0 at the top."""
+    return np.ascontiguousarray(read_rgba(texture)[:, :, :3])
 
 
 class RasterTechnique(Technique):
@@ -38,9 +43,10 @@ class RasterTechnique(Technique):
     def render(self, renderer, scene, camera, params, spp):
         k = supersampling_factor(spp)
         width, height = camera.size
-        frame = Frame(renderer.device, scene, camera.with_size(width * k, height * k), params)
-        self.last_frame = frame
+        frame = Frame(renderer.device, scene, camera.with_size(width * k, height * k), params,
+                      pass_ms={} if renderer.profile_passes else None)
         run_passes(self.build_passes(params), frame)
         image = box_downsample(read_rgb(frame.read("color")), k)
         renderer.keep_channels(frame)
+        renderer.last_pass_ms = dict(frame.pass_ms or {})
         return image.astype(np.float32)

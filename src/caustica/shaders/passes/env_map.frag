@@ -2,6 +2,7 @@
 // Diffuse: direct light with shadow maps + SH ambient. Mirror: colour * env(reflect).
 // Glass: F env(reflect) + (1 - F) env(refract) exp(-sigma_a * thickness), per RGB channel
 // (one IOR each, for dispersion); thickness = back-face distance - front distance.
+// The single interface's T1 is the exit direction this baseline assumes (second output).
 // Host defines: MAX_LIGHTS (12).
 #version 430 core
 #include "common/optics.glsl"
@@ -23,7 +24,8 @@ uniform float intensity_scale;
 
 in vec3 world_position;
 in vec3 world_normal;
-out vec4 color;
+layout(location = 0) out vec4 color;
+layout(location = 1) out vec4 exit_direction;  // debug: world direction leaving the refractor (green IOR), w = 1 where defined
 
 vec3 shade_glass(vec3 v, vec3 n) {
     vec3 reflected = environment_radiance(environment, reflect_direction(v, n));
@@ -46,6 +48,7 @@ void main() {
     vec3 n = normalize(world_normal);
     if (!gl_FrontFacing) n = -n;
     vec3 radiance;
+    exit_direction = vec4(0.0);
     if (material_kind == MATERIAL_DIFFUSE) {
         vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n);
         radiance = material_color / PI * e;
@@ -53,6 +56,8 @@ void main() {
         radiance = material_color * environment_radiance(environment, reflect_direction(v, n));
     } else {
         radiance = shade_glass(v, n);
+        vec3 t = refract_direction(v, n, 1.0 / ior_rgb[1]);
+        exit_direction = dot(t, t) > 0.0 ? vec4(t, 1.0) : vec4(0.0);
     }
     color = vec4(intensity_scale * radiance, 1.0);
 }
