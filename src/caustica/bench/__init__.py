@@ -1,0 +1,1 @@
+"""Measurement harness: ``compare`` (accuracy against ground truth) and ``bench`` (speed)."""

@@ -1,0 +1,106 @@
+"""``caustica bench``: speed of every technique, and its time-to-quality against Mitsuba.
+
+Per scene, size and technique: the median ms per frame, per-pass ms (GPU timer
+queries on a GPU, finish() and wall clock on llvmpipe), triangle count, and
+the ratio to a ``plain`` diffuse frame of the same scene in the same run.
+Time to quality: each technique's relMSE against the high-sample reference,
+then Mitsuba at 1, 2, 4, ... spp timed on the same machine; the spp and
+seconds Mitsuba needs to match the technique's error give the speed ratio.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..renderer import Renderer
+from ..techniques import get_technique
+from .timing import timed_render
+
+
+def triangle_count(scene) -> int:
+    return int(sum(len(o.mesh.faces) for o in scene.objects))
+
+
+def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
+    """One row per (size, technique): ms, ratio to plain, per-pass ms."""
+    rows = []
+    for size in sizes:
+        renderer = Renderer((size, size))
+        _, plain_ms = timed_render(renderer, scene, "plain", 1, frames)
+        profiler = Renderer((size, size), profile_passes=True)
+        for name in techniques:
+            _, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
+            pass_ms = {}
+            if get_technique(name).uses_gl:
+                profiler.render(scene, name)
+                profiler.render(scene, name)
+                pass_ms = profiler.last_pass_ms
+            row = {"scene": scene.name, "size": size, "technique": name, "ms": ms, "plain_ms": plain_ms,
+                   "ratio_to_plain": ms / plain_ms, "pass_ms": pass_ms, "triangles": triangle_count(scene),
+                   "renderer": renderer.info()["renderer"] if get_technique(name).uses_gl else "CPU (Embree)"}
+            rows.append(row)
+            log(f"{scene.name:16s} {size:5d}^2 {name:12s} {ms:9.2f} ms  x{ms / plain_ms:5.2f} plain  "
+                + " ".join(f"{k} {v:.1f}" for k, v in pass_ms.items()) + f"  [{row['renderer']}]")
+    return rows
+
+
+def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
+    """Each technique's relMSE and ms, and Mitsuba's (spp, seconds, relMSE) curve on the same machine."""
+    from ..metrics import relmse
+    from ..reference.render import render_reference
+
+    reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=True)
+    renderer = Renderer((size, size))
+    techniques_out = {}
+    for name in techniques:
+        image, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
+        techniques_out[name] = {"ms": ms, "relmse": float(relmse(image, reference))}
+    curve = []
+    spp = 1
+    while spp <= max_spp:
+        start = time.perf_counter()
+        image = render_reference(scene, size=(size, size), spp=spp, cache_dir=False, progress=False, seed=1)
+        seconds = time.perf_counter() - start
+        curve.append({"spp": spp, "seconds": seconds, "relmse": float(relmse(image, reference))})
+        log(f"  mitsuba {spp:4d} spp: {seconds:7.2f} s, relMSE {curve[-1]['relmse']:.5f}")
+        spp *= 2
+    for name, entry in techniques_out.items():
+        reached = next((c for c in curve if c["relmse"] <= entry["relmse"]), None)
+        entry["mitsuba_spp"] = reached["spp"] if reached else None
+        entry["mitsuba_seconds"] = reached["seconds"] if reached else None
+        entry["speed_ratio"] = reached["seconds"] * 1000.0 / entry["ms"] if reached else None
+        log(f"{scene.name:16s} {name:12s} relMSE {entry['relmse']:.5f} in {entry['ms']:.1f} ms; "
+            + (f"Mitsuba needs {reached['spp']} spp, {reached['seconds']:.2f} s: x{entry['speed_ratio']:.0f} faster"
+               if reached else f"Mitsuba does not reach it within {max_spp} spp"))
+    return {"scene": scene.name, "size": size, "reference_spp": reference_spp, "techniques": techniques_out,
+            "mitsuba_curve": curve}
+
+
+def plot(rows: list[dict], quality: list[dict], path) -> None:
+    """ms vs resolution per technique, and error vs time with Mitsuba's curve."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = sorted({r["scene"] for r in rows})
+    fig, axes = plt.subplots(1, 1 + len(quality), figsize=(5 * (1 + len(quality)), 4), squeeze=False)
+    ax = axes[0, 0]
+    for scene in scenes:
+        for name in sorted({r["technique"] for r in rows}):
+            pts = sorted((r["size"], r["ms"]) for r in rows if r["scene"] == scene and r["technique"] == name)
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=f"{scene}: {name}")
+    ax.set(xlabel="image side (pixels)", ylabel="ms per frame", yscale="log", title=rows[0]["renderer"] if rows else "")
+    ax.legend(fontsize=7)
+    for ax, q in zip(axes[0, 1:], quality):
+        curve = q["mitsuba_curve"]
+        ax.plot([c["seconds"] * 1000 for c in curve], [c["relmse"] for c in curve], marker=".", label="Mitsuba")
+        for name, entry in q["techniques"].items():
+            ax.scatter([entry["ms"]], [entry["relmse"]], label=name, zorder=3)
+        ax.set(xscale="log", yscale="log", xlabel="ms", ylabel="relMSE vs reference",
+               title=f"{q['scene']} {q['size']}^2: error vs time")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
