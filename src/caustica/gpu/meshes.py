@@ -12,15 +12,31 @@ class GpuMesh:
         self.vbo = ctx.buffer(data.tobytes())
         self.ibo = ctx.buffer(mesh.faces.astype("i4").tobytes())
         self.ctx = ctx
-        self._arrays: dict[int, object] = {}
+        self._arrays: dict[tuple, object] = {}
+        self.attributes: dict[str, tuple[object, int]] = {}  # shader input name -> (buffer, components)
+        self.vertex_count = len(mesh.vertices)
+
+    def set_attribute(self, name: str, values: np.ndarray) -> None:
+        """An extra per-vertex float attribute (e.g. Wyman's d_N) bound to shader input ``name``."""
+        values = np.asarray(values, dtype="f4").reshape(self.vertex_count, -1)
+        if name in self.attributes:
+            self.attributes[name][0].release()
+        self.attributes[name] = (self.ctx.buffer(values.tobytes()), values.shape[1])
+        for vao in self._arrays.values():
+            vao.release()
+        self._arrays.clear()
 
     def vertex_array(self, program):
-        vao = self._arrays.get(program.glo)
+        extra = tuple(name for name in self.attributes if name in program)
+        key = (program.glo, extra)
+        vao = self._arrays.get(key)
         if vao is None:
             layout = "3f 3f" if "in_normal" in program else "3f 12x"
             names = ["in_position", "in_normal"] if "in_normal" in program else ["in_position"]
-            vao = self.ctx.vertex_array(program, [(self.vbo, layout, *names)], self.ibo, index_element_size=4)
-            self._arrays[program.glo] = vao
+            content = [(self.vbo, layout, *names)]
+            content += [(self.attributes[n][0], f"{self.attributes[n][1]}f", n) for n in extra]
+            vao = self.ctx.vertex_array(program, content, self.ibo, index_element_size=4)
+            self._arrays[key] = vao
         return vao
 
     def render(self, program) -> None:
@@ -29,6 +45,8 @@ class GpuMesh:
     def release(self) -> None:
         for vao in self._arrays.values():
             vao.release()
+        for buffer, _ in self.attributes.values():
+            buffer.release()
         self.vbo.release()
         self.ibo.release()
 

@@ -1,4 +1,4 @@
-"""Camera-view passes shared by techniques: back-face distance, background, surface shading."""
+"""Camera-view passes shared by techniques: refractor surface buffers, background, surface shading."""
 from __future__ import annotations
 
 import moderngl
@@ -11,32 +11,45 @@ from .lights import bind_lights, draw_objects
 MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
 
 
-class BackFaceDistance(Pass):
-    """Eye distance to the farthest back face of the glass objects (0 where there is none)."""
+class RefractorSurfaces(Pass):
+    """Front or back faces of the refractors: outward world normal and eye distance per pixel.
+
+    ``face`` 'back' with ``order`` 'farthest' is Wyman's back-face buffer (the far side
+    of a convex refractor); 'nearest' keeps the second surface of a nonconvex one
+    (a one-layer depth peel). ``face`` 'front' gives the nearest front faces (Hu and Qin).
+    """
 
     reads = ()
-    writes = (Channel("back_depth", "r32f", "eye distance to the farthest back face of the refractors"),)
+
+    def __init__(self, face: str = "back", order: str = "farthest"):
+        if face not in ("front", "back") or order not in ("nearest", "farthest"):
+            raise ValueError("face must be 'front' or 'back', order 'nearest' or 'farthest'")
+        self.face, self.order = face, order
+        self.channel = f"{face}_surface"
+        self.writes = (Channel(self.channel, "rgba32f",
+                               f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)"),)
 
     def run(self, frame: Frame) -> None:
         gpu, ctx = frame.gpu, frame.gpu.ctx
         size = frame.camera.size
-        target = gpu.targets.texture(size, "r32f")
+        target = gpu.targets.texture(size, "rgba32f")
         depth = gpu.targets.texture(size, "depth")
         fbo = gpu.targets.framebuffer([target], depth)
         fbo.use()
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)
+        farthest = self.order == "farthest"
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
-        ctx.cull_face = "front"
-        ctx.depth_func = ">"
-        program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/distance.frag", {"ALONG_DIRECTION": 0})
+        ctx.cull_face = "front" if self.face == "back" else "back"
+        ctx.depth_func = ">" if farthest else "<"
+        program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
         set_uniform(program, "origin", frame.camera.position.astype("f4"))
         draw_objects(frame, program, frame.scene.objects_of("glass"), frame.camera.clip_from_world())
         ctx.depth_func = "<"
         ctx.cull_face = "back"
         ctx.disable(moderngl.CULL_FACE)
         gpu.targets.give_back(depth)
-        frame.write("back_depth", target)
+        frame.write(self.channel, target)
 
 
 class ShadeSurfaces(Pass):
@@ -46,17 +59,27 @@ class ShadeSurfaces(Pass):
     fragment shader and extra uniforms for refractors.
     """
 
-    reads = ("light_samples", "shadow_maps", "back_depth")
     writes = (
         Channel("color", "rgba32f", "linear radiance seen by the camera"),
         Channel("exit_direction", "rgba32f", "world direction of the light path leaving a refractor; w = 1 where defined"),
         Channel("depth", "depth", "camera depth buffer"),
     )
 
-    def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None):
+    FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
+    FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
+
+    def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
+                 inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None):
+        """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
+        sets a technique's own uniforms per object (``obj`` None once per frame)."""
+        if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
+            raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
         self.fragment = fragment
         self.defines = defines or {}
         self.material_override = material_override
+        self.inputs = tuple(inputs)
+        self.set_uniforms = set_uniforms
+        self.reads = ("light_samples", "shadow_maps") + self.inputs
 
     def run(self, frame: Frame) -> None:
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
@@ -68,7 +91,6 @@ class ShadeSurfaces(Pass):
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         environment = gpu.environment_texture(scene.environment)
         environment.use(0)
-        frame.read("back_depth").use(1)
 
         # Background: the environment through every pixel.
         ctx.disable(moderngl.DEPTH_TEST)
@@ -83,11 +105,16 @@ class ShadeSurfaces(Pass):
         ctx.depth_func = "<"
         program = gpu.shaders.program("common/mesh_vertex.glsl", self.fragment, self.defines)
         set_uniform(program, "environment", 0)
-        set_uniform(program, "back_depth", 1)
+        for unit, name in enumerate(self.inputs, start=self.FIRST_INPUT_UNIT):
+            frame.read(name).use(unit)
+            set_uniform(program, name, unit)
         set_uniform(program, "camera_position", camera.position.astype("f4"))
+        set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
         set_uniform(program, "irradiance_sh", scene.environment.irradiance_sh().astype("f4"))
-        bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=4)
+        bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
+        if self.set_uniforms is not None:
+            self.set_uniforms(program, frame, None)
         clip_from_world = camera.clip_from_world()
         for obj in scene.objects:
             material = self.material_override or obj.material
@@ -96,6 +123,8 @@ class ShadeSurfaces(Pass):
             if material.kind == "glass":
                 set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
                 set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+            if self.set_uniforms is not None:
+                self.set_uniforms(program, frame, obj)
             draw_objects(frame, program, [obj], clip_from_world)
         frame.write("color", color)
         frame.write("exit_direction", exit_direction)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..passes.lights import ShadowMaps
-from ..passes.surfaces import BackFaceDistance, ShadeSurfaces
+from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
 from .raster import RasterTechnique
 
@@ -38,7 +38,7 @@ class EnvMap(RasterTechnique):
     Params = ShadowedParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), BackFaceDistance(), ShadeSurfaces()]
+        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces()]
 
 
 class Plain(RasterTechnique):
@@ -49,4 +49,4 @@ class Plain(RasterTechnique):
     Params = ShadowedParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), BackFaceDistance(), ShadeSurfaces(material_override=Diffuse())]
+        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces(material_override=Diffuse())]

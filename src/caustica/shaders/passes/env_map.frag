@@ -14,7 +14,7 @@
 #define MATERIAL_GLASS 2
 
 uniform sampler2D environment;
-uniform sampler2D back_depth;
+uniform sampler2D back_surface;  // farthest back face: normal xyz, eye distance w
 uniform vec3 camera_position;
 uniform int material_kind;
 uniform vec3 material_color;
@@ -30,7 +30,7 @@ layout(location = 1) out vec4 exit_direction;  // debug: world direction leaving
 vec3 shade_glass(vec3 v, vec3 n) {
     vec3 reflected = environment_radiance(environment, reflect_direction(v, n));
     float front = length(world_position - camera_position);
-    float back = texelFetch(back_depth, ivec2(gl_FragCoord.xy), 0).r;
+    float back = texelFetch(back_surface, ivec2(gl_FragCoord.xy), 0).w;
     float thickness = max(back - front, 0.0);
     vec3 transmittance = exp(-absorption_coefficient * thickness);
     vec3 result;
