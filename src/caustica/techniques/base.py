@@ -70,8 +70,15 @@ def get_technique(name: str) -> Technique:
     return _REGISTRY[name]()
 
 
-def _load_builtin() -> None:
-    import importlib
+_HELPER_MODULES = {"base", "raster"}
 
-    for module in ("env_map", "exact"):
-        importlib.import_module(f"{__package__}.{module}")  # registers the built-in techniques
+
+def _load_builtin() -> None:
+    """Import every module of this package once: each technique registers itself by subclassing."""
+    import importlib
+    import pkgutil
+    from pathlib import Path
+
+    for info in pkgutil.iter_modules([str(Path(__file__).parent)]):
+        if info.name not in _HELPER_MODULES:
+            importlib.import_module(f"{__package__}.{info.name}")
