@@ -38,3 +38,7 @@ def closest_name(name: str, candidates) -> str:
 
     match = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.5)
     return f" (did you mean '{match[0]}'?)" if match else ""
+
+
+class ReferenceUnavailableError(CausticaError, RuntimeError):
+    """The Mitsuba ground truth cannot run (Mitsuba not installed, or its variant unavailable)."""

@@ -60,7 +60,7 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
     spp = 1
     while spp <= max_spp:
         start = time.perf_counter()
-        image = render_reference(scene, size=(size, size), spp=spp, cache_dir=False, progress=False, seed=1)
+        image = render_reference(scene, size=(size, size), spp=spp, cache=False, progress=False)
         seconds = time.perf_counter() - start
         curve.append({"spp": spp, "seconds": seconds, "relmse": float(relmse(image, reference))})
         log(f"  mitsuba {spp:4d} spp: {seconds:7.2f} s, relMSE {curve[-1]['relmse']:.5f}")
