@@ -245,7 +245,7 @@ def test_caustic_sphere_focuses_near_the_floor():
     d = light.position[1] - centre[1]
     image_distance = f * d / (d - f)
     assert centre[1] <= image_distance <= 1.2 * centre[1]
-    assert set(PRESETS) == {"glass-sphere", "caustic-sphere"}
+    assert {"glass-sphere", "caustic-sphere"} <= set(PRESETS)  # the foundation presets; later issues add more
 
 
 # Errors ------------------------------------------------------------------------

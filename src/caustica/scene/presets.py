@@ -2,11 +2,17 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SceneError
 
 from .camera import Camera
 from .environment import procedural_environment
 from .lights import PointLight
 from .materials import Diffuse, Glass
+from .mesh import Mesh, load_mesh
 from .scene import Scene, SceneObject
 from .shapes import plane, sphere
 from .transform import Transform
@@ -42,9 +48,93 @@ def caustic_sphere() -> Scene:
     )
 
 
+def _sky_checker_scene(name: str, position, look_at, fov_y: float, objects, lights=()) -> Scene:
+    """A 512x512 scene in the sky-checker environment (the TVCG presets and the glass models)."""
+    return Scene(
+        camera=Camera(position=position, look_at=look_at, fov_y=fov_y, size=(512, 512)),
+        objects=list(objects), lights=list(lights), environment=procedural_environment("sky-checker"), name=name,
+    )
+
+
+def tvcg_fig10() -> Scene:
+    """Hu and Qin's fig. 10: a unit sphere of IOR 0.8 (an air bubble in a denser medium).
+
+    With n_t < n_i the view ray bends away from the normal, so many rays leave
+    through a front-facing surface, and grazing rays are totally reflected at
+    the entry. The sphere fills most of the frame, as in the paper's figure.
+    """
+    bubble = SceneObject("bubble", sphere(1.0, subdivisions=5), Glass(ior=0.8))
+    return _sky_checker_scene("tvcg-fig10", [0.0, 0.0, 3.2], [0.0, 0.0, 0.0], 45.0, [bubble])
+
+
+def tvcg_fig11() -> Scene:
+    """Hu and Qin's fig. 11: refractive spheres of IOR 1.75 above a nearby diffuse plane.
+
+    Three spheres (radius 0.5) stand in a row above a lit floor, as in the
+    figure that compares Wyman's method, depth search and ray tracing; the
+    spheres' edges show where the methods differ. Techniques that refract only
+    the environment (env-map, image-space, depth-search) see the sky through
+    the spheres where a ray tracer also sees the floor.
+    """
+    spheres = [SceneObject(f"sphere-{i}", sphere(0.5, subdivisions=5), Glass(ior=1.75),
+                           Transform(position=[x, 0.5, 0.0])) for i, x in enumerate((-1.2, 0.0, 1.2))]
+    floor = SceneObject("floor", plane((8.0, 8.0)), Diffuse(color=[0.6, 0.6, 0.6]))
+    light = PointLight(position=[1.0, 4.0, 2.0], intensity=[15.0, 15.0, 15.0])
+    return _sky_checker_scene("tvcg-fig11", [0.0, 1.8, 4.8], [0.0, 0.4, 0.0], 40.0, spheres + [floor], [light])
+
+
+def shared_data_dir() -> Path:
+    """The shared data folder: $CAUSTICA_DATA, else ``../shared/data`` beside the repository."""
+    import os
+
+    import caustica
+
+    env = os.environ.get("CAUSTICA_DATA")
+    return Path(env) if env else Path(caustica.__file__).resolve().parents[3] / "shared" / "data"
+
+
+def _shared_model(filename: str, preset: str) -> Mesh:
+    """A mesh from the shared data's models/, or SceneError naming the missing file."""
+    path = shared_data_dir() / "models" / filename
+    if not path.is_file():
+        raise SceneError(f"preset '{preset}' needs {path}, which is missing; set CAUSTICA_DATA to the shared data folder")
+    return load_mesh(path)
+
+
+def _glass_model(filename: str, preset: str, size: float, ior: float) -> SceneObject:
+    """A shared model as glass, scaled so its largest side is ``size`` and centred at the origin."""
+    mesh = _shared_model(filename, preset)
+    low, high = mesh.bounds
+    scale = size / float(np.max(high - low))
+    return SceneObject(Path(filename).stem, mesh, Glass(ior=ior),
+                       Transform(position=-scale * (low + high) / 2.0, scale=scale))
+
+
+def glass_teapot() -> Scene:
+    """A glass teapot (IOR 1.5), centred, about 2 units wide, in the sky-checker environment.
+
+    Needs the shared data: ``models/teapot.obj`` under $CAUSTICA_DATA or ``../shared/data``.
+    """
+    teapot = _glass_model("teapot.obj", "glass-teapot", 2.2, 1.5)
+    return _sky_checker_scene("glass-teapot", [0.0, 1.2, 4.0], [0.0, 0.0, 0.0], 40.0, [teapot])
+
+
+def glass_bunny() -> Scene:
+    """The Stanford bunny in glass (IOR 1.5), scaled to about unit size and centred.
+
+    Needs the shared data: ``models/stanford-bunny.obj`` under $CAUSTICA_DATA or ``../shared/data``.
+    """
+    bunny = _glass_model("stanford-bunny.obj", "glass-bunny", 1.0, 1.5)
+    return _sky_checker_scene("glass-bunny", [0.0, 0.4, 2.2], [0.0, 0.0, 0.0], 40.0, [bunny])
+
+
 PRESETS: dict[str, Callable[[], Scene]] = {
     "glass-sphere": glass_sphere,
     "caustic-sphere": caustic_sphere,
+    "tvcg-fig10": tvcg_fig10,
+    "tvcg-fig11": tvcg_fig11,
+    "glass-teapot": glass_teapot,
+    "glass-bunny": glass_bunny,
 }
 
 
