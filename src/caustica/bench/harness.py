@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 
 from ..renderer import Renderer
 from ..techniques import get_technique
@@ -57,6 +56,7 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
         image, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
         techniques_out[name] = {"ms": ms, "relmse": float(relmse(image, reference))}
     curve = []
+    render_reference(scene, size=(size, size), spp=1, cache=False, progress=False)  # warm-up: JIT compile
     spp = 1
     while spp <= max_spp:
         start = time.perf_counter()

@@ -30,26 +30,31 @@ class RefractorSurfaces(Pass):
                                f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)"),)
 
     def run(self, frame: Frame) -> None:
-        gpu, ctx = frame.gpu, frame.gpu.ctx
-        size = frame.camera.size
-        target = gpu.targets.texture(size, "rgba32f")
-        depth = gpu.targets.texture(size, "depth")
-        fbo = gpu.targets.framebuffer([target], depth)
-        fbo.use()
-        farthest = self.order == "farthest"
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
-        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.front_face = "ccw"
-        ctx.cull_face = "front" if self.face == "back" else "back"
-        ctx.depth_func = ">" if farthest else "<"
-        program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
+        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
         set_uniform(program, "origin", frame.camera.position.astype("f4"))
-        draw_objects(frame, program, frame.scene.objects_of("glass"), frame.camera.clip_from_world())
-        ctx.depth_func = "<"
-        ctx.cull_face = "back"
-        ctx.disable(moderngl.CULL_FACE)
-        gpu.targets.give_back(depth)
-        frame.write(self.channel, target)
+        frame.write(self.channel, draw_refractor_buffer(frame, program, "rgba32f", self.face, self.order))
+
+
+def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest"):
+    """Draw the glass objects' ``face`` faces, keeping the ``order`` one per pixel, into a pooled
+    camera-sized ``fmt`` target cleared to 0; returns the target."""
+    gpu, ctx = frame.gpu, frame.gpu.ctx
+    target = gpu.targets.texture(frame.camera.size, fmt)
+    depth = gpu.targets.texture(frame.camera.size, "depth")
+    fbo = gpu.targets.framebuffer([target], depth)
+    fbo.use()
+    farthest = order == "farthest"
+    fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
+    ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+    ctx.front_face = "ccw"
+    ctx.cull_face = "front" if face == "back" else "back"
+    ctx.depth_func = ">" if farthest else "<"
+    draw_objects(frame, program, frame.scene.objects_of("glass"), frame.camera.clip_from_world())
+    ctx.depth_func = "<"
+    ctx.cull_face = "back"
+    ctx.disable(moderngl.CULL_FACE)
+    gpu.targets.give_back(depth)
+    return target
 
 
 class ShadeSurfaces(Pass):

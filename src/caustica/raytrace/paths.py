@@ -36,7 +36,7 @@ import numpy as np
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.mesh import Mesh
 from .embree_scene import RayScene
-from .optics import dot, fresnel_dielectric, reflect, refract
+from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
 _DIFFUSE, _MIRROR, _GLASS = 0, 1, 2
 _KIND_CODES = {"diffuse": _DIFFUSE, "mirror": _MIRROR, "glass": _GLASS}
@@ -346,8 +346,27 @@ def distance_along_negative_normal(mesh: Mesh, analytic_spheres: bool = False) -
     """Wyman's d_N: per vertex, the distance along -normal to the far side of the same mesh.
 
     ``mesh`` in any space (distances are in its units). Vertices whose ray leaves
-    the mesh without a hit (open meshes) get 0.
+    the mesh without a hit (open meshes) get 0. A ray aimed exactly at a vertex or
+    edge of the far side can slip between its triangles (a sphere vertex aimed at
+    its antipode): those are cast again from four origins nudged along the tangent
+    plane, and take the mean of the nudged hits.
     """
     ray_scene = RayScene.from_meshes([mesh], analytic_spheres=analytic_spheres)
-    hits = ray_scene.intersect(mesh.vertices.astype(np.float64), -mesh.normals.astype(np.float64))
-    return np.where(hits.hit, hits.t, 0.0)
+    origins = mesh.vertices.astype(np.float64)
+    normals = mesh.normals.astype(np.float64)
+    hits = ray_scene.intersect(origins, -normals)
+    values = np.where(hits.hit, hits.t, 0.0)
+    missed = np.flatnonzero(~hits.hit)
+    if len(missed):
+        n = normals[missed]
+        helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        u = normalize(np.cross(n, helper))
+        w = np.cross(n, u)
+        nudge = 1e-4 * float(np.linalg.norm(np.ptp(origins, axis=0)))
+        total, count = np.zeros(len(missed)), np.zeros(len(missed))
+        for offset in (u, -u, w, -w):
+            nudged = ray_scene.intersect(origins[missed] + nudge * offset, -n)
+            total += np.where(nudged.hit, nudged.t, 0.0)
+            count += nudged.hit
+        values[missed] = np.where(count > 0, total / np.maximum(count, 1), 0.0)
+    return values

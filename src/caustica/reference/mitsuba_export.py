@@ -48,12 +48,12 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from ..cache import atomic_write_bytes
 from ..raytrace.embree_scene import world_sphere
 from ..scene.mesh import Mesh
 from ..scene.transform import look_at_view_from_world
@@ -91,22 +91,9 @@ def _any_up(direction: np.ndarray) -> np.ndarray:
     return np.array([1.0, 0.0, 0.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def mesh_file_hash(mesh: Mesh) -> str:
     """Hash of what the PLY holds: vertices, normals and faces."""
-    h = hashlib.sha1(mesh.content_hash().encode())
-    h.update(np.ascontiguousarray(mesh.normals, dtype="<f4").tobytes())
-    return h.hexdigest()[:16]
+    return mesh.geometry_hash()
 
 
 def ply_bytes(mesh: Mesh) -> bytes:
@@ -131,7 +118,7 @@ def write_mesh_ply(mesh: Mesh, mesh_dir: Path) -> Path:
     mesh_dir.mkdir(parents=True, exist_ok=True)
     path = mesh_dir / f"mesh-{mesh_file_hash(mesh)}.ply"
     if not path.exists():
-        _atomic_write(path, ply_bytes(mesh))
+        atomic_write_bytes(path, ply_bytes(mesh))
     return path
 
 

@@ -68,13 +68,12 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
-import tempfile
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from ..cache import cache_dir, load_array, store_array
 from ..errors import ReferenceUnavailableError
 from .mitsuba_export import environment_hash, has_dispersion, mesh_file_hash, scene_to_mitsuba
 
@@ -122,8 +121,7 @@ def _first_line(exc: Exception) -> str:
 
 
 def default_cache_dir() -> Path:
-    env = os.environ.get("CAUSTICA_CACHE")
-    return Path(env) / "reference" if env else Path.home() / ".cache" / "caustica" / "reference"
+    return cache_dir("reference")
 
 
 def diffuse_coverage(scene, camera, spp: int = COVERAGE_SPP) -> np.ndarray:
@@ -206,18 +204,6 @@ def _render_integrator(mi, scene, camera, spp, integrator, emitters, max_depth, 
     return (total / spp).astype(np.float32)
 
 
-def _atomic_save(path: Path, array: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp.npy")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.save(f, array)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def render_reference(
     scene,
     size: tuple[int, int] | None = None,
@@ -247,11 +233,10 @@ def render_reference(
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(scene, camera, spp, max_depth, active, analytic_spheres)
     path = cache_dir / f"{scene.name}-{camera.size[0]}x{camera.size[1]}-{spp}spp-{key}.npy"
-    if cache and path.exists():
-        try:
-            return np.load(path)
-        except (OSError, ValueError):
-            pass  # a damaged cache file: render again
+    if cache:
+        cached = load_array(path)
+        if cached is not None:
+            return cached  # a missing or damaged entry renders again
 
     coverage = diffuse_coverage(scene, camera)
     renders = planned_renders(scene, coverage)
@@ -289,5 +274,5 @@ def render_reference(
             bar.close()
     result = np.ascontiguousarray(result, dtype=np.float32)
     if cache:
-        _atomic_save(path, result)
+        store_array(path, result)
     return result

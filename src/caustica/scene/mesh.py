@@ -69,6 +69,14 @@ class Mesh:
             self._hash = h.hexdigest()[:16]
         return self._hash
 
+    def geometry_hash(self) -> str:
+        """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""
+        import hashlib
+
+        h = hashlib.sha1(self.content_hash().encode())
+        h.update(np.ascontiguousarray(self.normals, dtype="<f4").tobytes())
+        return h.hexdigest()[:16]
+
     def transformed(self, world_from_object: np.ndarray) -> "Mesh":
         """This mesh in world space (normals by the inverse transpose)."""
         m = np.asarray(world_from_object, dtype=np.float64)

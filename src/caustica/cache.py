@@ -1,0 +1,59 @@
+"""On-disk caches (Mitsuba references, d_N per mesh, ...): one folder per kind, atomic writes.
+
+The root is ``$CAUSTICA_CACHE`` or ``~/.cache/caustica``. A missing or damaged
+entry is recomputed; a cache that cannot be written only costs a recompute.
+"""
+from __future__ import annotations
+
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+
+
+def cache_dir(kind: str) -> Path:
+    """The folder of one kind of cached data (not created here)."""
+    env = os.environ.get("CAUSTICA_CACHE")
+    return (Path(env) if env else Path.home() / ".cache" / "caustica") / kind
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
+    try:
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def load_array(path: Path, shape: tuple | None = None, dtype=None) -> np.ndarray | None:
+    """A cached array, or None when missing, unreadable, non-finite or not of the expected shape/dtype."""
+    try:
+        values = np.load(path, allow_pickle=False)
+    except (OSError, ValueError):
+        return None
+    if shape is not None and values.shape != tuple(shape):
+        return None
+    if dtype is not None and values.dtype != np.dtype(dtype):
+        return None
+    if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+        return None
+    return values
+
+
+def store_array(path: Path, values: np.ndarray) -> bool:
+    """Save atomically; False (and nothing on disk) when the cache cannot be written."""
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.asarray(values), allow_pickle=False)
+    try:
+        atomic_write_bytes(path, buffer.getvalue())
+    except OSError:
+        return False
+    return True
