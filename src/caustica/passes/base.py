@@ -42,6 +42,12 @@ class Pass:
     reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[Channel, ...]] = ()
 
+    @property
+    def label(self) -> str:
+        """Name in timings: the class, plus its channel for single-output passes (used twice, e.g. front/back)."""
+        name = type(self).__name__
+        return f"{name}({self.writes[0].name})" if len(self.writes) == 1 else name
+
     def run(self, frame: Frame) -> None:
         raise NotImplementedError
 
@@ -59,7 +65,7 @@ def run_passes(passes, frame: Frame) -> None:
         if frame.pass_ms is None:
             stage.run(frame)
         else:
-            frame.pass_ms[type(stage).__name__] = _timed_ms(frame, stage)
+            frame.pass_ms[stage.label] = _timed_ms(frame, stage)
         unwritten = [c.name for c in stage.writes if c.name not in frame.channels]
         if unwritten:
             raise PassWiringError(f"{type(stage).__name__} declares {unwritten} but did not write them")
