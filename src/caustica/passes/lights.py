@@ -19,7 +19,7 @@ from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.transform import look_at_view_from_world, orthographic_clip_from_view, perspective_clip_from_view
 from .base import Channel, Frame, Pass
 
-MAX_LIGHTS = 12  # shadow maps take texture units 8..19 (GL 4.3 guarantees 16; NVIDIA and llvmpipe have 32)
+MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
 LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT = 0, 1, 2
 CUBE_FORWARD = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
 CUBE_UP = np.array([[0, 1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1], [0, 1, 0], [0, 1, 0]], dtype=np.float64)

@@ -6,7 +6,8 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from .base import Channel, Frame, Pass
-from .lights import bind_lights, draw_objects
+from .caustics import bind_caustic_maps
+from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
 
@@ -72,6 +73,8 @@ class ShadeSurfaces(Pass):
 
     FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
     FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
+    FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
+    optional_reads = ("caustic_maps",)  # added to diffuse receivers when a caustic technique wrote them
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None):
@@ -108,7 +111,9 @@ class ShadeSurfaces(Pass):
         # Objects over it.
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        program = gpu.shaders.program("common/mesh_vertex.glsl", self.fragment, self.defines)
+        caustic_maps = frame.channels.get("caustic_maps")
+        defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
+        program = gpu.shaders.program("common/mesh_vertex.glsl", self.fragment, defines)
         set_uniform(program, "environment", 0)
         for unit, name in enumerate(self.inputs, start=self.FIRST_INPUT_UNIT):
             frame.read(name).use(unit)
@@ -118,6 +123,8 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
         set_uniform(program, "irradiance_sh", scene.environment.irradiance_sh().astype("f4"))
         bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
+        if caustic_maps is not None:
+            bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
         clip_from_world = camera.clip_from_world()

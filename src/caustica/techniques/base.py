@@ -62,7 +62,12 @@ def technique_names() -> list[str]:
 
 
 def get_technique(name: str) -> Technique:
+    """A technique by name; ``view+caustics`` composes a view technique with a caustic technique."""
     _load_builtin()
+    if "+" in name:
+        from .composite import composite_technique
+
+        return composite_technique(name, get_technique)
     if name not in _REGISTRY:
         raise TechniqueError(
             f"unknown technique '{name}'{closest_name(name, _REGISTRY)}; run 'caustica techniques' to list them"
@@ -70,7 +75,7 @@ def get_technique(name: str) -> Technique:
     return _REGISTRY[name]()
 
 
-_HELPER_MODULES = {"base", "raster"}
+_HELPER_MODULES = {"base", "raster", "composite"}
 
 
 def _load_builtin() -> None:

@@ -1,7 +1,7 @@
 // Direct light on diffuse receivers with shadow maps, plus unoccluded ambient from the
-// environment's SH irradiance. Host defines: MAX_LIGHTS (default 12).
+// environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone).
 #ifndef MAX_LIGHTS
-#define MAX_LIGHTS 12
+#define MAX_LIGHTS 8
 #endif
 #define LIGHT_POINT 0
 #define LIGHT_DIRECTIONAL 1

@@ -6,6 +6,7 @@
 #include "common/optics.glsl"
 #include "common/environment.glsl"
 #include "common/lighting.glsl"
+#include "common/caustics.glsl"
 
 #define MATERIAL_DIFFUSE 0
 #define MATERIAL_MIRROR 1

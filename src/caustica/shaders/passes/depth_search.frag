@@ -7,7 +7,7 @@
 // Geometry (P2, N2) follows the green channel's IOR; each channel refracts with its own IOR
 // at both interfaces (dispersion). TIR at the exit reflects once (at the entry: reflect only).
 //
-// Host sets no defines beyond ShadeSurfaces' own (MAX_LIGHTS). Uniforms set by the technique:
+// Host sets no defines beyond ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
 //   tolerance (float, scene units), assume_back_first (int 0/1), world_from_clip (mat4).
 #version 430 core

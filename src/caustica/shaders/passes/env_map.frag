@@ -1,7 +1,7 @@
 // env-map baseline: single-interface reflection/refraction of the distant environment.
 // Glass: F env(reflect) + (1 - F) env(T1) exp(-sigma_a * thickness), per RGB channel
 // (one IOR each, for dispersion); thickness = farthest back-face distance - front distance.
-// The exit direction this baseline assumes is T1 itself. Host defines: MAX_LIGHTS (12).
+// The exit direction this baseline assumes is T1 itself. Host defines: MAX_LIGHTS, CAUSTICS (ShadeSurfaces).
 #version 430 core
 #include "common/surface_inputs.glsl"
 

@@ -6,7 +6,7 @@
 // Colour: F1 env(reflect) + (1 - F1) (1 - F2) exp(-sigma_a d~) env(T2).
 // Exit direction (location 1): T2 of the green channel; w = 1, or 2 where the exit refraction
 // was totally internally reflected and TIR_MODE chose T2.
-// Host defines: MAX_LIGHTS (12); USE_DN (1: interpolate with d_N; 0: d~ = d_V);
+// Host defines: MAX_LIGHTS, CAUSTICS (ShadeSurfaces); USE_DN (1: interpolate with d_N; 0: d~ = d_V);
 // TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2).
 #version 430 core
 #ifndef USE_DN

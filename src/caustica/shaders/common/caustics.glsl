@@ -1,0 +1,62 @@
+// Caustic irradiance on diffuse receivers from light-space caustic maps (one per light sample).
+// A map texel holds the irradiance (W/m^2, RGB) that focused light delivers to the receiver
+// surface the texel sees, and in alpha that surface's distance to the light (0: empty), so a
+// receiver only takes light meant for it. Projective maps (spot, directional, or a point light
+// aimed at its refractors) use caustic_clip_from_world; cube maps use the six-face atlas layout
+// of the shadow maps (cube_atlas_uv in lighting.glsl). Host defines: CAUSTICS (0/1), MAX_LIGHTS.
+#ifndef CAUSTICS
+#define CAUSTICS 0
+#endif
+#define CAUSTIC_NONE 0
+#define CAUSTIC_PROJECTIVE 1
+#define CAUSTIC_CUBE 2
+
+#if CAUSTICS
+uniform int caustic_kind[MAX_LIGHTS];
+uniform mat4 caustic_clip_from_world[MAX_LIGHTS];
+uniform sampler2D caustic_map[MAX_LIGHTS];
+uniform float caustic_distance_tolerance;  // relative: |a - d| < tolerance * (1 + d)
+
+// Bilinear over the four texels around uv (clamped to [lo, hi]) that belong to the receiver at distance d.
+vec3 caustic_lookup(sampler2D map, vec2 uv, vec2 lo, vec2 hi, float d) {
+    vec2 size = vec2(textureSize(map, 0));
+    vec2 x = uv * size - 0.5;
+    vec2 base = floor(x), f = x - base;
+    vec3 sum = vec3(0.0);
+    float weight = 0.0;
+    for (int j = 0; j <= 1; ++j)
+        for (int i = 0; i <= 1; ++i) {
+            ivec2 texel = ivec2(clamp(base + vec2(i, j), lo * size, hi * size - 1.0));
+            vec4 value = texelFetch(map, texel, 0);
+            float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+            if (value.a > 0.0 && abs(value.a - d) < caustic_distance_tolerance * (1.0 + d)) {
+                sum += w * value.rgb;
+                weight += w;
+            }
+        }
+    return weight > 0.0 ? sum / weight : vec3(0.0);
+}
+
+vec3 caustic_irradiance(vec3 p) {
+    vec3 e = vec3(0.0);
+    for (int i = 0; i < light_count; ++i) {
+        if (caustic_kind[i] == CAUSTIC_PROJECTIVE) {
+            vec4 clip = caustic_clip_from_world[i] * vec4(p, 1.0);
+            vec3 ndc = clip.xyz / clip.w;
+            if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0)))) continue;
+            float d = light_type[i] == LIGHT_DIRECTIONAL ? dot(p - light_position[i], light_direction[i])
+                                                         : length(p - light_position[i]);
+            e += caustic_lookup(caustic_map[i], ndc.xy * 0.5 + 0.5, vec2(0.0), vec2(1.0), d);
+        } else if (caustic_kind[i] == CAUSTIC_CUBE) {
+            vec3 v = p - light_position[i];
+            int face;
+            vec2 uv = cube_atlas_uv(v, face);
+            vec2 lo = vec2(float(face) / 6.0, 0.0), hi = vec2(float(face + 1) / 6.0, 1.0);
+            e += caustic_lookup(caustic_map[i], vec2((float(face) + uv.x) / 6.0, uv.y), lo, hi, length(v));
+        }
+    }
+    return e;
+}
+#else
+vec3 caustic_irradiance(vec3 p) { return vec3(0.0); }
+#endif
