@@ -219,10 +219,17 @@ def test_shared_model_loads(tmp_path):
 
 @pytest.mark.parametrize("name", preset_names())
 def test_presets_load(name):
-    scene = load_scene(name)
+    from caustica.scene.presets import shared_data_dir
+
+    try:
+        scene = load_scene(name)
+    except SceneError as exc:
+        if not shared_data_dir().is_dir():
+            pytest.skip(f"{name} needs the shared data: {exc}")
+        raise
     assert scene.name == name and scene.objects
     assert scene.camera.size == (512, 512)
-    assert scene.environment.source == "procedural:sky-checker"
+    assert scene.environment.source.startswith("procedural:")  # presets need no files but shared meshes
 
 
 def test_glass_sphere_preset():
