@@ -98,3 +98,18 @@ def test_data_preset_without_data_names_the_file(monkeypatch, tmp_path):
     monkeypatch.setenv("CAUSTICA_DATA", str(tmp_path))
     with pytest.raises(caustica.SceneError, match="stanford-bunny.obj"):
         PRESETS["glass-bunny"]()
+
+
+def test_internal_reflection_extension_recovers_the_missing_light(renderer):
+    """Two-interface paths drop the light reflected inside (29.7 dB against exact at 256^2);
+    following it once to a front exit gives 37.3 dB there. At 96^2, 4 spp: at least 4 dB better."""
+    import caustica
+    from caustica.metrics import psnr_linear
+    from caustica.renderer import Renderer
+
+    scene = caustica.load_scene("glass-sphere")
+    small = Renderer((96, 96))
+    exact = small.render(scene, "exact", spp=4)
+    plain = psnr_linear(small.render(scene, "depth-search", spp=4), exact)
+    bounce = psnr_linear(small.render(scene, "depth-search", spp=4, internal_reflection=True), exact)
+    assert bounce > plain + 4.0, (plain, bounce)

@@ -40,7 +40,9 @@ Limits: two interfaces; P2 found in screen space, so it is only as exact as the
 buffers' resolution and it must lie inside the view; one silhouette per search
 line and one layer per buffer (highly concave objects and overlapping
 refractors give wrong exits, as the paper states); light reflected inside the
-object at the exit is dropped; nothing nearby is seen through the glass.
+object at the exit is dropped unless ``internal_reflection`` (our extension,
+not in the paper) follows it once to a second exit through the front faces;
+nothing nearby is seen through the glass.
 """
 from __future__ import annotations
 
@@ -64,6 +66,7 @@ class DepthSearchParams(ShadowedParams):
     iterations: int = 5  # dT corrections (section 4: "four or five iterations are enough")
     tolerance: float = 1e-3  # stop correcting once dT moves less than this (scene units)
     assume_back_first: bool = True  # section 4: iterate on the back faces first
+    internal_reflection: bool = False  # our extension: follow the light reflected inside at P2 once
 
     def __post_init__(self):
         super().__post_init__()
@@ -76,11 +79,13 @@ class DepthSearchParams(ShadowedParams):
             raise ValueError(f"iterations {self.iterations} must be an integer in [0, 32] (the paper uses 2 to 5)")
         if not (np.isfinite(float(self.tolerance)) and float(self.tolerance) >= 0.0):
             raise ValueError(f"tolerance {self.tolerance} must be a non-negative distance in scene units")
-        if not isinstance(self.assume_back_first, (bool, np.bool_)):
-            raise ValueError(f"assume_back_first {self.assume_back_first!r} must be true or false")
+        for flag in ("assume_back_first", "internal_reflection"):
+            if not isinstance(getattr(self, flag), (bool, np.bool_)):
+                raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
         self.search_steps, self.iterations = int(self.search_steps), int(self.iterations)
         self.search_start, self.tolerance = float(self.search_start), float(self.tolerance)
         self.assume_back_first = bool(self.assume_back_first)
+        self.internal_reflection = bool(self.internal_reflection)
 
 
 class DepthSearch(RasterTechnique):
@@ -98,6 +103,7 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "iterations", params.iterations)
             set_uniform(program, "tolerance", params.tolerance)
             set_uniform(program, "assume_back_first", int(params.assume_back_first))
+            set_uniform(program, "internal_reflection", int(params.internal_reflection))
 
         return [
             ShadowMaps(params.shadow_map_size),

@@ -9,7 +9,8 @@
 //
 // Host sets no defines beyond ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
-//   tolerance (float, scene units), assume_back_first (int 0/1), world_from_clip (mat4).
+//   tolerance (float, scene units), assume_back_first (int 0/1), internal_reflection (int 0/1),
+//   world_from_clip (mat4).
 #version 430 core
 #include "common/surface_inputs.glsl"
 
@@ -21,6 +22,7 @@ uniform float search_start;
 uniform int iterations;
 uniform float tolerance;
 uniform int assume_back_first;
+uniform int internal_reflection;  // 1: follow the light reflected inside at P2 to a second exit (our extension)
 
 // Buffer pixel (continuous, origin at the lower left) of a world point; false behind the eye.
 bool buffer_pixel(vec3 p, out vec2 pixel) {
@@ -122,6 +124,23 @@ bool correct_distance(sampler2D surfaces, bool tangent_plane, vec3 p1, vec3 t1, 
     return s2.w > 0.0;
 }
 
+// Our extension, not in the paper: the light reflected inside at P2 (weight F2) heads back
+// towards the eye side and leaves through a front face. Start from the front surface the
+// buffer holds at P2's pixel and correct against the tangent planes there (2.1.3's front
+// rule). Rays heading away from the eye are not followed (false).
+bool second_exit(vec3 p2, vec3 r2, float start, out float dt3, out vec4 s3) {
+    dt3 = 0.0;
+    s3 = vec4(0.0);
+    if (dot(r2, normalize(p2 - camera_position)) >= 0.0) return false;
+    vec2 pixel;
+    if (!buffer_pixel(p2, pixel)) return false;
+    vec4 front = surface_filtered(front_surface, pixel);
+    if (front.w <= 0.0) return false;
+    dt3 = max(length(surface_point(pixel, front.w) - p2), start);
+    bool left;
+    return correct_distance(front_surface, true, p2, r2, dt3, s3, left);
+}
+
 vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     vec3 reflected_dir = reflect_direction(v, n);
     vec3 reflected = environment_radiance(environment, reflected_dir);
@@ -169,8 +188,15 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     }
     // P2 outside every buffer: N2 = T1, so T2 = T1 (env-map's single refraction).
     vec3 n2 = found ? normalize(s2.xyz) : t1;
-    // Exit through the outward normal N2 (2.1.4); per-channel Snell and Fresnel at both interfaces.
+    // Optionally one internal reflection at P2, leaving at P3 through N3 (extension).
+    float dt3 = 0.0;
+    vec4 s3;
+    bool bounce = internal_reflection != 0 && found
+        && second_exit(p1 + dt * t1, reflect_direction(t1, -n2), start, dt3, s3);
+    vec3 n3 = bounce ? normalize(s3.xyz) : n2;
+    // Exit through the outward normal N2 (2.1.4); per-channel Snell and Fresnel at every interface.
     vec3 transmittance = exp(-absorption_coefficient * dt);
+    vec3 transmittance3 = exp(-absorption_coefficient * (dt + dt3));
     vec3 result;
     for (int c = 0; c < 3; ++c) {
         float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
@@ -178,10 +204,22 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         if (dot(t1c, t1c) == 0.0) { result[c] = reflected[c]; continue; }
         vec3 t2 = refract_direction(t1c, -n2, ior_rgb[c]);
         float f2 = fresnel_dielectric(dot(t1c, n2), ior_rgb[c], 1.0);
-        // Exit TIR: one internal reflection, then out to the environment.
-        vec3 out_dir = dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1c, -n2);
-        float through = dot(t2, t2) > 0.0 ? 1.0 - f2 : 1.0;
-        result[c] = f1 * reflected[c] + (1.0 - f1) * through * transmittance[c] * environment_radiance(environment, out_dir)[c];
+        vec3 r2 = reflect_direction(t1c, -n2);
+        float inside;
+        if (bounce) {
+            // Transmitted at P2, plus reflected at P2 and transmitted at P3 (TIR at P3: dropped).
+            vec3 t3 = refract_direction(r2, -n3, ior_rgb[c]);
+            float f3 = fresnel_dielectric(dot(r2, n3), ior_rgb[c], 1.0);
+            float second = dot(t3, t3) > 0.0 ? f2 * (1.0 - f3) * transmittance3[c] * environment_radiance(environment, t3)[c] : 0.0;
+            float first = dot(t2, t2) > 0.0 ? (1.0 - f2) * transmittance[c] * environment_radiance(environment, t2)[c] : 0.0;
+            inside = first + second;
+        } else {
+            // Exit TIR: one internal reflection, then out to the environment.
+            vec3 out_dir = dot(t2, t2) > 0.0 ? t2 : r2;
+            float through = dot(t2, t2) > 0.0 ? 1.0 - f2 : 1.0;
+            inside = through * transmittance[c] * environment_radiance(environment, out_dir)[c];
+        }
+        result[c] = f1 * reflected[c] + (1.0 - f1) * inside;
     }
     vec3 t2 = refract_direction(t1, -n2, ior);
     exit_dir = vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -n2), 1.0);
