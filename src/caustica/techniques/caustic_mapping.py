@@ -1,0 +1,231 @@
+"""``caustic-mapping``: caustics by image-space photon tracing from the light (Shah et al.).
+
+Shah, Konttinen and Pattanaik, "Caustics Mapping: An Image-space Technique for
+Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``):
+
+1. Casters (glass and mirrors) from the light (III-B, second pass): nearest
+   front faces of every object (positions + distance, normals + caster code;
+   diffuse objects occlude the grid) and farthest back faces of the glass, in a
+   view fitted tightly around the casters (``photon_grid`` texels a side; a
+   point light whose casters do not fit one 120-degree frustum gets the cube
+   atlas). One photon per covered texel (the paper's vertex grid).
+2. Photon flux (III-E): the paper weights each vertex by (N.L)/V, V the
+   occlusion-query pixel count, which spreads a fixed total over the visible
+   grid. Our grid lives in light space, so each texel's flux is known exactly:
+   intensity times the texel's solid angle (point, spot, with the cone falloff)
+   or irradiance times its area perpendicular to the light (directional); N.L
+   drops out, and V is the count of photons (``stats``). Then exact Fresnel
+   transmittance at each interface, per channel.
+3. Refraction (III-A, III-C): two interfaces for closed glass (Wyman's
+   image-space method: P2 = P1 + d T1 with d = d_V, the front-to-back distance
+   seen from the light, refined by ``exit_iterations`` steps of the same
+   estimator against the back-face position texture; N2 from the back-face
+   normal texture; total internal reflection at the exit drops the photon);
+   one interface for open meshes (water surfaces: the photon continues to the
+   receiver); a single specular bounce off Mirror objects (reflective caustics).
+   Beer-Lambert e^(-sigma_a d) over the inside distance (or, for one surface,
+   the distance to the receiver; III-E eq. 7). RGB dispersion: where a glass
+   has ``ior_rgb`` that differ, three photons per texel, one per channel.
+4. Intersection estimate (III-C/D) against the receivers' position texture:
+   ``estimator='iterate'`` is the paper's approximation d <- |S(o + d r) - o|,
+   ``iterations`` times (1 by default, as in the paper); ``'newton'`` is the
+   appendix's Newton-Raphson with a finite-difference derivative, on the signed
+   f(d) = light distance of o + d r minus the stored receiver distance, keeping
+   a bracket and falling back to bisection when a step oscillates or leaves it.
+   Unlike the paper's d0 = 1 (scene-unit dependent), the first guess is where
+   the footprint pass (step 5) landed the photon, so ``iterations`` steps refine
+   a converged guess against the fine receiver texture. The final position is
+   a bilinear lookup of the receiver texture (sub-texel on smooth receivers).
+5. Caustic map: the photons land first on a coarse receiver view over the
+   whole scene (footprint pass: Newton-Raphson, COARSE_NEWTON_STEPS steps,
+   first guess the receiver behind the origin); the caustic map's view is then fitted tightly around the
+   landing points (III-F: frustum limitation; a point light whose footprint is
+   wider than a frustum, or ``point_map='cube'``, gets the omnidirectional cube
+   atlas), the receivers are rendered again in it and the photons retraced.
+   Splat (III-F): compute shader with float atomics, or additive Gaussian point
+   sprites (``splat``), radius ``splat_radius`` texels; irradiance = flux /
+   receiver area of the texel; alpha = receiver distance to the light.
+   The maps are rebuilt only when lights, objects or materials change.
+
+Approximate: the exit point through the back buffer (one layer: concave or
+overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
+exit TIR (no internal bounces), the intersection estimate (exact on planes in
+a few steps; near receiver discontinuities, e.g. a mirror's reflection onto
+another wall, it can land on the wrong surface, as the paper notes for
+reflections), the first caster layer only (light through two glass objects in
+a row, or glass then mirror, is not followed), one photon per grid texel
+(aliasing where the grid is coarse against the focus), Fresnel-reflected light
+off glass is not splatted. Limits: receivers must be seen from the light
+(the receiver texture holds one layer: a caustic on a surface hidden from the
+light behind another diffuse object is lost); at most 32 casters.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from ..passes.base import Channel, Frame, Pass
+from ..passes.light_space import (
+    PHOTON_BYTES,
+    CachedPasses,
+    FitCasterViews,
+    FitCausticViews,
+    FitCoarseViews,
+    LightSurfaces,
+    Photons,
+    ResolveCausticMaps,
+    SplatPhotons,
+    bind_views,
+)
+from .composite import CausticTechnique
+from .env_map import ShadowedParams
+
+MAX_CASTERS = 32
+CASTER_NONE, CASTER_MIRROR, CASTER_SOLID, CASTER_SURFACE = 0, 1, 2, 3
+ESTIMATORS = {"iterate": 0, "newton": 1}
+COARSE_NEWTON_STEPS = 6  # the footprint pass converges (Newton-Raphson) so the fitted map holds the caustic
+
+
+@dataclass
+class CausticMappingParams(ShadowedParams):
+    """Parameters of ``caustic-mapping`` (Shah et al.)."""
+
+    map_size: int = 512  # caustic-map texels a side (per cube face)
+    photon_grid: int = 0  # photons a side of the casters' grid; 0: map_size
+    iterations: int = 1  # intersection-estimate steps (III-D: one suffices for caustics)
+    estimator: str = "iterate"  # 'iterate' (the paper's approximation) or 'newton' (appendix; bisection fallback)
+    exit_iterations: int = 6  # regula falsi steps refining Wyman's d_V against the back faces (0: d_V alone)
+    splat: str = "auto"  # 'compute' (float atomics), 'points' (additive point sprites) or 'auto'
+    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2)
+    point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if int(self.map_size) != self.map_size or not 16 <= self.map_size <= 4096:
+            raise ValueError(f"map_size {self.map_size} must be an integer in [16, 4096]")
+        if int(self.photon_grid) != self.photon_grid or not (self.photon_grid == 0 or 8 <= self.photon_grid <= 4096):
+            raise ValueError(f"photon_grid {self.photon_grid} must be 0 (= map_size) or an integer in [8, 4096]")
+        for name, top in (("iterations", 64), ("exit_iterations", 64)):
+            value = getattr(self, name)
+            if int(value) != value or not 0 <= value <= top:
+                raise ValueError(f"{name} {value} must be an integer in [0, {top}]")
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(f"estimator '{self.estimator}' must be one of {', '.join(ESTIMATORS)}")
+        if self.splat not in ("auto", "compute", "points"):
+            raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
+        if not 0.75 <= float(self.splat_radius) <= 8.0:
+            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
+        if self.point_map not in ("frustum", "cube"):
+            raise ValueError(f"point_map '{self.point_map}' must be 'frustum' or 'cube'")
+        self.map_size, self.photon_grid = int(self.map_size), int(self.photon_grid) or int(self.map_size)
+        self.iterations, self.exit_iterations = int(self.iterations), int(self.exit_iterations)
+        self.splat_radius = float(self.splat_radius)
+
+
+def is_open_mesh(mesh) -> bool:
+    """Whether some edge borders one triangle only (a water surface rather than a solid)."""
+    key = mesh.content_hash()
+    if key not in _OPEN:
+        edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        # Welded by position: icospheres and revolved shapes may repeat vertices along seams.
+        _, weld = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
+        edges = np.sort(weld.reshape(-1)[edges], axis=1)
+        _, counts = np.unique(edges, axis=0, return_counts=True)
+        _OPEN[key] = bool(np.any(counts == 1))
+    return _OPEN[key]
+
+
+_OPEN: dict[str, bool] = {}
+
+
+class TracePhotons(Pass):
+    """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D)."""
+
+    def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
+                 initial: str | None = None, estimator: tuple[str, int] | None = None):
+        """``initial``: photons of an earlier pass (same grid) whose landing points are the first guesses;
+        ``estimator``: (name, iterations) instead of the parameters'."""
+        self.receivers, self.receiver_views, self.channel, self.params = receivers, receiver_views, channel, params
+        self.initial = initial
+        self.estimator = estimator or (params.estimator, params.iterations)
+        self.reads = ("light_samples", "caster_views", "caster_front", "caster_back", receivers, receiver_views)
+        self.reads += (initial,) if initial else ()
+        self.writes = (Channel(channel, "list", "per light: Photons (landing point, flux) or None"),)
+
+    def run(self, frame: Frame) -> None:
+        scene, p = frame.scene, self.params
+        casters = [o for o in scene.objects if o.material.kind in ("glass", "mirror")][:MAX_CASTERS]
+        types, iors, sigmas, colors = (np.zeros(MAX_CASTERS, "i4"), np.ones((MAX_CASTERS, 3), "f4"),
+                                       np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
+        dispersive = False
+        for i, obj in enumerate(casters):
+            material = obj.material
+            if material.kind == "mirror":
+                types[i], colors[i] = CASTER_MIRROR, material.color
+            else:
+                types[i] = CASTER_SURFACE if is_open_mesh(obj.mesh) else CASTER_SOLID
+                iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
+                dispersive |= bool(np.ptp(material.ior_rgb) > 0)
+        channels = 3 if dispersive else 1
+        program = frame.gpu.shaders.compute("passes/caustic_trace.comp", {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS})
+        set_uniform(program, "caster_type", types)
+        set_uniform(program, "caster_ior", iors)
+        set_uniform(program, "caster_sigma", sigmas)
+        set_uniform(program, "caster_color", colors)
+        set_uniform(program, "channel_count", channels)
+        set_uniform(program, "iterations", self.estimator[1])
+        set_uniform(program, "exit_iterations", p.exit_iterations)
+        set_uniform(program, "estimator", ESTIMATORS[self.estimator[0]])
+        set_uniform(program, "fallback_distance", float(0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0))))
+        out = []
+        initials = frame.read(self.initial) if self.initial else [None] * len(frame.read("caster_views"))
+        for caster_view, front, back, receivers, receiver_view, initial in zip(
+                frame.read("caster_views"), frame.read("caster_front"), frame.read("caster_back"),
+                frame.read(self.receivers), frame.read(self.receiver_views), initials):
+            if caster_view is None or receivers is None or receiver_view is None:
+                out.append(None)
+                continue
+            width, height = caster_view.atlas_size
+            count = width * height * channels
+            buffer = frame.gpu.ctx.buffer(reserve=count * PHOTON_BYTES)
+            bind_views(program, [caster_view, receiver_view])
+            textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
+            for unit, (name, tex) in enumerate(zip(("front_position", "front_normal", "back_position", "back_normal",
+                                                    "receiver_position"), textures)):
+                tex.use(unit)
+                set_uniform(program, name, unit)
+            buffer.bind_to_storage_buffer(0)
+            set_uniform(program, "has_initial", int(initial is not None))
+            (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
+            program.run(group_x=(width + 7) // 8, group_y=(height + 7) // 8)
+            frame.gpu.ctx.memory_barrier()
+            out.append(Photons(buffer, count, {"channels": channels}))
+        frame.write(self.channel, out)
+
+
+class CausticMapping(CausticTechnique):
+    name = "caustic-mapping"
+    summary = "Caustics from the light: photon grid, image-space intersection estimate, splatted caustic map (Shah et al.)"
+    Params = CausticMappingParams
+
+    def caustic_passes(self, params):
+        p = params
+        coarse = min(p.map_size, 256)
+        inner = [
+            FitCasterViews(p.photon_grid, point_map=p.point_map),
+            LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front"),
+            LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
+            FitCoarseViews(coarse),
+            LightSurfaces("coarse_views", "coarse_receivers"),
+            TracePhotons("coarse_receivers", "coarse_views", "coarse_photons", p,
+                         estimator=("newton", max(COARSE_NEWTON_STEPS, p.iterations))),
+            FitCausticViews("coarse_photons", p.map_size, margin_texels=p.splat_radius + 2.0, point_map=p.point_map),
+            LightSurfaces("caustic_views", "receivers"),
+            TracePhotons("receivers", "caustic_views", "photons", p, initial="coarse_photons"),
+            SplatPhotons("photons", mode=p.splat, radius=p.splat_radius),
+            ResolveCausticMaps("receivers"),
+        ]
+        key = tuple(sorted(vars(p).items()))
+        return [CachedPasses("caustic-mapping", key, inner)]
