@@ -16,8 +16,12 @@ def __getattr__(name):
         from .renderer import Renderer
 
         return Renderer
+    if name == "show":
+        from .notebook import show
+
+        return show
     raise AttributeError(name)
 
 
-__all__ = ["load_scene", "Renderer", "CausticaError", "GLUnavailableError", "MeshError", "OutputError",
+__all__ = ["load_scene", "Renderer", "show", "CausticaError", "GLUnavailableError", "MeshError", "OutputError",
            "SceneError", "TechniqueError"]

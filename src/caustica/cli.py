@@ -1,4 +1,4 @@
-"""Command line: ``caustica render | compare | bench | techniques | presets | info``.
+"""Command line: ``caustica render | view | compare | bench | techniques | presets | info``.
 
 Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
 """
@@ -77,6 +77,21 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
 
+    view = sub.add_parser("view", help="interactive window: orbit, switch techniques, edit parameters, inspect passes")
+    view.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
+    view.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
+    view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
+    view.add_argument("--spp", type=int, default=1, help="samples per pixel as a k x k grid (box filter)")
+    view.add_argument("--exposure", type=float, default=0.0, help="exposure in stops")
+    view.add_argument("-p", "--param", type=_param, action="append", default=[],
+                      help="technique parameter name=value (repeatable)")
+    view.add_argument("--frames", type=int, help="quit after this many frames (scripted runs)")
+    view.add_argument("--screenshot", help="write the last frame here (.png sRGB or .exr linear)")
+    view.add_argument("--window-screenshot", help="write the whole last window, panel included, here (.png)")
+    view.add_argument("--script", help="a JSON list of events, e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"]]")
+    view.add_argument("--no-panel", action="store_true", help="start with the panel hidden (Tab toggles it)")
+    view.add_argument("--play", action="store_true", help="start the animation of an animated preset (caustics-pool)")
+
     comp = sub.add_parser("compare", help="every technique against the reference: time, PSNR, relMSE, SSIM, FLIP per region")
     comp.add_argument("scene", help="a .toml scene file or a preset name")
     comp.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated (default env-map,exact)")
@@ -141,6 +156,55 @@ def cmd_render(args) -> int:
     print(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
           f"{statistics.median(timings):.1f} ms per frame on {where}")
     return 0
+
+
+def cmd_view(args) -> int:
+    from . import load_scene
+    from .viewer.app import check_display
+
+    check_display()
+    screenshot = _check_output(args.screenshot, OUTPUT_SUFFIXES)
+    window_shot = _check_output(args.window_screenshot, (".png",))
+    if args.spp < 1 or (args.frames is not None and args.frames < 1):
+        raise CausticaError("--spp and --frames must be at least 1")
+    script = _read_script(args.script)
+    scene = load_scene(args.scene)
+    from .viewer import Viewer
+
+    viewer = Viewer(scene, args.technique, dict(args.param), size=args.size, spp=args.spp, exposure=args.exposure,
+                    panel=not args.no_panel, fixed_step=args.frames is not None)
+    try:
+        viewer.play(args.play)
+        viewer.run(args.frames, script)
+        frames = sorted(viewer.frame_ms)
+        if frames:
+            median = frames[len(frames) // 2]
+            print(f"{viewer.frame_index} frames, {median:.1f} ms per frame ({1000.0 / median:.1f} fps) "
+                  f"on {viewer.device.info['renderer']}")
+        if screenshot:
+            print(f"wrote {viewer.screenshot(screenshot)}")
+        if window_shot:
+            print(f"wrote {viewer.screenshot_window(window_shot)}")
+    finally:
+        viewer.close()
+    return 0
+
+
+def _read_script(path: str | None) -> list:
+    """Events from a JSON file: a list of [name, args...] lists."""
+    if path is None:
+        return []
+    import json
+
+    try:
+        events = json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise CausticaError(f"cannot read script '{path}' ({exc.strerror}); give a JSON file of events") from None
+    except json.JSONDecodeError as exc:
+        raise CausticaError(f"script '{path}' is not JSON ({exc.msg} at line {exc.lineno}); fix the file") from None
+    if not isinstance(events, list) or not all(isinstance(e, list) and e and isinstance(e[0], str) for e in events):
+        raise CausticaError(f"script '{path}' must be a list of [name, args...] lists, e.g. [[\"orbit\", 40, 0]]")
+    return [tuple(e) for e in events]
 
 
 def _check_output(path: str | None, suffixes: tuple[str, ...]) -> Path | None:
@@ -255,7 +319,7 @@ def cmd_info(args) -> int:
     return 0
 
 
-COMMANDS = {"render": cmd_render, "compare": cmd_compare, "bench": cmd_bench, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
+COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -14,13 +14,15 @@ class Renderer:
     """Render scenes with any technique: ``Renderer((512, 512)).render(scene, technique="env-map")``.
 
     ``size`` (width, height) overrides the scene camera's size; None keeps it.
-    The GL context is created on first use of a GPU technique. With
+    The GL context is created on first use of a GPU technique, unless ``device``
+    (a :class:`caustica.gpu.device.GpuDevice`, e.g. over a window's context) is given. With
     ``profile_passes``, ``last_pass_ms`` holds each pass's milliseconds.
     """
 
-    def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False):
+    def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False,
+                 device=None):
         self.size = None if size is None else (int(size[0]), int(size[1]))
-        self._device = None
+        self._device = device
         self._keep = keep_channels
         self.channels: dict = {}
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
