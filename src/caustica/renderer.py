@@ -76,6 +76,9 @@ class Renderer:
 
     def keep_channels(self, frame) -> None:
         """Return the frame's pooled textures, or keep them readable (``keep_channels=True``)."""
+        for texture in self.channels.values():  # the previous frame's, kept for inspection
+            if frame.gpu.targets.is_lent(texture):
+                frame.gpu.targets.give_back(texture)
         if self._keep:
             self.channels = dict(frame.channels)
             return

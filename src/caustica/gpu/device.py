@@ -50,4 +50,18 @@ class GpuDevice:
         for _, tex in self._environments.values():
             tex.release()
         self._environments.clear()
+        release_all(list(self.cache.values()))
         self.cache.clear()
+
+
+def release_all(value) -> None:
+    """Release every GL object in a (nested) list, tuple, dict or dataclass of cached results."""
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            release_all(item)
+    elif isinstance(value, dict):
+        release_all(list(value.values()))
+    elif hasattr(value, "release") and hasattr(value, "glo"):
+        value.release()
+    elif hasattr(value, "__dataclass_fields__"):
+        release_all([getattr(value, name) for name in value.__dataclass_fields__])

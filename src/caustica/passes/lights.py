@@ -94,13 +94,13 @@ class ShadowMaps(Pass):
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
         key = ("shadow_maps", self.size, _scene_state_key(frame.scene))
-        maps = frame.gpu.cache.get(key)
-        if maps is None:
+        targets = frame.gpu.cache.get(key)
+        if targets is None:
             _evict(frame.gpu.cache, "shadow_maps")
-            maps = [self._render(frame, s) for s in samples]
-            frame.gpu.cache[key] = maps
+            targets = [self._render(frame, s) for s in samples]
+            frame.gpu.cache[key] = targets
         frame.write("light_samples", samples)
-        frame.write("shadow_maps", maps)
+        frame.write("shadow_maps", [texture for texture, _, _ in targets])
 
     def _render(self, frame: Frame, sample: LightSample):
         ctx, gpu, n = frame.gpu.ctx, frame.gpu, self.size
@@ -127,10 +127,10 @@ class ShadowMaps(Pass):
             else:
                 clip = sample.clip_from_world
             draw_objects(frame, program, frame.scene.objects, clip)
-        fbo.release()
-        depth.release()
         color.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        return color
+        # The framebuffer stays bound after this pass: it is released with the map (_evict),
+        # since a standalone context has no default framebuffer to bind instead.
+        return color, fbo, depth
 
 
 def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int, shadow_bias: float = 2e-3) -> None:
@@ -177,6 +177,8 @@ def _scene_state_key(scene) -> tuple:
 
 
 def _evict(cache: dict, tag: str) -> None:
+    """Release the cached GL objects under keys starting with ``tag``."""
+    from ..gpu.device import release_all
+
     for key in [k for k in cache if isinstance(k, tuple) and k and k[0] == tag]:
-        for tex in cache.pop(key):
-            tex.release()
+        release_all(cache.pop(key))

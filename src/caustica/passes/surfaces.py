@@ -106,7 +106,10 @@ class ShadeSurfaces(Pass):
         set_uniform(background, "environment", 0)
         set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
         set_uniform(background, "intensity_scale", float(scene.intensity_scale))
-        ctx.vertex_array(background, []).render(moderngl.TRIANGLES, vertices=3)
+        fullscreen = gpu.cache.get(("fullscreen", background.glo))
+        if fullscreen is None:
+            fullscreen = gpu.cache[("fullscreen", background.glo)] = ctx.vertex_array(background, [])
+        fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
         # Objects over it.
         ctx.enable(moderngl.DEPTH_TEST)
