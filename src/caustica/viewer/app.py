@@ -1,0 +1,602 @@
+"""The viewer window: glfw + moderngl over the window's context, Dear ImGui (imgui-bundle) for the panel.
+
+Every frame runs the technique's passes on a :class:`GpuDevice` built over the
+window's own GL context, draws the ``color`` texture into the view (no
+readback), then the panel and the frame-time overlay. Input arrives from the
+mouse and keyboard or from a script of events (:meth:`Viewer.apply`), so
+tests and ``--script`` runs drive it exactly as a person would.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections import deque
+
+import numpy as np
+
+from ..errors import CausticaError
+from ..scene import Scene
+from .frames import (
+    LiveImage,
+    LiveRenderer,
+    channel_textures,
+    prune_meshes,
+    release_device,
+)
+from .orbit import OrbitCamera
+
+PANEL_WIDTH = 340  # pixels at the window's right edge while the panel is open
+NO_DISPLAY = "no display found (DISPLAY is not set); use 'caustica render' for headless images"
+MISSING_PACKAGES = "the viewer needs glfw and imgui-bundle; run: pip install 'caustica[viewer]'"
+ANIMATION_STEP = 1.0 / 30.0  # seconds of scene time per frame in scripted runs (reproducible)
+
+
+class ViewerError(CausticaError):
+    """The viewer cannot open: no display, no GL 4.3 window, or its packages are missing."""
+
+
+def check_display() -> None:
+    """Raise ViewerError with the hint to render headless when no display is reachable."""
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise ViewerError(NO_DISPLAY)
+
+
+def animated_variant(scene_name: str):
+    """``f(time) -> Scene`` for an animated preset, or None.
+
+    A presets module may list them in ``ANIMATED`` ({name: f}); otherwise a
+    function ``<last word>_scene(time)`` (``caustics-pool`` -> ``pool_scene``) counts.
+    """
+    import inspect
+
+    from ..scene import presets
+
+    table = getattr(presets, "ANIMATED", None)
+    if isinstance(table, dict) and scene_name in table:
+        return table[scene_name]
+    candidate = getattr(presets, scene_name.split("-")[-1].replace("-", "_") + "_scene", None)
+    if (callable(candidate) and scene_name in getattr(presets, "PRESETS", {})
+            and "time" in inspect.signature(candidate).parameters):
+        return candidate
+    return None
+
+
+@dataclasses.dataclass
+class CloseReport:
+    """What closing left behind: the last GL error and GL objects still alive (both should be empty)."""
+
+    gl_error: str
+    live_objects: dict
+    earlier_errors: list = dataclasses.field(default_factory=list)  # GL errors collected while running
+
+
+class Viewer:
+    """An interactive window over ``scene``. Use :meth:`run`, or :meth:`step` frame by frame, then :meth:`close`."""
+
+    def __init__(self, scene: Scene, technique: str = "env-map", params: dict | None = None, size=None,
+                 spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
+                 title: str | None = None, fixed_step: bool = False):
+        from ..techniques import get_technique
+
+        get_technique(technique).make_params(**(params or {}))  # fail on bad input before opening a window
+        self.scene = scene
+        self.orbit = OrbitCamera(scene.camera)
+        self.technique, self.params = technique, dict(params or {})
+        self.spp, self.exposure = int(spp), float(exposure)
+        self.show_panel, self.show_overlay, self.profile = panel, overlay, False
+        self.second: str | None = None  # side-by-side technique ("mitsuba" is the cached reference)
+        self.second_params: dict = {}
+        self.difference, self.difference_gain = False, 4.0
+        self.inspect: str | None = None  # channel name shown instead of the final image
+        self.inspect_mode, self.inspect_range, self.inspect_auto = "auto", (0.0, 1.0), True
+        self.scene_at = animated_variant(scene.name)
+        self.time, self.playing, self.fixed_step = 0.0, False, fixed_step
+        self.error: str | None = None
+        self.pass_gl_errors: set[str] = set()  # GL errors the technique's passes left (reported, not raised)
+        self.frame_index, self.frame_ms = 0, deque(maxlen=60)
+        self.main = self.other = LiveImage(technique)
+        self.state_version = 0  # bumped on every change: CPU techniques re-render on it
+        self._drag = {"button": None, "pos": (0.0, 0.0), "shift": False}
+        self._script: deque = deque()
+        self._grab, self._grab_path, self.last_window = False, None, None
+        self._last_time = time.perf_counter()
+        self._open_window(tuple(size or scene.camera.size), title or f"caustica: {scene.name}")
+
+    # Open the window, the GL context over it, the renderer's device, and ImGui.
+    def _open_window(self, size, title) -> None:
+        check_display()
+        try:
+            import glfw
+            from imgui_bundle import imgui
+            from imgui_bundle.python_backends.glfw_backend import GlfwRenderer
+        except ImportError:
+            raise ViewerError(MISSING_PACKAGES) from None
+        import moderngl
+
+        from ..gpu.device import GpuDevice
+        from .display import Display
+
+        if not glfw.init():
+            raise ViewerError(NO_DISPLAY.replace("DISPLAY is not set", f"cannot open display {os.environ.get('DISPLAY')}"))
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        self.view_size = (int(size[0]), int(size[1]))
+        width, height = self._window_size()
+        self.window = glfw.create_window(width, height, title, None, None)
+        if not self.window:
+            glfw.terminate()
+            raise ViewerError("cannot open an OpenGL 4.3 core window on this display; use 'caustica render' instead")
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(0)  # frame times measure the renderer, not the monitor
+        self.glfw, self._keys = glfw, _key_table()
+        self.ctx = moderngl.create_context(require=430)
+        self.ctx.gc_mode = "auto"  # release GL objects the passes drop without release() (one VAO a frame otherwise)
+        self.device = GpuDevice(self.ctx)
+        self.live = LiveRenderer(self.device)
+        self.display = Display(self.ctx)
+        self.imgui = imgui
+        imgui.create_context()
+        imgui.get_io().set_ini_filename(None)  # no imgui.ini in the working directory
+        self.gui = GlfwRenderer(self.window, attach_callbacks=False)
+        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_char_callback(self.window, self.gui.char_callback)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_mouse_button_callback(self.window, self._on_button)
+        glfw.set_scroll_callback(self.window, self._on_scroll)
+        glfw.set_window_size_callback(self.window, self.gui.resize_callback)
+
+    def _window_size(self) -> tuple[int, int]:
+        views = 2 if self.second else 1
+        return self.view_size[0] * views + (PANEL_WIDTH if self.show_panel else 0), self.view_size[1]
+
+    def _fit_window(self) -> None:
+        """Resize the window so that each view keeps ``view_size`` (after toggling the panel or side by side)."""
+        self.glfw.set_window_size(self.window, *self._window_size())
+
+    # Layout: views from the left, the panel on the right.
+    def layout(self) -> list[tuple[int, int, int, int]]:
+        """View rectangles (x, y, w, h) from the window's lower left: one, or two side by side."""
+        width, height = self.glfw.get_framebuffer_size(self.window)
+        usable = max(1, width - (PANEL_WIDTH if self.show_panel else 0))
+        if self.second and not self.difference:
+            half = usable // 2
+            return [(0, 0, half, height), (half, 0, half, height)]
+        return [(0, 0, usable, height)]
+
+    def camera(self, size=None):
+        """The scene camera the first view renders (its current orbit), at ``size`` or the view's size."""
+        if size is None:
+            _, _, width, height = self.layout()[0]
+            size = (width, height)
+        return self.orbit.camera(size)
+
+    def scene_view(self, size=None) -> Scene:
+        """The scene as the first view sees it: for headless renders of the same frame."""
+        return dataclasses.replace(self.scene, camera=self.camera(size))
+
+    # One frame: input, animation, render, draw, panel, swap.
+    def step(self) -> None:
+        glfw, imgui = self.glfw, self.imgui
+        glfw.poll_events()
+        self.gui.process_inputs()
+        if self._script:
+            self._next_event()
+        self._advance_animation()
+        rects = self.layout()
+        camera = self.orbit.camera(rects[0][2:])
+        self.main = self._render("main", self.technique, self.params, camera)
+        if self.second:
+            self.other = self._render("second", self.second, self.second_params, camera)
+        # Draw the views.
+        self.ctx.screen.use()
+        self.ctx.screen.viewport = (0, 0, *glfw.get_framebuffer_size(self.window))
+        self.ctx.clear(0.1, 0.1, 0.11)
+        self._draw_views(rects)
+        # Draw the panel and the overlay on top.
+        self._collect_gl_error("drawing the views")
+        imgui.new_frame()
+        from .panel import draw_overlay, draw_panel
+
+        if self.show_panel:
+            draw_panel(self)
+        if self.show_overlay:
+            draw_overlay(self)
+        imgui.render()
+        self.gui.render(imgui.get_draw_data())
+        if self._grab or self._grab_path:
+            width, height = glfw.get_framebuffer_size(self.window)
+            data = self.ctx.screen.read(viewport=(0, 0, width, height), components=3)
+            self.last_window = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)[::-1].copy()
+            if self._grab_path:
+                self._save_window(self._grab_path)
+            self._grab, self._grab_path = False, None
+        glfw.swap_buffers(self.window)
+        now = time.perf_counter()
+        self.frame_ms.append((now - self._last_time) * 1000.0)
+        self._last_time = now
+        self.frame_index += 1
+
+    def _render(self, slot: str, technique: str, params: dict, camera) -> LiveImage:
+        try:
+            image = self.live.render(slot, self.scene, camera, technique, params, self.spp, self.profile,
+                                     state_key=(self.state_version, self.time))
+        except CausticaError as exc:
+            self.error = f"{technique}: {exc}"
+            return LiveImage(technique, error=str(exc))
+        finally:
+            # Collect the passes' GL error flag here: PyOpenGL (the panel) would raise it as its own.
+            self._collect_gl_error(technique)
+        if image.error:
+            self.error = f"{technique}: {image.error}"
+        return image
+
+    def _collect_gl_error(self, where: str) -> None:
+        error = self.ctx.error
+        if error != "GL_NO_ERROR":
+            self.pass_gl_errors.add(f"{where}: {error}")
+
+    def _draw_views(self, rects) -> None:
+        if self.main.color is None:
+            return
+        if self.inspect is not None:
+            texture = channel_textures(self.main.channels).get(self.inspect)
+            if texture is not None:
+                self._draw_channel(texture, rects[0])
+                if self.second and len(rects) > 1 and self.other.color is not None:
+                    self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling)
+                return
+        if self.second and self.difference and self.other.color is not None:
+            same_k = self.main.supersampling == self.other.supersampling
+            self.display.draw(self.main.color, rects[0], "difference", self.exposure, self.main.supersampling,
+                              other=self.other.color if same_k else self.main.color, gain=self.difference_gain)
+            return
+        self.display.draw(self.main.color, rects[0], "color", self.exposure, self.main.supersampling)
+        if self.second and len(rects) > 1 and self.other.color is not None:
+            self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling)
+
+    def _draw_channel(self, texture, rect) -> None:
+        from .display import auto_mode, value_range
+
+        mode = auto_mode(self.inspect, texture) if self.inspect_mode == "auto" else self.inspect_mode
+        if mode == "range" and self.inspect_auto and self.frame_index % 10 == 0:
+            self.inspect_range = value_range(texture)
+        k = self.main.supersampling if tuple(texture.size) == tuple(self.main.color.size) else 1
+        self.display.draw(texture, rect, mode, self.exposure, k, self.inspect_range)
+
+    def _advance_animation(self) -> None:
+        now = time.perf_counter()
+        if self.scene_at is not None and self.playing:
+            self.set_time(self.time + (ANIMATION_STEP if self.fixed_step else min(0.1, now - self._last_time)))
+
+    def run(self, frames: int | None = None, script=()) -> None:
+        """Show frames until the window closes, or ``frames`` frames and the whole ``script`` have run."""
+        self._script.extend(script)
+        while not self.glfw.window_should_close(self.window):
+            if frames is not None and self.frame_index >= frames and not self._script:
+                break
+            self.step()
+
+    # Scripted input: the same actions the mouse, keys and panel trigger.
+    def apply(self, event) -> None:
+        """Run one event: a tuple ``(name, *args)``, e.g. ``("orbit", 40, 0)``, ``("param", "tir_mode", "reflect")``."""
+        name, *args = event
+        action = EVENTS.get(name)
+        if action is None:
+            raise CausticaError(f"unknown viewer event '{name}'; use one of {', '.join(sorted(EVENTS))}")
+        action(self, *args)
+
+    def _next_event(self) -> None:
+        event = self._script[0]
+        if event[0] == "wait" and int(event[1]) > 1:
+            self._script[0] = ("wait", int(event[1]) - 1)
+            return
+        self._script.popleft()
+        self.apply(event)
+
+    def changed(self) -> None:
+        self.state_version += 1
+
+    def orbit_by(self, dx: float, dy: float) -> None:
+        self.orbit.orbit(dx, dy)
+        self.changed()
+
+    def pan_by(self, dx: float, dy: float) -> None:
+        self.orbit.pan(dx, dy, self.layout()[0][3])
+        self.changed()
+
+    def zoom_by(self, steps: float) -> None:
+        self.orbit.zoom(steps)
+        self.changed()
+
+    def frame_scene(self) -> None:
+        _, _, width, height = self.layout()[0]
+        self.orbit.frame(self.scene.bounds(), width / max(1, height))
+        self.changed()
+
+    def reset_camera(self) -> None:
+        self.orbit.reset()
+        self.changed()
+
+    def set_technique(self, name: str) -> None:
+        """Switch technique, keeping the parameters the new one also has."""
+        from ..techniques import get_technique
+        from .params import param_specs
+
+        technique = get_technique(name)
+        known = {spec.name for spec in param_specs(technique)}
+        self.technique, self.params, self.inspect = name, {k: v for k, v in self.params.items() if k in known}, None
+        self.error = None
+        self.changed()
+
+    def set_param(self, name: str, value, second: bool = False) -> None:
+        """Set a technique parameter; a rejected value is reported in the panel and not applied."""
+        from ..techniques import get_technique
+
+        technique = self.second if second else self.technique
+        params = dict(self.second_params if second else self.params, **{name: value})
+        try:
+            get_technique(technique).make_params(**params)
+        except CausticaError as exc:
+            self.error = str(exc)
+            return
+        if second:
+            self.second_params = params
+        else:
+            self.params = params
+        self.error = None
+        self.changed()
+
+    def set_material(self, obj, field: str, value) -> None:
+        """Change a material field (``ior``, ``absorption_color``...) of an object given by index or name."""
+        target = self._object(obj)
+        try:
+            target.material = dataclasses.replace(target.material, **{field: value})
+        except (TypeError, ValueError) as exc:
+            self.error = f"{target.name}: {exc}"
+            return
+        self.error = None
+        self.changed()
+
+    def _object(self, obj):
+        if isinstance(obj, str):
+            found = [o for o in self.scene.objects if o.name == obj]
+            if not found:
+                raise CausticaError(f"no object named '{obj}'; objects: {', '.join(o.name for o in self.scene.objects)}")
+            return found[0]
+        return self.scene.objects[int(obj)]
+
+    def move_light(self, index: int, delta=None, position=None) -> None:
+        """Move light ``index`` by ``delta`` or to ``position``; a directional light turns its direction instead."""
+        light = self.scene.lights[int(index)]
+        if hasattr(light, "position"):
+            new = np.asarray(position if position is not None else light.position + np.asarray(delta, float), float)
+            self.scene.lights[int(index)] = dataclasses.replace(light, position=new)
+        else:
+            new = np.asarray(position if position is not None else light.direction + np.asarray(delta, float), float)
+            self.scene.lights[int(index)] = dataclasses.replace(light, direction=new)
+        self.changed()
+
+    def drag_light(self, dx: float, dy: float, index: int = 0) -> None:
+        """Move a light in the view plane by a drag of (dx, dy) pixels (shift + left drag)."""
+        if not self.scene.lights:
+            return
+        camera = self.camera()
+        forward = camera.look_at - camera.position
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, camera.up)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        scale = 2.0 * self.orbit.distance * np.tan(np.radians(camera.fov_y) / 2.0) / camera.size[1]
+        delta = scale * (dx * right - dy * up)
+        light = self.scene.lights[index]
+        self.move_light(index, delta if hasattr(light, "position") else 0.2 * delta / max(self.orbit.distance, 1e-6))
+
+    def set_inspect(self, channel: str | None, mode: str = "auto") -> None:
+        """Show a channel of the main technique by name (``back_surface``, ``shadow_maps[0]``...), None for the image."""
+        self.inspect, self.inspect_mode, self.inspect_auto = channel, mode, True
+        if channel is not None and self.main.color is not None:
+            names = channel_textures(self.main.channels)
+            if channel not in names:
+                self.error = f"no channel '{channel}' in {self.technique}; channels: {', '.join(names)}"
+                self.inspect = None
+                return
+            from .display import auto_mode, value_range
+
+            texture = names[channel]
+            if (mode if mode != "auto" else auto_mode(channel, texture)) == "range":
+                self.inspect_range = value_range(texture)
+
+    def set_side_by_side(self, technique: str | None, difference: bool = False) -> None:
+        """Show ``technique`` beside the main one (None: back to one view); ``difference`` shows |a - b| instead."""
+        if technique is not None:
+            from ..techniques import get_technique
+
+            get_technique(technique)
+        was = bool(self.second) and not self.difference
+        self.second, self.second_params, self.difference = technique, {}, bool(difference and technique)
+        if (bool(self.second) and not self.difference) != was:
+            self._fit_window()
+        self.changed()
+
+    def toggle_panel(self) -> None:
+        self.show_panel = not self.show_panel
+        self._fit_window()
+
+    def set_time(self, value: float) -> None:
+        """Scene time of an animated preset: its meshes move, edited materials and lights stay."""
+        if self.scene_at is None:
+            return
+        self.time = float(value)
+        fresh = {o.name: o for o in self.scene_at(self.time).objects}
+        for obj in self.scene.objects:
+            if obj.name in fresh and fresh[obj.name].mesh is not obj.mesh:
+                obj.mesh, obj._world = fresh[obj.name].mesh, None
+        prune_meshes(self.device, self.scene)
+        self.changed()
+
+    def play(self, on: bool = True) -> None:
+        self.playing = bool(on) and self.scene_at is not None
+
+    # Screenshots: the rendered image (as 'caustica render' writes it) or the whole window.
+    def image(self) -> np.ndarray:
+        """The main view's last frame as a float32 linear (H, W, 3) image, row 0 at the top."""
+        from ..techniques.raster import box_downsample, read_rgb
+
+        if self.main.pending:
+            self.live.wait("main")
+            self.step()
+        if self.main.color is None:
+            raise CausticaError(f"no image to save: {self.error or 'nothing rendered yet'}")
+        return box_downsample(read_rgb(self.main.color), self.main.supersampling).astype(np.float32)
+
+    def screenshot(self, path) -> str:
+        """Write the last frame: .png (sRGB after the exposure) or .exr (linear float)."""
+        from ..images import write_image
+
+        return str(write_image(path, self.image(), exposure=self.exposure))
+
+    def grab_window(self) -> np.ndarray:
+        """Draw one more frame and return the whole window as uint8 (H, W, 3), panel included."""
+        self._grab = True
+        self.step()
+        return self.last_window
+
+    def screenshot_window(self, path) -> str:
+        """Write the whole window, panel included, as PNG."""
+        self.grab_window()
+        return self._save_window(path)
+
+    def _save_window(self, path) -> str:
+        from PIL import Image
+
+        Image.fromarray(self.last_window).save(path)
+        return str(path)
+
+    # Input callbacks: ImGui first; the view gets what the panel does not want.
+    def _on_key(self, window, key, scancode, action, mods) -> None:
+        self.gui.keyboard_callback(window, key, scancode, action, mods)
+        if action == self.glfw.RELEASE or self.imgui.get_io().want_capture_keyboard:
+            return
+        glfw = self.glfw
+        step = 0.05 * float(np.linalg.norm(np.subtract(*self.scene.bounds())))
+        light_keys = {glfw.KEY_LEFT: (-step, 0, 0), glfw.KEY_RIGHT: (step, 0, 0), glfw.KEY_UP: (0, 0, -step),
+                      glfw.KEY_DOWN: (0, 0, step), glfw.KEY_PAGE_UP: (0, step, 0), glfw.KEY_PAGE_DOWN: (0, -step, 0)}
+        if key in light_keys and self.scene.lights:
+            self.move_light(0, light_keys[key])
+        elif key in self._keys:
+            self._keys[key](self)
+
+    def _on_cursor(self, window, x, y) -> None:
+        self.gui.mouse_callback(window, x, y)
+        button, (last_x, last_y) = self._drag["button"], self._drag["pos"]
+        self._drag["pos"] = (x, y)
+        if button is None:
+            return
+        dx, dy = x - last_x, y - last_y
+        if button == self.glfw.MOUSE_BUTTON_LEFT and self._drag["shift"]:
+            self.drag_light(dx, dy)
+        elif button == self.glfw.MOUSE_BUTTON_LEFT:
+            self.orbit_by(dx, dy)
+        else:
+            self.pan_by(dx, dy)
+
+    def _on_button(self, window, button, action, mods) -> None:
+        self.gui.mouse_button_callback(window, button, action, mods)
+        if action == self.glfw.PRESS and not self.imgui.get_io().want_capture_mouse:
+            self._drag.update(button=button, pos=self.glfw.get_cursor_pos(window),
+                              shift=bool(mods & self.glfw.MOD_SHIFT))
+        elif action == self.glfw.RELEASE:
+            self._drag["button"] = None
+
+    def _on_scroll(self, window, x_offset, y_offset) -> None:
+        self.gui.scroll_callback(window, x_offset, y_offset)
+        if not self.imgui.get_io().want_capture_mouse:
+            self.zoom_by(y_offset)
+
+    # Close: release every GL object, check for errors and leaks, destroy the window.
+    def close(self) -> CloseReport:
+        """Release GL objects and the window; returns the GL error state and any objects left alive."""
+        if getattr(self, "window", None) is None:
+            return CloseReport("GL_NO_ERROR", {})
+        from OpenGL import GL
+
+        self._collect_gl_error("before close")
+        GL.glUseProgram(0)  # a program still in use is only flagged for deletion
+        GL.glBindVertexArray(0)
+        self.live.release()
+        self.display.release()
+        self.gui.shutdown()
+        self.imgui.destroy_context()
+        release_device(self.device)
+        import gc
+
+        gc.collect()  # dropped moderngl objects release their GL names now (gc_mode 'auto')
+        error = self.ctx.error
+        live = live_gl_objects()
+        self.ctx.release()
+        self.glfw.destroy_window(self.window)
+        self.glfw.terminate()
+        self.window = None
+        return CloseReport(error, live, sorted(self.pass_gl_errors))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def live_gl_objects(max_name: int = 4096) -> dict:
+    """GL object names still alive in the current context, by kind (names are small integers on Mesa)."""
+    from OpenGL import GL
+
+    checks = {"texture": GL.glIsTexture, "buffer": GL.glIsBuffer, "framebuffer": GL.glIsFramebuffer,
+              "renderbuffer": GL.glIsRenderbuffer, "program": GL.glIsProgram, "vertex_array": GL.glIsVertexArray,
+              "shader": GL.glIsShader, "query": GL.glIsQuery}
+    alive = {}
+    for kind, check in checks.items():
+        names = [n for n in range(1, max_name) if check(n)]
+        if names:
+            alive[kind] = names
+    return alive
+
+
+def _screenshot_key(viewer: Viewer) -> None:
+    path = f"caustica-view-{viewer.frame_index:05d}.png"
+    viewer.screenshot(path)
+    print(f"wrote {path}")
+
+
+def _cycle_inspector(viewer: Viewer) -> None:
+    names = [None, *channel_textures(viewer.main.channels)]
+    viewer.set_inspect(names[(names.index(viewer.inspect) + 1) % len(names)] if viewer.inspect in names else None)
+
+
+def _key_table() -> dict:
+    import glfw
+
+    return {
+        glfw.KEY_F: Viewer.frame_scene, glfw.KEY_R: Viewer.reset_camera, glfw.KEY_TAB: Viewer.toggle_panel,
+        glfw.KEY_P: lambda v: v.play(not v.playing), glfw.KEY_I: _cycle_inspector, glfw.KEY_S: _screenshot_key,
+        glfw.KEY_O: lambda v: setattr(v, "show_overlay", not v.show_overlay),
+        glfw.KEY_ESCAPE: lambda v: v.glfw.set_window_should_close(v.window, True),
+        glfw.KEY_Q: lambda v: v.glfw.set_window_should_close(v.window, True),
+    }
+
+
+EVENTS = {
+    "orbit": Viewer.orbit_by, "pan": Viewer.pan_by, "zoom": Viewer.zoom_by,
+    "frame": Viewer.frame_scene, "reset": Viewer.reset_camera,
+    "technique": Viewer.set_technique, "param": Viewer.set_param, "material": Viewer.set_material,
+    "light": Viewer.move_light, "drag_light": Viewer.drag_light,
+    "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
+    "exposure": lambda v, value: setattr(v, "exposure", float(value)),
+    "spp": lambda v, value: (setattr(v, "spp", int(value)), v.changed()),
+    "overlay": lambda v, on=True: setattr(v, "show_overlay", bool(on)),
+    "time": Viewer.set_time, "play": Viewer.play, "panel": lambda v, on=True: on != v.show_panel and v.toggle_panel(),
+    "screenshot": Viewer.screenshot, "screenshot_window": Viewer.screenshot_window,
+    "wait": lambda v, frames=1: None, "close": lambda v: v.glfw.set_window_should_close(v.window, True),
+}

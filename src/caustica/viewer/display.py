@@ -1,0 +1,146 @@
+"""Drawing textures into the window: tone mapping, channel views and the difference view.
+
+A linear color texture is shown as ``caustica render`` writes PNGs (2**exposure,
+clip, exact sRGB curve), pixel for pixel when the texture is the view's size
+(times the supersampling factor, averaged k x k like the renderer's box
+filter). Any other texture (shadow maps, caustic maps) is letterboxed.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MODES = ("color", "signed", "range", "difference")  # how a texture's values become colours
+
+_VERTEX = """
+#version 430
+void main() {
+    vec2 corner = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+    gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+}
+"""
+
+_FRAGMENT = """
+#version 430
+uniform sampler2D image_a;
+uniform sampler2D image_b;
+uniform int mode;            // 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain
+uniform int components;      // of image_a: 1 grey, 2 (r, g, 0), 3/4 rgb
+uniform int supersampling;   // k: the texture holds k x k samples per pixel when it matches the view
+uniform ivec2 origin;        // the view's lower-left corner in window pixels
+uniform ivec2 view_size;
+uniform float exposure;
+uniform vec2 value_range;
+uniform float gain;
+out vec4 frag_color;
+
+vec3 srgb(vec3 x) {
+    x = clamp(x, 0.0, 1.0);
+    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));
+}
+
+vec3 expand(vec4 v) {
+    if (components == 1) return v.rrr;
+    if (components == 2) return vec3(v.rg, 0.0);
+    return v.rgb;
+}
+
+// The pixel's value: a k x k box average when the texture matches the view, else a letterboxed lookup.
+vec4 sample_pixel(sampler2D image, ivec2 pixel, out bool inside) {
+    ivec2 size = textureSize(image, 0);
+    inside = true;
+    if (size == view_size * supersampling) {
+        vec4 sum = vec4(0.0);
+        for (int j = 0; j < supersampling; ++j)
+            for (int i = 0; i < supersampling; ++i)
+                sum += texelFetch(image, pixel * supersampling + ivec2(i, j), 0);
+        return sum / float(supersampling * supersampling);
+    }
+    float scale = min(float(view_size.x) / float(size.x), float(view_size.y) / float(size.y));
+    vec2 shown = vec2(size) * scale;
+    vec2 uv = (vec2(pixel) + 0.5 - (vec2(view_size) - shown) * 0.5) / shown;
+    inside = all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
+    return textureLod(image, uv, 0.0);
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy) - origin;
+    bool inside;
+    vec3 a = expand(sample_pixel(image_a, pixel, inside));
+    if (!inside) { frag_color = vec4(0.08, 0.08, 0.09, 1.0); return; }
+    vec3 shown;
+    if (mode == 0) {
+        shown = srgb(a * exp2(exposure));
+    } else if (mode == 1) {
+        shown = clamp(a * 0.5 + 0.5, 0.0, 1.0);
+    } else if (mode == 2) {
+        shown = clamp((a - value_range.x) / max(value_range.y - value_range.x, 1e-20), 0.0, 1.0);
+    } else {
+        bool inside_b;
+        vec3 b = sample_pixel(image_b, pixel, inside_b).rgb;
+        shown = srgb(abs(a - b) * exp2(exposure) * gain);
+    }
+    frag_color = vec4(shown, 1.0);
+}
+"""
+
+
+def auto_mode(name: str, texture) -> str:
+    """The natural view of a channel: directions and normals signed, depths and distances ranged."""
+    lowered = name.lower()
+    if any(word in lowered for word in ("normal", "direction")):
+        return "signed"
+    if texture.depth or texture.components <= 2 or any(w in lowered for w in ("depth", "distance", "shadow", "dn")):
+        return "range"
+    return "color"
+
+
+def value_range(texture) -> tuple[float, float]:
+    """The 1st and 99th percentiles of a texture's finite values below 1e19 (backgrounds hold huge ones)."""
+    if texture.depth:
+        data = np.frombuffer(texture.read(), dtype="f4")
+    else:
+        data = np.frombuffer(texture.read(), dtype=texture.dtype if texture.dtype in ("f4", "f2") else "u1")
+        data = data.reshape(-1, texture.components)[:, : min(3, texture.components)].ravel().astype("f4")
+    data = data[np.isfinite(data) & (np.abs(data) < 1e19)]
+    if data.size == 0:
+        return 0.0, 1.0
+    low, high = np.percentile(data, [1.0, 99.0])
+    return float(low), float(high if high > low else low + 1.0)
+
+
+class Display:
+    """One program and one empty vertex array: each call draws a texture into a rectangle of the window."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
+        self.vao = ctx.vertex_array(self.program, [])
+
+    def draw(self, texture, rect: tuple[int, int, int, int], mode: str = "color", exposure: float = 0.0,
+             supersampling: int = 1, values: tuple[float, float] = (0.0, 1.0), other=None, gain: float = 4.0) -> None:
+        """Draw ``texture`` into ``rect`` (x, y from the window's lower left, width, height)."""
+        x, y, width, height = (int(v) for v in rect)
+        if width <= 0 or height <= 0:
+            return
+        screen = self.ctx.screen
+        screen.use()
+        screen.viewport = (x, y, width, height)
+        self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND | self.ctx.CULL_FACE)
+        compare = texture.compare_func if texture.depth else None
+        if texture.depth:
+            texture.compare_func = ""  # read depths as values, not as shadow comparisons
+        texture.use(0)
+        (other if other is not None else texture).use(1)
+        values_of = {"image_a": 0, "image_b": 1, "mode": MODES.index(mode), "components": texture.components,
+                     "supersampling": int(supersampling), "origin": (x, y), "view_size": (width, height),
+                     "exposure": float(exposure), "value_range": tuple(float(v) for v in values), "gain": float(gain)}
+        for name, value in values_of.items():
+            if name in self.program:
+                self.program[name].value = value
+        self.vao.render(vertices=3)
+        if compare is not None:
+            texture.compare_func = compare
+
+    def release(self) -> None:
+        self.vao.release()
+        self.program.release()

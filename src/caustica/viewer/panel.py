@@ -1,0 +1,232 @@
+"""The ImGui panel (technique, parameters, materials, lights, camera, inspector, side by side) and the overlay.
+
+Parameter widgets come from :func:`caustica.viewer.params.param_specs`, so a
+new technique's parameters appear with no change here.
+"""
+from __future__ import annotations
+
+import statistics
+
+import numpy as np
+
+from ..techniques import get_technique, technique_names
+from .display import MODES
+from .frames import channel_textures
+from .params import MATERIAL_FIELDS, param_specs
+
+SPP_CHOICES = (1, 4, 9, 16)
+
+
+def technique_choices() -> list[str]:
+    """Every technique, plus each view technique combined with each caustic technique."""
+    from ..techniques.composite import CausticTechnique
+    from ..techniques.raster import RasterTechnique
+
+    names = technique_names()
+    caustic = [n for n in names if isinstance(get_technique(n), CausticTechnique)]
+    views = [n for n in names if n not in caustic and n != "plain" and isinstance(get_technique(n), RasterTechnique)]
+    return names + [f"{v}+{c}" for v in views for c in caustic]
+
+
+def _combo(imgui, label: str, value, choices) -> tuple[bool, object]:
+    choices = list(choices)
+    index = choices.index(value) if value in choices else 0
+    changed, index = imgui.combo(label, index, [str(c) for c in choices])
+    return changed, choices[index]
+
+
+def param_widget(imgui, spec, value):
+    """One widget for one parameter; returns (changed, new value)."""
+    label = spec.name.replace("_", " ")
+    if spec.kind == "bool":
+        return imgui.checkbox(label, bool(value))
+    if spec.kind == "choice":
+        return _combo(imgui, label, value, spec.choices)
+    if spec.kind == "int":
+        low, high = int(spec.low if spec.low is not None else -2**30), int(spec.high if spec.high is not None else 2**30)
+        changed, new = imgui.drag_int(label, int(value), spec.speed, low, high)
+        return changed, spec.clamp(new)
+    if spec.kind == "float":
+        low = float(spec.low) if spec.low is not None else -1e9
+        high = float(spec.high) if spec.high is not None else 1e9
+        changed, new = imgui.drag_float(label, float(value), spec.speed, low, high, "%.4g")
+        return changed, spec.clamp(new)
+    imgui.text(f"{label}: {value!r}")
+    return False, value
+
+
+def _parameters(viewer, imgui, technique: str, params: dict, second: bool) -> None:
+    for spec in param_specs(get_technique(technique)):
+        value = params.get(spec.name, spec.default)
+        changed, new = param_widget(imgui, spec, value)
+        if changed:
+            viewer.set_param(spec.name, new, second=second)
+
+
+def draw_panel(viewer) -> None:
+    """The panel window along the right edge."""
+    imgui = viewer.imgui
+    width, height = viewer.glfw.get_framebuffer_size(viewer.window)
+    from .app import PANEL_WIDTH
+
+    imgui.set_next_window_pos((width - PANEL_WIDTH, 0))
+    imgui.set_next_window_size((PANEL_WIDTH, height))
+    flags = imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
+    imgui.begin("caustica", None, flags)
+    imgui.text(f"{viewer.scene.name}  ({viewer.device.info['renderer'][:28]})")
+    if viewer.error:
+        imgui.text_colored((1.0, 0.45, 0.35, 1.0), viewer.error[:200])
+    # Technique and its parameters.
+    changed, name = _combo(imgui, "technique", viewer.technique, technique_choices())
+    if changed:
+        viewer.set_technique(name)
+    changed, spp = _combo(imgui, "spp", viewer.spp, SPP_CHOICES)
+    if changed:
+        viewer.spp = spp
+        viewer.changed()
+    changed, viewer.exposure = imgui.drag_float("exposure", viewer.exposure, 0.05, -10.0, 10.0, "%.2f")
+    if imgui.collapsing_header("parameters", imgui.TreeNodeFlags_.default_open):
+        _parameters(viewer, imgui, viewer.technique, viewer.params, second=False)
+    if imgui.collapsing_header("materials", imgui.TreeNodeFlags_.default_open):
+        _materials(viewer, imgui)
+    if viewer.scene.lights and imgui.collapsing_header("lights"):
+        _lights(viewer, imgui)
+    if imgui.collapsing_header("camera"):
+        _camera(viewer, imgui)
+    if viewer.scene_at is not None and imgui.collapsing_header("animation", imgui.TreeNodeFlags_.default_open):
+        changed, playing = imgui.checkbox("play (P)", viewer.playing)
+        if changed:
+            viewer.play(playing)
+        changed, value = imgui.drag_float("time", viewer.time, 0.01, 0.0, 1e6, "%.2f s")
+        if changed:
+            viewer.set_time(value)
+    if imgui.collapsing_header("pass inspector", imgui.TreeNodeFlags_.default_open):
+        _inspector(viewer, imgui)
+    if imgui.collapsing_header("side by side"):
+        _side_by_side(viewer, imgui)
+    if imgui.collapsing_header("screenshot"):
+        _screenshot(viewer, imgui)
+    changed, viewer.show_overlay = imgui.checkbox("frame-time overlay (O)", viewer.show_overlay)
+    changed, profile = imgui.checkbox("per-pass ms (syncs each pass)", viewer.profile)
+    if changed:
+        viewer.profile = profile
+    imgui.text_disabled("drag: orbit  right drag: pan  wheel: zoom")
+    imgui.text_disabled("shift drag / arrows, PgUp/PgDn: move light")
+    imgui.text_disabled("F frame  R reset  I inspect  S shot  Tab panel")
+    imgui.end()
+
+
+def _materials(viewer, imgui) -> None:
+    for index, obj in enumerate(viewer.scene.objects):
+        fields = MATERIAL_FIELDS.get(obj.material.kind, ())
+        if not fields or not imgui.tree_node(f"{obj.name} ({obj.material.kind})##{index}"):
+            continue
+        for name, kind, low, high in fields:
+            value = getattr(obj.material, name)
+            if kind == "color":
+                changed, new = imgui.color_edit3(f"{name.replace('_', ' ')}##{index}", [float(v) for v in value])
+            else:
+                changed, new = imgui.drag_float(f"{name.replace('_', ' ')}##{index}", float(value), 0.005, low, high, "%.3f")
+            if changed:
+                viewer.set_material(index, name, np.clip(np.asarray(new, dtype=float), low, high)
+                                    if kind == "color" else float(np.clip(new, low, high)))
+        imgui.tree_pop()
+
+
+def _lights(viewer, imgui) -> None:
+    for index, light in enumerate(viewer.scene.lights):
+        if hasattr(light, "position"):
+            changed, new = imgui.drag_float3(f"{light.kind} {index} position", [float(v) for v in light.position], 0.02)
+            if changed:
+                viewer.move_light(index, position=new)
+        elif hasattr(light, "direction"):
+            changed, new = imgui.drag_float3(f"{light.kind} {index} direction", [float(v) for v in light.direction], 0.01)
+            if changed and np.linalg.norm(new) > 1e-6:
+                viewer.move_light(index, position=new)
+
+
+def _camera(viewer, imgui) -> None:
+    orbit = viewer.orbit
+    if imgui.button("frame (F)"):
+        viewer.frame_scene()
+    imgui.same_line()
+    if imgui.button("reset (R)"):
+        viewer.reset_camera()
+    changed, orbit.fov_y = imgui.drag_float("fov y", orbit.fov_y, 0.2, 5.0, 150.0, "%.1f deg")
+    changed2, orbit.distance = imgui.drag_float("distance", orbit.distance, 0.02, 0.01, 1e4, "%.3f")
+    if changed or changed2:
+        viewer.changed()
+    imgui.text(f"yaw {orbit.yaw:.1f}  pitch {orbit.pitch:.1f}")
+
+
+def _inspector(viewer, imgui) -> None:
+    names = [None, *channel_textures(viewer.main.channels)]
+    labels = ["(final image)", *names[1:]]
+    index = names.index(viewer.inspect) if viewer.inspect in names else 0
+    changed, index = imgui.combo("channel", index, labels)
+    if changed:
+        viewer.set_inspect(names[index], viewer.inspect_mode)
+    if viewer.inspect is None:
+        return
+    changed, mode = _combo(imgui, "view as", viewer.inspect_mode, ("auto", *MODES[:3]))
+    if changed:
+        viewer.set_inspect(viewer.inspect, mode)
+    texture = channel_textures(viewer.main.channels).get(viewer.inspect)
+    if texture is not None:
+        imgui.text(f"{texture.size[0]}x{texture.size[1]}, {texture.components} x {texture.dtype}")
+    changed, viewer.inspect_auto = imgui.checkbox("auto range", viewer.inspect_auto)
+    low, high = viewer.inspect_range
+    changed, values = imgui.drag_float2("range", [low, high], 0.01 * max(abs(high - low), 1e-3))
+    if changed:
+        viewer.inspect_range, viewer.inspect_auto = tuple(values), False
+
+
+def _side_by_side(viewer, imgui) -> None:
+    choices = [None, *technique_choices()]
+    labels = ["(off)", *[c if c != "mitsuba" else "mitsuba (cached reference)" for c in choices[1:]]]
+    index = choices.index(viewer.second) if viewer.second in choices else 0
+    changed, index = imgui.combo("second", index, labels)
+    if changed:
+        viewer.set_side_by_side(choices[index], viewer.difference)
+    if viewer.second:
+        changed, difference = imgui.checkbox("difference |a - b|", viewer.difference)
+        if changed:
+            viewer.set_side_by_side(viewer.second, difference)
+        changed, viewer.difference_gain = imgui.drag_float("gain", viewer.difference_gain, 0.1, 0.1, 1000.0, "%.1f")
+        if viewer.other.pending:
+            imgui.text("rendering on the CPU...")
+        if imgui.tree_node("second's parameters"):
+            _parameters(viewer, imgui, viewer.second, viewer.second_params, second=True)
+            imgui.tree_pop()
+
+
+def _screenshot(viewer, imgui) -> None:
+    _, viewer.screenshot_path = imgui.input_text("file", getattr(viewer, "screenshot_path", "view.png"))
+    if imgui.button("save image (.png/.exr)"):
+        try:
+            viewer.screenshot(viewer.screenshot_path)
+        except Exception as exc:  # shown in the panel, the window stays open
+            viewer.error = f"screenshot: {exc}"
+    imgui.same_line()
+    if imgui.button("save window"):
+        viewer._grab_path = viewer.screenshot_path
+
+
+def draw_overlay(viewer) -> None:
+    """Frame time (ms, fps), the technique's render ms and, when profiling, per-pass ms, top left of the view."""
+    imgui = viewer.imgui
+    imgui.set_next_window_pos((8, 8))
+    imgui.set_next_window_bg_alpha(0.55)
+    flags = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_focus_on_appearing
+             | imgui.WindowFlags_.no_nav)
+    imgui.begin("overlay", None, flags)
+    frame = statistics.median(viewer.frame_ms) if viewer.frame_ms else 0.0
+    imgui.text(f"{viewer.technique}: {frame:.1f} ms/frame, {1000.0 / frame if frame else 0.0:.1f} fps")
+    imgui.text(f"{'passes' if viewer.profile else 'pass submission'} {viewer.main.render_ms:.1f} ms, {viewer.main.color.size[0] if viewer.main.color else 0}"
+               f"x{viewer.main.color.size[1] if viewer.main.color else 0}")
+    for name, ms in viewer.main.pass_ms.items():
+        imgui.text(f"  {name}: {ms:.2f} ms")
+    if viewer.inspect:
+        imgui.text(f"inspecting {viewer.inspect}")
+    imgui.end()

@@ -1,0 +1,246 @@
+"""The interactive viewer under Xvfb, driven by scripts of input events.
+
+Viewer sessions run in child processes: a GLX window and the suite's headless
+EGL context must not meet in one process. The child pickles the scene exactly
+as its view saw it; this process renders that scene headless and compares.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import caustica
+from caustica.images import linear_to_srgb, read_image
+from caustica.scene import Camera
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _have_viewer_packages() -> str | None:
+    for module in ("glfw", "imgui_bundle", "OpenGL"):
+        try:
+            __import__(module)
+        except ImportError:
+            return f"{module} is not installed: pip install 'caustica[viewer]'"
+    return None
+
+
+@pytest.fixture(scope="module")
+def display():
+    """A display for the viewer: $DISPLAY, or an Xvfb server started here (skipped when neither exists)."""
+    missing = _have_viewer_packages()
+    if missing:
+        pytest.skip(missing)
+    if os.environ.get("DISPLAY"):
+        yield os.environ["DISPLAY"]
+        return
+    if not shutil.which("Xvfb"):
+        pytest.skip("no DISPLAY and Xvfb is not installed: apt-get install -y xvfb")
+    number = 90 + os.getpid() % 500
+    server = subprocess.Popen(["Xvfb", f":{number}", "-screen", "0", "1600x1000x24", "-nolisten", "tcp"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 10
+    while not Path(f"/tmp/.X11-unix/X{number}").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    if server.poll() is not None:
+        pytest.skip(f"Xvfb :{number} did not start")
+    yield f":{number}"
+    server.terminate()
+    server.wait(10)
+
+
+def run_child(display: str, code: str, tmp_path: Path, timeout: int = 300) -> dict:
+    """Run ``code`` (which fills ``result``) in a child process on ``display``; return ``result``."""
+    script = ("import json, pickle, sys\nimport caustica\nfrom caustica.viewer import Viewer\nresult = {}\n"
+              + code + f"\nopen({str(tmp_path / 'result.json')!r}, 'w').write(json.dumps(result))\n")
+    env = {**os.environ, "DISPLAY": display}
+    done = subprocess.run([sys.executable, "-c", script], check=False, cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads((tmp_path / "result.json").read_text())
+
+
+def headless(scene_pickle: Path, technique: str, **params) -> np.ndarray:
+    scene = pickle.loads(scene_pickle.read_bytes())
+    return caustica.Renderer(scene.camera.size).render(scene, technique, **params)
+
+
+def srgb8(image: np.ndarray) -> np.ndarray:
+    return np.round(linear_to_srgb(np.clip(image, 0.0, 1.0)) * 255.0).astype(np.int16)
+
+
+SESSION = """
+scene = caustica.load_scene("caustic-sphere")
+viewer = Viewer(scene, "env-map", size=(192, 160), fixed_step=True)
+start = viewer.orbit.camera((192, 160)).position.tolist()
+viewer.run(frames=3, script=[
+    ("orbit", 40, -15),
+    ("technique", "depth-search"),
+    ("material", "ball", "ior", 1.33),
+    ("param", "iterations", 3),
+    ("inspect", "back_surface"),
+    ("wait", 2),
+])
+result["inspecting"] = viewer.inspect
+inspect_window = viewer.grab_window()
+viewer.apply(("inspect", None))
+viewer.apply(("panel", False))
+viewer.apply(("overlay", False))
+viewer.run(frames=viewer.frame_index + 2)
+view_window = viewer.grab_window()
+viewer.screenshot("shot.png")
+viewer.screenshot("shot.exr")
+open("scene.pkl", "wb").write(pickle.dumps(viewer.scene_view()))
+import numpy as np
+np.save("view_window.npy", view_window)
+result.update(start=start, position=viewer.camera().position.tolist(), technique=viewer.technique,
+              params=viewer.params, ior=viewer.scene.objects[0].material.ior, error=viewer.error,
+              window=list(view_window.shape), inspect_differs=bool(np.abs(inspect_window[:, :192].astype(int)
+                                                                          - view_window[:, :192]).mean() > 5),
+              frames=viewer.frame_index)
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects, window_gone=viewer.window is None,
+              earlier=report.earlier_errors)
+"""
+
+
+def test_scripted_session_matches_headless_render(display, tmp_path):
+    """Orbit, switch technique, change the IOR, open the inspector, screenshot: the frame equals a headless render."""
+    result = run_child(display, SESSION, tmp_path)
+    # The events took effect.
+    assert result["error"] is None
+    assert result["technique"] == "depth-search" and result["params"] == {"iterations": 3}
+    assert result["ior"] == pytest.approx(1.33)
+    assert np.linalg.norm(np.subtract(result["start"], result["position"])) > 0.5  # the orbit moved the eye
+    assert result["inspecting"] == "back_surface" and result["inspect_differs"]
+    # The screenshot (PNG and EXR) is the headless render of the same scene and camera.
+    reference = headless(tmp_path / "scene.pkl", "depth-search", iterations=3)
+    assert reference.shape == (160, 192, 3)
+    shot = read_image(tmp_path / "shot.exr")
+    assert np.abs(shot - reference).max() < 1e-3
+    png = np.asarray(__import__("PIL.Image", fromlist=["Image"]).open(tmp_path / "shot.png").convert("RGB"), np.int16)
+    assert np.abs(png - srgb8(reference)).max() <= 1
+    # What the window showed (panel and overlay hidden: the view fills it) is the same image, drawn on screen.
+    window = np.load(tmp_path / "view_window.npy").astype(np.int16)
+    assert tuple(result["window"]) == (160, 192, 3)
+    assert np.abs(window - srgb8(reference)).max() <= 1
+    # Closing released every GL object and the window without a GL error.
+    assert result["gl_error"] == "GL_NO_ERROR", result["earlier"]
+    assert result["live"] == {}
+    assert result["window_gone"]
+
+
+def test_side_by_side_difference_of_a_technique_with_itself_is_black(display, tmp_path):
+    result = run_child(display, """
+scene = caustica.load_scene("glass-sphere")
+viewer = Viewer(scene, "env-map", size=(128, 128), panel=False, overlay=False)
+viewer.run(frames=2, script=[("side_by_side", "image-space")])
+both = viewer.grab_window()
+result["both"] = list(both.shape)
+result["halves_differ"] = float(abs(both[:, :128].astype(int) - both[:, 128:]).mean())
+viewer.apply(("side_by_side", "env-map", True))
+viewer.run(frames=viewer.frame_index + 2)
+result["difference_max"] = int(viewer.grab_window()[:, :128].max())
+report = viewer.close()
+result["live"] = report.live_objects
+""", tmp_path)
+    assert result["both"] == [128, 256, 3]  # the window widened to hold two views
+    assert result["halves_differ"] > 0.5  # env-map and image-space differ on the sphere
+    assert result["difference_max"] <= 1  # |a - a| = 0
+    assert result["live"] == {}
+
+
+def test_cli_view_frames_and_screenshot(display, tmp_path):
+    env = {**os.environ, "DISPLAY": display}
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "glass-sphere", "--frames", "3", "--size",
+                           "96x96", "--screenshot", str(tmp_path / "view.png"), "--window-screenshot",
+                           str(tmp_path / "window.png")], env=env, check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "3 frames" in done.stdout and "ms per frame" in done.stdout
+    reference = caustica.Renderer((96, 96)).render(caustica.load_scene("glass-sphere"), "env-map")
+    from PIL import Image
+
+    shot = np.asarray(Image.open(tmp_path / "view.png").convert("RGB"), np.int16)
+    assert np.abs(shot - srgb8(reference)).max() <= 1
+    assert Image.open(tmp_path / "window.png").size[0] > 96  # the panel beside the view
+
+
+def test_cli_view_without_display_says_to_render_headless():
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "glass-sphere"], env=env, check=False,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip() == ("caustica: no display found (DISPLAY is not set); "
+                                   "use 'caustica render' for headless images")
+
+
+def test_cli_view_rejects_a_bad_script(tmp_path, display):
+    (tmp_path / "bad.json").write_text("{not json")
+    env = {**os.environ, "DISPLAY": display}
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "glass-sphere", "--script",
+                           str(tmp_path / "bad.json")], env=env, check=False, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "is not JSON" in done.stderr
+
+
+def test_orbit_camera_starts_at_the_scene_camera_and_orbits_about_the_target():
+    from caustica.viewer.orbit import OrbitCamera
+
+    home = Camera(position=[1.0, 2.0, 4.0], look_at=[0.0, 0.5, 0.0], fov_y=35.0, size=(320, 200))
+    orbit = OrbitCamera(home)
+    np.testing.assert_allclose(orbit.camera(home.size).position, home.position, atol=1e-12)
+    distance = np.linalg.norm(home.position - home.look_at)
+    orbit.orbit(100, 40)
+    assert np.linalg.norm(orbit.position - orbit.target) == pytest.approx(distance)
+    assert not np.allclose(orbit.position, home.position)
+    orbit.zoom(1)
+    assert orbit.distance == pytest.approx(0.9 * distance)
+    orbit.pan(10, 0, 200)
+    assert not np.allclose(orbit.target, home.look_at)
+    orbit.frame(np.array([[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]]))
+    np.testing.assert_allclose(orbit.target, 0.0, atol=1e-12)
+    orbit.reset()
+    np.testing.assert_allclose(orbit.position, home.position, atol=1e-12)
+    orbit.orbit(0, 10_000)  # never over the pole
+    assert orbit.pitch <= 89.0
+
+
+def test_parameter_controls_come_from_each_techniques_validation():
+    from caustica.techniques import get_technique
+    from caustica.viewer.params import param_specs
+
+    specs = {s.name: s for s in param_specs(get_technique("image-space"))}
+    assert specs["tir_mode"].kind == "choice" and set(specs["tir_mode"].choices) == {"keep-t1", "clamp", "reflect"}
+    assert specs["use_dn"].kind == "bool"
+    assert (specs["shadow_map_size"].low, specs["shadow_map_size"].high) == (16, 8192)
+    depth = {s.name: s for s in param_specs(get_technique("depth-search"))}
+    assert depth["search_steps"].kind == "int" and depth["search_steps"].clamp(99) == 16
+    assert depth["search_start"].kind == "float"
+
+
+def test_animated_presets_are_found_by_the_generic_hook():
+    from caustica.scene.presets import PRESETS
+    from caustica.viewer.app import animated_variant
+
+    assert animated_variant("glass-sphere") is None
+    if "caustics-pool" in PRESETS:
+        scene_at = animated_variant("caustics-pool")
+        assert scene_at is not None
+        a, b = scene_at(0.0), scene_at(0.5)
+        assert a.objects[0].mesh.content_hash() != b.objects[0].mesh.content_hash()
+
+
+def test_show_returns_an_image_without_widgets():
+    """``caustica.show``: a PIL image (displayed inline by Jupyter) when ipywidgets is absent or not asked for."""
+    image = caustica.show("glass-sphere", size=(64, 48), widgets=False)
+    assert image.size == (64, 48)
+    reference = caustica.Renderer((64, 48)).render(caustica.load_scene("glass-sphere"), "env-map")
+    assert np.abs(np.asarray(image, np.int16) - srgb8(reference)).max() <= 1
