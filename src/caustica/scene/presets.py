@@ -12,6 +12,7 @@ from .environment import Environment, procedural_environment, sky_checker
 from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
 from .mesh import Mesh, load_mesh
+from .presets_per_vertex import PER_VERTEX_PRESETS
 from .scene import Scene, SceneObject
 from .shapes import _heightfield, box, plane, ring, sphere, water_heightfield
 from .transform import Transform
@@ -322,6 +323,7 @@ PRESETS: dict[str, Callable[[], Scene]] = {
     "caustics-prism": caustics_prism,
     "caustics-two-lights": caustics_two_lights,
 }
+PRESETS.update(PER_VERTEX_PRESETS)  # mirrors and lenses of Kakimoto et al. (presets_per_vertex.py)
 
 
 def preset_names() -> list[str]:

@@ -1,0 +1,385 @@
+"""``per-vertex``: per-vertex reflection and refraction (Kakimoto, Tatsukawa, Chun, Nishita).
+
+"Real-time reflection and refraction on a per-vertex basis". For every mirror
+and lens in the scene, each frame:
+
+1. Rays per vertex (3.1 step 1): the eye ray mirrored about the vertex normal;
+   for glass, refracted at the front vertex and again where Embree finds the
+   back surface (4.5). Only the vertices of eye-facing lens faces issue rays.
+2. The exact nearest hit P of every ray with the scene, by Embree (3.1 step 3.1).
+3. The least-squares virtual viewpoint E and the view volume that holds every
+   reflected segment between its near and far planes (3.2, 3.3); the up vector
+   on a principal curvature direction for saddles and cylinders (4.3). A
+   reflector whose frustum field of view exceeds ``fov_threshold`` is split
+   into patches that share their boundary vertices, each with its own E (4.1).
+4. The reflection map: the scene without the reflector, rendered from E with
+   the off-axis frustum (ShadeSurfaces, the same shading as the eye view).
+   Hits between a concave mirror (or a convex lens) and E, the zooming region,
+   get a second map looking back at the reflector with the reversed depth test
+   (4.2, fig. 8-9). Mirrors inside a map are themselves rendered per vertex
+   from E down to ``depth`` levels (multiple reflection, 4.4); below that they
+   reflect the environment.
+5. The reflector drawn over the eye view with texture coordinates Q, the
+   projection of each exact hit into the map (3.4): exact at every vertex,
+   interpolated between them. A lens adds Fresnel reflection of the
+   environment at the front surface, weighs the map by the exit Fresnel
+   factor and Beer-Lambert absorption per vertex, and with one IOR per channel
+   (``ior_rgb``, or the glass's Abbe number) gives each channel its own
+   texture coordinates into one shared map (chromatic aberration, fig. 15).
+
+With ``cache`` the refraction vectors (step 1 for lenses) are reused while the
+lens stays fixed relative to the eye (section 5); the scene hits, viewpoint and
+texture coordinates are still recomputed every frame.
+
+Limits (the paper's): accurate at vertices only, so coarse meshes blur and bend
+the reflection between them; occlusion seen from E can differ from occlusion
+along a reflected ray (section 6, fig. 16; exact only for planar mirrors);
+objects between the reflector and the near plane are clipped; hits next to the
+converging point of a concave mirror or convex lens stretch the map; a lens
+shows only its twice-refracted ray (no internal reflections beyond TIR), and
+nothing seen through glass in a map is refracted twice.
+"""
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from ..passes.base import Channel, Frame, Pass, run_passes
+from ..passes.lights import ShadowMaps
+from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..per_vertex.patches import Patch, split_patches
+from ..per_vertex.rays import double_refraction, reflection_rays, trace_lines
+from ..per_vertex.viewpoint import UP_MODES, Lines, ViewVolume, fit_view_volume, principal_directions
+from ..raytrace.embree_scene import ray_scene_for
+from ..raytrace.optics import normalize
+from ..scene.scene import Scene
+from .env_map import ShadowedParams
+from .raster import RasterTechnique
+
+LAST_STATS: dict = {}  # the last frame's figures: per-vertex ms, ray-issuing vertices, patches, maps
+_LENS_CACHE: OrderedDict = OrderedDict()  # refraction vectors in eye space while a lens is fixed to the eye
+_SUBSCENES: OrderedDict = OrderedDict()  # scenes without one reflector (their ray scenes cache on them)
+_CACHE_SIZE = 32
+
+
+@dataclass
+class PerVertexParams(ShadowedParams):
+    """Parameters of ``per-vertex``; defaults follow Kakimoto et al."""
+
+    map_size: int = 512  # reflection map resolution (square)
+    depth: int = 1  # reflector levels rendered per vertex (4.4): 2 shows a mirror in a mirror
+    fov_threshold: float = 100.0  # split a reflector into patches while a frustum is wider (degrees, 4.1)
+    max_patches: int = 8  # at most this many patches per reflector
+    up: str = "auto"  # frustum up vector: 'principal' curvature direction (4.3), 'camera', or the smaller of both
+    zoom_region: bool = True  # reversed map for hits between a concave reflector and E (4.2)
+    ior_rgb: tuple | None = None  # lens IOR per channel (fig. 15: 1.60, 1.61, 1.62); None: the glass's
+    cache: bool = False  # keep refraction vectors while each lens is fixed relative to the eye (section 5)
+    lenses: bool = True  # glass objects refract per vertex (False: env-map shading)
+    max_interfaces: int = 4  # lens: interfaces followed inside (TIR reflects)
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name, low, high in (("map_size", 16, 8192), ("depth", 0, 8), ("max_patches", 1, 256),
+                                ("max_interfaces", 1, 32)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value or not low <= value <= high:
+                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+            setattr(self, name, int(value))
+        self.fov_threshold = float(self.fov_threshold)
+        if not 1.0 <= self.fov_threshold <= 179.0:
+            raise ValueError(f"fov_threshold {self.fov_threshold} must lie in [1, 179] degrees")
+        if self.up not in UP_MODES:
+            raise ValueError(f"up '{self.up}' must be one of {', '.join(UP_MODES)}")
+        for flag in ("zoom_region", "cache", "lenses"):
+            if not isinstance(getattr(self, flag), (bool, np.bool_)):
+                raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
+            setattr(self, flag, bool(getattr(self, flag)))
+        if self.ior_rgb is not None:
+            ior = np.asarray(self.ior_rgb, dtype=np.float64).reshape(-1)
+            if ior.size == 1:
+                ior = np.repeat(ior, 3)
+            if ior.shape != (3,) or not np.all(np.isfinite(ior) & (ior > 0)):
+                raise ValueError(f"ior_rgb {self.ior_rgb} must be three positive IORs (red, green, blue)")
+            self.ior_rgb = tuple(float(x) for x in ior)
+
+
+@dataclass
+class ViewpointCamera:
+    """The first-pass camera at a virtual viewpoint: what the passes read of a Camera."""
+
+    position: np.ndarray
+    size: tuple[int, int]
+    up: np.ndarray
+    _view: np.ndarray
+    _clip: np.ndarray
+
+    def view_from_world(self) -> np.ndarray:
+        return self._view
+
+    def clip_from_world(self) -> np.ndarray:
+        return self._clip
+
+
+@dataclass
+class Reflector:
+    """The per-vertex work for one mirror or lens: rays, exact hits, patches, texture coordinates."""
+
+    index: int  # in scene.objects
+    lens: bool
+    vertex_ids: np.ndarray  # (m,) ray-issuing vertices of the object's mesh
+    faces: np.ndarray  # (f, 3) faces to draw, indexing vertex_ids
+    channels: list[Lines]  # per colour channel (one for mirrors), per ray-issuing vertex
+    weight: np.ndarray  # (m, 3) mirror colour, or lens exit transmittance per channel
+    valid: np.ndarray  # (m,) the vertex has a usable ray
+    patches: list[Patch] = field(default_factory=list)
+    uv: list[np.ndarray] = field(default_factory=list)  # per patch: (3, k, 2)
+    zoom: list[np.ndarray] = field(default_factory=list)  # per patch: (k,) bool
+
+
+def reflector_kind(obj, params: PerVertexParams) -> str | None:
+    """'mirror', 'lens' or None (not rendered per vertex)."""
+    if obj.material.kind == "mirror":
+        return "mirror"
+    if obj.material.kind == "glass" and params.lenses:
+        return "lens"
+    return None
+
+
+def prepare_reflector(scene, index: int, eye, camera_up, ray_scene, params: PerVertexParams,
+                      eye_from_world: np.ndarray | None = None) -> Reflector:
+    """Steps 1-3 for ``scene.objects[index]``: rays, exact hits, patches, texture coordinates (CPU).
+
+    ``eye_from_world`` (the eye camera's view matrix) keys the lens cache of ``params.cache``.
+    """
+    obj = scene.objects[index]
+    lens = reflector_kind(obj, params) == "lens"
+    mesh = obj.world_mesh()
+    points, normals = mesh.vertices.astype(np.float64), normalize(mesh.normals.astype(np.float64))
+    faces = mesh.faces
+    if lens:
+        # Eye-facing faces only (counter-clockwise outside): their vertices issue rays.
+        a, b, c = (points[faces[:, k]] for k in range(3))
+        faces = faces[np.einsum("ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3.0 - eye) < 0]
+    vertex_ids, local = np.unique(faces, return_inverse=True)
+    faces_local = local.reshape(-1, 3)
+    p, n = points[vertex_ids], normals[vertex_ids]
+    if not lens:
+        origins, dirs = reflection_rays(eye, p, n)
+        lines, _ = trace_lines(ray_scene, origins, dirs)
+        channels, weight, valid = [lines], np.tile(obj.material.color, (len(p), 1)), np.ones(len(p), bool)
+    else:
+        channels, weight, valid = _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world)
+    reflector = Reflector(index, lens, vertex_ids, faces_local, channels, weight, valid)
+    _fit_patches(reflector, scene, p, n, eye, camera_up, params)
+    return reflector
+
+
+def _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world):
+    """Twice-refracted lines per channel (4.5), from the cache while the lens is fixed to the eye."""
+    ior_rgb = np.asarray(params.ior_rgb if params.ior_rgb is not None else obj.material.ior_rgb, dtype=np.float64)
+    key = None
+    if params.cache and eye_from_world is not None:
+        relative = np.round(eye_from_world @ obj.world_from_object(), 9)
+        key = (obj.mesh.content_hash(), relative.tobytes(), ior_rgb.tobytes(), params.max_interfaces)
+    cached = _LENS_CACHE.get(key) if key is not None else None
+    if cached is None:
+        refracted = {}
+        for ior in np.unique(ior_rgb):
+            refracted[ior] = double_refraction(ray_scene, index, eye, p, n, float(ior), params.max_interfaces)
+        if key is not None:
+            # Eye space, so that the cache holds while eye and lens move together.
+            rot, shift = eye_from_world[:3, :3], eye_from_world[:3, 3]
+            _LENS_CACHE[key] = {ior: (r.origins @ rot.T + shift, r.directions @ rot.T, r.transmittance,
+                                      r.path_length, r.valid) for ior, r in refracted.items()}
+            while len(_LENS_CACHE) > _CACHE_SIZE:
+                _LENS_CACHE.popitem(last=False)
+        rays = {ior: (r.origins, r.directions, r.transmittance, r.path_length, r.valid) for ior, r in refracted.items()}
+    else:
+        _LENS_CACHE.move_to_end(key)
+        world_from_eye = np.linalg.inv(eye_from_world)
+        rot, shift = world_from_eye[:3, :3], world_from_eye[:3, 3]
+        rays = {ior: (o @ rot.T + shift, d @ rot.T, t, length, ok) for ior, (o, d, t, length, ok) in cached.items()}
+    # Step 3.1 per distinct IOR: the exact hits of the exit rays.
+    traced = {ior: trace_lines(ray_scene, o, d)[0] for ior, (o, d, *_rest) in rays.items()}
+    channels = [traced[ior] for ior in ior_rgb]
+    sigma = obj.material.absorption_coefficient
+    weight = np.stack([rays[ior][2] * np.exp(-sigma[c] * rays[ior][3]) for c, ior in enumerate(ior_rgb)], axis=1)
+    valid = np.logical_and.reduce([rays[ior][4] for ior in ior_rgb])
+    return channels, np.where(valid[:, None], weight, 0.0), valid
+
+
+def _fit_patches(reflector: Reflector, scene, p, n, eye, camera_up, params) -> None:
+    """Viewpoints, view volumes and patches (3.2, 3.3, 4.1, 4.3), then texture coordinates (3.4)."""
+    green = reflector.channels[min(1, len(reflector.channels) - 1)]
+    bounds = scene.bounds()
+    principal = principal_directions(p, n, eye - p.mean(axis=0))[0] if len(p) >= 3 else np.zeros((2, 3))
+    camera_up = np.asarray(camera_up, dtype=np.float64)
+    up, extra = {"principal": (principal[0], ()), "camera": (camera_up, ()),
+                 "auto": (principal[0], (camera_up,))}[params.up]  # the other principal direction: the same box turned
+    distinct = [reflector.channels[0]] if len(reflector.channels) == 1 else reflector.channels
+
+    def fit(vertices: np.ndarray) -> ViewVolume:
+        vertices = vertices[reflector.valid[vertices]]
+        if len(vertices) == 0:
+            vertices = np.arange(len(p))
+        lines = [ch.subset(vertices) for ch in distinct]
+        merged = Lines(*(np.concatenate([getattr(x, name) for x in lines]) for name in ("origins", "directions", "distance")))
+        return fit_view_volume(merged, p[vertices], bounds, up, extra, viewpoint_lines=green.subset(vertices))
+
+    directions = green.directions
+    reflector.patches = split_patches(reflector.faces, directions, fit, params.fov_threshold, params.max_patches)
+    for patch in reflector.patches:
+        coords = [patch.volume.texture_coordinates(ch.subset(patch.vertices)) for ch in reflector.channels]
+        uv = np.stack([c[0] for c in coords])
+        reflector.uv.append(uv if len(uv) == 3 else np.repeat(uv, 3, axis=0))
+        reflector.zoom.append(coords[min(1, len(coords) - 1)][1])
+
+
+class PerVertexReflectors(Pass):
+    """Mirrors and lenses per vertex: exact hits, virtual viewpoints, reflection maps, warped textures."""
+
+    reads = ("color", "exit_direction", "depth", "light_samples", "shadow_maps")
+    writes = (Channel("color", "rgba32f", "linear radiance seen by the camera, reflectors warped per vertex"),)
+
+    def __init__(self, params: PerVertexParams, depth: int):
+        self.params = params
+        self.depth = depth
+
+    def run(self, frame: Frame) -> None:
+        params, scene = self.params, frame.scene
+        targets = [i for i, obj in enumerate(scene.objects) if reflector_kind(obj, params)]
+        if self.depth <= 0 or not targets:
+            frame.write("color", frame.read("color"))
+            return
+        eye = np.asarray(frame.camera.position, dtype=np.float64)
+        ray_scene = ray_scene_for(scene)
+        start = time.perf_counter()
+        eye_from_world = frame.camera.view_from_world()
+        reflectors = [prepare_reflector(scene, i, eye, frame.camera.up, ray_scene, params, eye_from_world)
+                      for i in targets]
+        cpu_ms = (time.perf_counter() - start) * 1000.0
+        # First pass: one map (two with a zooming region) per patch, the reflector left out.
+        start = time.perf_counter()
+        maps = []
+        for reflector in reflectors:
+            subscene = scene_without(scene, reflector.index)
+            maps.append([self._maps(frame, subscene, patch.volume, zoom.any())
+                         for patch, zoom in zip(reflector.patches, reflector.zoom)])
+        map_ms = (time.perf_counter() - start) * 1000.0
+        # Second pass: the reflectors over the eye view.
+        for reflector, patch_maps in zip(reflectors, maps):
+            for k, (forward, backward) in enumerate(patch_maps):
+                _draw_patch(frame, reflector, k, forward, backward, self.params)
+                for texture in (forward, backward):
+                    if texture is not None:
+                        frame.gpu.targets.give_back(texture)
+        if self.depth == self.params.depth:
+            LAST_STATS.clear()
+            LAST_STATS.update(per_vertex_ms=cpu_ms, map_ms=map_ms, reflectors=reflectors,
+                              ray_vertices=int(sum(len(r.vertex_ids) for r in reflectors)),
+                              patches=int(sum(len(r.patches) for r in reflectors)))
+        frame.write("color", frame.read("color"))
+
+    def _maps(self, frame: Frame, subscene: Scene, volume: ViewVolume, zoom: bool):
+        """The forward reflection map and, for a zooming region, the reversed one."""
+        forward = render_map(frame, subscene, volume, self.params, self.depth - 1, reverse=False)
+        backward = None
+        if zoom and self.params.zoom_region and volume.has_zoom:
+            backward = render_map(frame, subscene, volume, self.params, 0, reverse=True)
+        return forward, backward
+
+
+def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVertexParams, depth: int,
+               reverse: bool = False):
+    """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map (bilinear, clamped)."""
+    view = volume.view_from_world
+    camera = ViewpointCamera(volume.position, (params.map_size, params.map_size), view[1, :3].copy(), view,
+                             volume.clip_from_world(reverse))
+    sub = Frame(frame.gpu, subscene, camera, params,
+                channels={"light_samples": frame.read("light_samples"), "shadow_maps": frame.read("shadow_maps")})
+    passes = [RefractorSurfaces("back", "farthest"), ShadeSurfaces()]
+    if depth > 0:
+        passes.append(PerVertexReflectors(params, depth))
+    run_passes(passes, sub)
+    color = sub.read("color")
+    for name, texture in sub.channels.items():
+        if name != "color" and frame.gpu.targets.is_lent(texture):
+            frame.gpu.targets.give_back(texture)
+    color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    color.repeat_x = color.repeat_y = False
+    return color
+
+
+def scene_without(scene: Scene, index: int) -> Scene:
+    """``scene`` less one object (cached, so that its Embree scene is built once)."""
+    objects = [o for i, o in enumerate(scene.objects) if i != index]
+    key = (tuple(id(o) for o in objects), tuple(id(light) for light in scene.lights), id(scene.environment),
+           scene.intensity_scale)
+    sub = _SUBSCENES.get(key)
+    if sub is None:
+        sub = Scene(camera=scene.camera, objects=objects, lights=scene.lights, environment=scene.environment,
+                    intensity_scale=scene.intensity_scale, name=f"{scene.name}-without-{index}")
+        _SUBSCENES[key] = sub
+        while len(_SUBSCENES) > _CACHE_SIZE:
+            _SUBSCENES.popitem(last=False)
+    return sub
+
+
+def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, params: PerVertexParams) -> None:
+    """Draw one patch over the eye view with its texture coordinates, depth-tested against it."""
+    gpu, ctx = frame.gpu, frame.gpu.ctx
+    patch = reflector.patches[k]
+    obj = frame.scene.objects[reflector.index]
+    ids = reflector.vertex_ids[patch.vertices]
+    uv, zoom = reflector.uv[k], reflector.zoom[k]
+    data = np.hstack([obj.mesh.vertices[ids], obj.mesh.normals[ids], uv[0], uv[1], uv[2],
+                      zoom[:, None].astype(np.float64), reflector.weight[patch.vertices]]).astype("f4")
+    remap = np.full(len(reflector.vertex_ids), -1, np.int64)
+    remap[patch.vertices] = np.arange(len(patch.vertices))
+    indices = remap[patch.faces].astype("i4")
+    program = gpu.shaders.program("passes/per_vertex_surface.vert", "passes/per_vertex_surface.frag")
+    vbo, ibo = ctx.buffer(data.tobytes()), ctx.buffer(indices.tobytes())
+    vao = ctx.vertex_array(program, [(vbo, "3f 3f 2f 2f 2f 1f 3f", "in_position", "in_normal", "in_uv_r",
+                                      "in_uv_g", "in_uv_b", "in_zoom", "in_weight")], ibo, index_element_size=4)
+    fbo = gpu.targets.framebuffer([frame.read("color"), frame.read("exit_direction")], frame.read("depth"))
+    fbo.use()
+    gpu.environment_texture(frame.scene.environment).use(0)
+    forward.use(1)
+    (backward or forward).use(2)
+    m = obj.world_from_object()
+    for name, value in (("environment", 0), ("reflection_map", 1), ("zoom_map", 2), ("has_zoom", int(backward is not None)),
+                        ("lens", int(reflector.lens)), ("intensity_scale", float(frame.scene.intensity_scale))):
+        set_uniform(program, name, value)
+    set_uniform(program, "world_from_object", m)
+    set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+    set_uniform(program, "clip_from_world", frame.camera.clip_from_world())
+    set_uniform(program, "camera_position", np.asarray(frame.camera.position, dtype="f4"))
+    ior = params.ior_rgb if params.ior_rgb is not None else getattr(obj.material, "ior_rgb", np.ones(3))
+    set_uniform(program, "ior_rgb", np.asarray(ior, dtype="f4"))
+    ctx.enable(moderngl.DEPTH_TEST)
+    ctx.depth_func = "<="
+    ctx.polygon_offset = (-1.0, -1.0)
+    if reflector.lens:
+        ctx.enable(moderngl.CULL_FACE)
+        ctx.front_face, ctx.cull_face = "ccw", "back"
+    vao.render()
+    ctx.disable(moderngl.CULL_FACE)
+    ctx.polygon_offset = (0.0, 0.0)
+    ctx.depth_func = "<"
+    for resource in (vao, vbo, ibo):
+        resource.release()
+
+
+class PerVertex(RasterTechnique):
+    name = "per-vertex"
+    summary = "Mirrors and lenses exact at every vertex: least-squares viewpoint, warped reflection map (Kakimoto)"
+    Params = PerVertexParams
+
+    def build_passes(self, params):
+        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces(),
+                PerVertexReflectors(params, params.depth)]
