@@ -139,6 +139,21 @@ float estimate_distance(sampler2D tex, int v, vec3 o, vec3 r, float d, int itera
     return d;
 }
 
+// Where a photon leaving o along r lands on the surface of view v's position texture `tex` (w = 1; w = 0:
+// lost): estimate_distance from the first guess d0, or where d0 <= 0 from the distance to the surface seen
+// through o (`fallback` where none); the hit must lie ahead of o.
+vec4 land_photon(sampler2D tex, int v, vec3 o, vec3 r, float d0, float fallback, int iterations, int estimator) {
+    if (d0 <= 0.0) {
+        vec4 s = surface_through(tex, v, o);
+        d0 = s.a > 0.0 ? max(length(s.xyz - o), 1e-4) : fallback;
+    }
+    float d = estimate_distance(tex, v, o, r, d0, iterations, estimator);
+    if (d < 0.0) return vec4(0.0);
+    vec4 hit = surface_through(tex, v, o + d * r);
+    if (hit.a <= 0.0 || dot(hit.xyz - o, r) <= 0.0) return vec4(0.0);
+    return vec4(hit.xyz, 1.0);
+}
+
 // Gaussian splat kernel over texel centres within `radius` texels of the photon at pixel c
 // (sigma = radius / 2), normalised so one photon deposits exactly its flux.
 float splat_kernel(vec2 c, vec2 texel_centre, float radius) {

@@ -43,15 +43,9 @@ uniform float fallback_distance;  // initial guess where no receiver lies behind
 
 // Land a photon leaving o along r on the receivers; returns the landing point (w = 0: lost).
 vec4 land(vec3 o, vec3 r, int index) {
-    vec4 s = surface_through(receiver_position, 1, o);
-    float d0 = s.a > 0.0 ? max(length(s.xyz - o), 1e-4) : fallback_distance;
-    if (has_initial != 0 && initial[index].position.w > 0.0) d0 = max(dot(initial[index].position.xyz - o, r), 1e-4);
-    float d = estimate_distance(receiver_position, 1, o, r, d0, iterations, estimator);
-    if (d < 0.0) return vec4(0.0);
-    vec4 hit = surface_through(receiver_position, 1, o + d * r);
-    // The hit must lie ahead of the origin.
-    if (hit.a <= 0.0 || dot(hit.xyz - o, r) <= 0.0) return vec4(0.0);
-    return vec4(hit.xyz, 1.0);
+    float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o, r), 1e-4)
+                                                                    : 0.0;
+    return land_photon(receiver_position, 1, o, r, d0, fallback_distance, iterations, estimator);
 }
 
 // Signed distance of p past the back faces along the light (a miss, outside the silhouette, counts as past).
