@@ -114,6 +114,14 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", help="write the figures as JSON here")
     bench.add_argument("--plot", help="write ms-vs-resolution and error-vs-time plots (PNG) here")
 
+    pre = sub.add_parser("precompute", help="light transport table of a glass mesh (Iwasaki et al.), quantized, to .npz")
+    pre.add_argument("mesh", help="a mesh file (.obj, .ply, .stl, .glb, .gltf, .off), in object space")
+    pre.add_argument("--ior", type=float, required=True, help="index of refraction of the glass (e.g. 1.5)")
+    pre.add_argument("-o", "--output", required=True, help="output table, .npz")
+    pre.add_argument("--directions", type=int, default=129, help="sampled incident directions, 2 r^2 + 1 (default 129)")
+    pre.add_argument("--max-depth", type=int, default=8, help="glass interfaces followed per ray (default 8)")
+    pre.add_argument("--quiet", action="store_true", help="no progress bar")
+
     sub.add_parser("techniques", help="list the techniques")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
@@ -287,6 +295,32 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_precompute(args) -> int:
+    from .scene.mesh import load_mesh
+    from .transport.compress import quantization_errors, quantize, save_table
+    from .transport.precompute import DirectionGrid, precompute_table
+
+    output = _check_output(args.output, (".npz",))
+    if not args.ior > 0:
+        raise CausticaError(f"--ior {args.ior} must be positive (glass is about 1.5, water 1.33)")
+    if not 1 <= args.max_depth <= 64:
+        raise CausticaError(f"--max-depth {args.max_depth} must lie in [1, 64]")
+    try:
+        DirectionGrid.of_count(args.directions)
+    except ValueError as exc:
+        raise CausticaError(f"--directions: {exc}") from None
+    mesh = load_mesh(args.mesh)
+    table = precompute_table(mesh, args.ior, args.directions, args.max_depth, progress=not args.quiet)
+    q = quantize(table)
+    save_table(output, q)
+    e = quantization_errors(table, q)
+    print(f"wrote {output}: {table.vertex_count} vertices x {table.grid.count} directions in "
+          f"{table.stats['seconds']:.1f} s; {e['raw_bytes'] / 1e6:.1f} MB raw, {e['quantized_bytes'] / 1e6:.1f} MB quantized "
+          f"({e['size_ratio_percent']:.0f}%, {e['bytes_per_sample']:.0f} B/sample), file {output.stat().st_size / 1e6:.1f} MB; "
+          f"max error position {e['position_error_percent']:.4f}%, direction {e['direction_error_percent']:.4f}%")
+    return 0
+
+
 def cmd_techniques(args) -> int:
     from .techniques import get_technique, technique_names
 
@@ -319,7 +353,8 @@ def cmd_info(args) -> int:
     return 0
 
 
-COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
+COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
+            "precompute": cmd_precompute, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -13,6 +13,7 @@ from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
 from .mesh import Mesh, load_mesh
 from .presets_per_vertex import PER_VERTEX_PRESETS
+from .presets_transport import TRANSPORT_PRESETS
 from .scene import Scene, SceneObject
 from .shapes import _heightfield, box, plane, ring, sphere, water_heightfield
 from .transform import Transform
@@ -324,6 +325,7 @@ PRESETS: dict[str, Callable[[], Scene]] = {
     "caustics-two-lights": caustics_two_lights,
 }
 PRESETS.update(PER_VERTEX_PRESETS)  # mirrors and lenses of Kakimoto et al. (presets_per_vertex.py)
+PRESETS.update(TRANSPORT_PRESETS)  # the light transport table of Iwasaki et al. (presets_transport.py)
 
 
 def preset_names() -> list[str]:

@@ -1,0 +1,145 @@
+"""``transport-table``: refractive caustics from a precomputed light transport table (Iwasaki et al.).
+
+Iwasaki, Yoshimoto, Dobashi and Nishita, "A Method for Fast Rendering of
+Caustics from Refraction by Transparent Objects" (IEICE 2005). Once per mesh
+and IOR (section 4, ``caustica.transport.precompute``; cached on disk, keyed
+by mesh hash, IOR, direction count and depth, quantized as in section 6) the
+table records, per vertex and sampled incident direction, where the light
+leaves the object, along which direction, with which Fresnel transmittance.
+Every frame the object may move rigidly and the lights change freely:
+
+1. :class:`TransportPhotons`: per glass object and light sample (directional,
+   point, spot; line lights as N points), the table lookup at every vertex
+   (four nearest samples, bilinear positions and transmittance, slerped
+   directions; 5.1), the illumination volumes of the lit triangles with the
+   flux ratio of eq. (2), accumulated directly on the receiver surfaces as
+   photons (``caustica.transport.runtime``).
+2. The shared caustic-map path (``passes/light_space.py``): a caustic view
+   fitted around the photons, the receivers' positions from the light, the
+   splat (float atomics or point sprites) and the resolve into irradiance.
+
+The maps are rebuilt only when lights, objects or materials change. As a
+caustic technique it composes with any view technique
+(``depth-search+transport-table``; alone it uses depth-search); the view
+refraction through the same table (5.3) is the view technique
+``transport-table-view``.
+
+Differs from the paper: caustics land on the receiver surfaces (exact
+intersection of the volumes' edge rays with Embree) instead of on sample
+planes with sliced object images (5.2), so any receiver shape works. Limits:
+see ``caustica.transport.runtime``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..passes.base import Channel, Frame, Pass
+from ..passes.light_space import (
+    PHOTON_BYTES,
+    CachedPasses,
+    FitCausticViews,
+    LightSurfaces,
+    Photons,
+    ResolveCausticMaps,
+    SplatPhotons,
+)
+from ..transport.precompute import DirectionGrid
+from .composite import CausticTechnique
+from .env_map import ShadowedParams
+
+
+@dataclass
+class TransportTableParams(ShadowedParams):
+    """Parameters of ``transport-table`` (Iwasaki et al.)."""
+
+    map_size: int = 512  # caustic-map texels a side (per cube face)
+    directions: int = 129  # sampled incident directions per vertex (2 r^2 + 1; the paper: 129)
+    max_depth: int = 8  # glass interfaces followed in the precompute (internal reflections included)
+    quantized: bool = True  # use the 12-byte-a-sample table of section 6 (False: the float table, not cached)
+    photon_budget: int = 1 << 18  # photons spread over the illumination volumes' footprints, per light sample
+    splat: str = "auto"  # 'compute' (float atomics), 'points' (additive point sprites) or 'auto'
+    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels
+    point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube'
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name, (low, high) in _INTEGER_RANGES.items():
+            value = getattr(self, name)
+            if int(value) != value or not low <= value <= high:
+                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+            setattr(self, name, int(value))
+        DirectionGrid.of_count(self.directions)
+        for name, options in _CHOICES.items():
+            if getattr(self, name) not in options:
+                raise ValueError(f"{name} '{getattr(self, name)}' must be one of {', '.join(options)}")
+        if not 0.75 <= float(self.splat_radius) <= 8.0:
+            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
+        self.splat_radius, self.quantized = float(self.splat_radius), bool(self.quantized)
+
+
+_INTEGER_RANGES = {"map_size": (16, 4096), "directions": (3, 100000), "max_depth": (1, 64), "photon_budget": (1, 1 << 24)}
+_CHOICES = {"splat": ("auto", "compute", "points"), "point_map": ("frustum", "cube")}
+
+
+def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
+    """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays)."""
+    from ..transport.runtime import caustic_photons, exit_rays, receiver_scene, table_for
+
+    glass = [o for o in scene.objects if o.material.kind == "glass"]
+    receivers = [o for o in scene.objects if o.material.kind == "diffuse"]
+    if not glass or not receivers:
+        return np.zeros((0, 3)), np.zeros((0, 3)), {}
+    ray_scene = receiver_scene(receivers)
+    positions, fluxes, stats = [], [], {}
+    budget = max(1, params.photon_budget // len(glass))
+    for obj in glass:
+        table = table_for(obj.mesh, obj.material.ior, params.directions, params.max_depth, params.quantized, progress)
+        rays = exit_rays(obj, table, sample)
+        photons = caustic_photons(rays, obj.mesh.faces, ray_scene, budget)
+        positions.append(photons.position[photons.landed])
+        fluxes.append(photons.flux[photons.landed])
+        stats[obj.name] = photons.stats
+    return np.concatenate(positions), np.concatenate(fluxes), stats
+
+
+class TransportPhotons(Pass):
+    """Table lookup, illumination volumes and photons on the receivers, per light sample (Iwasaki et al. 5.1)."""
+
+    reads = ("light_samples",)
+    writes = (Channel("photons", "list", "per light: Photons (landing point, flux) or None"),)
+
+    def __init__(self, params: TransportTableParams):
+        self.params = params
+
+    def run(self, frame: Frame) -> None:
+        out = []
+        for sample in frame.read("light_samples"):
+            position, flux, stats = scene_photons(frame.scene, sample, self.params)
+            if len(position) == 0:
+                out.append(None)
+                continue
+            data = np.zeros((len(position), 8), "f4")
+            data[:, :3], data[:, 3], data[:, 4:7] = position, 1.0, flux
+            buffer = frame.gpu.ctx.buffer(data.tobytes())
+            assert data.itemsize * 8 == PHOTON_BYTES
+            out.append(Photons(buffer, len(position), stats))
+        frame.write("photons", out)
+
+
+class TransportTable(CausticTechnique):
+    name = "transport-table"
+    summary = "Caustics from a precomputed per-vertex light transport table, illumination volumes (Iwasaki et al.)"
+    Params = TransportTableParams
+
+    def caustic_passes(self, params):
+        p = params
+        inner = [
+            TransportPhotons(p),
+            FitCausticViews("photons", p.map_size, margin_texels=p.splat_radius + 2.0, point_map=p.point_map),
+            LightSurfaces("caustic_views", "receivers"),
+            SplatPhotons("photons", mode=p.splat, radius=p.splat_radius),
+            ResolveCausticMaps("receivers"),
+        ]
+        return [CachedPasses("transport-table", tuple(sorted(vars(p).items())), inner)]

@@ -1,0 +1,277 @@
+"""Run time of the light transport table (Iwasaki et al., section 5): refracted rays and caustic photons.
+
+Per glass object and light sample (``passes/lights.py``: directional, point,
+spot; a line light is N point samples):
+
+1. Lookup (5.1): the light's incident direction at every vertex, in the
+   object's frame (the object moves rigidly: rotation, translation, uniform
+   scale), in the vertex's tangent frame gives (elevation, azimuth); the four
+   nearest sampled directions are the corners of its cell in the
+   (ring, azimuth) grid; exit position and transmittance are interpolated
+   bilinearly, the exit direction by spherical linear interpolation (the slerp
+   of the rotations that carry one direction to the next, along azimuth then
+   elevation). Self-occluded samples (concave objects) weigh 0.
+2. Illumination volumes (5.1, eq. 2): each lit triangle of the object
+   (geometric normal towards the light) receives the flux E S, E the
+   irradiance perpendicular to the light at its centroid and S its area
+   projected along the light; the three refracted rays of its vertices sweep an
+   illumination volume that carries E S times the mean transmittance (and
+   Beer-Lambert absorption over |x_out - P_i|) to where it meets a receiver,
+   so that the caustic intensity there is E S F_t / S_p (eq. 2).
+3. Accumulation on the receivers (the caustic-map path): the vertex rays are
+   intersected with the diffuse receivers exactly (Embree). Where a volume's
+   three rays land on one plane, the landed triangle *is* the intersection
+   S_p: photons at the centroids of an m x m subdivision of it carry E S F_t /
+   m^2 each (uniform intensity over S_p, eq. 2). Other volumes (over an edge,
+   partly missing, on curved receivers) send their m^2 sub-rays (barycentric
+   blends of the vertex rays) to the receivers individually. m^2 is the
+   volume's share of ``photon_budget``: half shared by S_p (a uniform cover
+   of the receivers), half by flux (bright volumes get several photons). The shared splat + resolve passes
+   (``passes/light_space.py``) turn the photons into caustic maps.
+
+Limits: only the refracted branch (Fresnel-reflected light is not splatted,
+as in the paper); light blocked between the light and the glass by other
+objects, and light refracted by two glass objects in a row, are ignored; one
+IOR per object (no dispersion); the absorption length is the straight
+distance from P_i to x_out (exact for two interfaces, short for internal
+reflections).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cache import atomic_write_bytes, cache_dir
+from ..raytrace.embree_scene import RayScene
+from ..raytrace.optics import dot, normalize
+from .compress import TransportTableError, dequantize, load_table, quantize, table_bytes
+from .precompute import DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, precompute_table, tangent_frames
+
+LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT = 0, 1, 2  # as passes/lights.py
+MAX_SUBDIVISION = 256
+_TABLES: dict[tuple, TransportTable] = {}
+
+
+# Tables -----------------------------------------------------------------------
+
+
+def table_key(mesh, ior: float, directions: int, max_depth: int) -> tuple:
+    return (mesh.geometry_hash(), round(float(ior), 9), int(directions), int(max_depth), TABLE_VERSION)
+
+
+def table_for(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH,
+              quantized: bool = True, progress: bool = True) -> TransportTable:
+    """The (dequantized) transport table of ``mesh`` as glass of index ``ior``: from memory, the disk cache,
+    or precomputed now (then cached under ``cache_dir('transport')``, keyed by mesh hash, IOR, sample count,
+    depth and format version). ``quantized=False`` keeps the float table (memory only)."""
+    key = table_key(mesh, ior, directions, max_depth) + (bool(quantized),)
+    table = _TABLES.get(key)
+    if table is not None:
+        return table
+    if not quantized:
+        table = precompute_table(mesh, ior, directions, max_depth, progress=progress)
+    else:
+        path = cache_dir("transport") / f"{mesh.geometry_hash()}-ior{float(ior):.6f}-d{directions}-k{max_depth}-v{TABLE_VERSION}.npz"
+        try:
+            table = dequantize(load_table(path, mesh.geometry_hash(), ior, directions))
+        except TransportTableError:
+            q = quantize(precompute_table(mesh, ior, directions, max_depth, progress=progress))
+            try:
+                atomic_write_bytes(path, table_bytes(q))
+            except OSError:
+                pass  # an unwritable cache only costs a recompute
+            table = dequantize(q)
+    if len(table.exit_position) != len(mesh.vertices):
+        raise TransportTableError(f"transport table has {len(table.exit_position)} vertices, the mesh {len(mesh.vertices)}")
+    _TABLES[key] = table
+    while len(_TABLES) > 8:
+        _TABLES.pop(next(iter(_TABLES)))
+    return table
+
+
+# Lookup (5.1) -----------------------------------------------------------------
+
+
+@dataclass
+class Lookup:
+    exit_position: np.ndarray  # (V, 3)
+    exit_direction: np.ndarray  # (V, 3) unit
+    transmittance: np.ndarray  # (V,) F_t times the unoccluded weight; 0 below the vertex's horizon
+    lit: np.ndarray  # (V,) bool: the incident direction is above the vertex's tangent plane
+
+
+def slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Spherical linear interpolation of unit vectors (N, 3) (the rotation quaternions' slerp applied)."""
+    cos = np.clip(dot(a, b), -1.0, 1.0)
+    angle = np.arccos(cos)
+    sin = np.sin(angle)
+    small = sin < 1e-6
+    safe = np.where(small, 1.0, sin)
+    wa = np.where(small, 1.0 - t, np.sin((1.0 - t) * angle) / safe)
+    wb = np.where(small, t, np.sin(t * angle) / safe)
+    return normalize(wa[:, None] * a + wb[:, None] * b)
+
+
+def lookup(table: TransportTable, frames: np.ndarray, incident: np.ndarray, vertices: np.ndarray | None = None) -> Lookup:
+    """Interpolate the table for per-vertex incident directions (V, 3) (object space, towards the light).
+
+    ``frames`` are the vertices' :func:`tangent_frames`; ``vertices`` (indices)
+    picks table rows when only some vertices are looked up.
+    """
+    grid = table.grid
+    rows = np.arange(len(incident)) if vertices is None else np.asarray(vertices)
+    local = np.einsum("vij,vj->vi", frames, normalize(incident))
+    lit = local[:, 2] > 0.0
+    # The cell of the (ring, azimuth) grid around the direction.
+    ring = np.arccos(np.clip(local[:, 2], 0.0, 1.0)) / (0.5 * np.pi) * grid.rings
+    k0 = np.minimum(np.floor(ring), grid.rings - 1).astype(np.int64)
+    fr = ring - k0
+    az = np.mod(np.arctan2(local[:, 1], local[:, 0]), 2.0 * np.pi) / (2.0 * np.pi) * grid.azimuths
+    j0 = np.floor(az).astype(np.int64)
+    fa = az - j0
+    corners = [grid.index(k0 + dk, j0 + dj) for dk in (0, 1) for dj in (0, 1)]
+    weights = [(1 - fr) * (1 - fa), (1 - fr) * fa, fr * (1 - fa), fr * fa]
+    # Bilinear position and transmittance; slerp of directions along azimuth, then elevation.
+    position = sum(w[:, None] * table.exit_position[rows, c] for w, c in zip(weights, corners))
+    open_t = table.transmittance * ~table.occluded
+    transmittance = np.where(lit, sum(w * open_t[rows, c] for w, c in zip(weights, corners)), 0.0)
+    d = [table.exit_direction[rows, c].astype(np.float64) for c in corners]
+    direction = slerp(slerp(d[0], d[1], fa), slerp(d[2], d[3], fa), fr)
+    return Lookup(position, direction, transmittance, lit)
+
+
+# Photons (5.1 - 5.2 on the receivers) ----------------------------------------
+
+
+def _incident(sample, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions towards the light (N, 3) and the irradiance perpendicular to it (N, 3) at world points."""
+    if sample.type == LIGHT_DIRECTIONAL:
+        direction = np.broadcast_to(-np.asarray(sample.direction, np.float64), points.shape).copy()
+        return direction, np.broadcast_to(np.asarray(sample.intensity, np.float64), points.shape).copy()
+    offset = np.asarray(sample.position, np.float64) - points
+    r2 = np.maximum(dot(offset, offset), 1e-30)
+    direction = offset / np.sqrt(r2)[:, None]
+    falloff = 1.0 / r2
+    if sample.type == LIGHT_SPOT:
+        cos_in, cos_out = sample.cone_cos
+        c = dot(-direction, np.broadcast_to(np.asarray(sample.direction, np.float64), direction.shape))
+        t = np.clip((c - cos_out) / max(cos_in - cos_out, 1e-9), 0.0, 1.0)
+        falloff = falloff * t * t * (3.0 - 2.0 * t)
+    return direction, falloff[:, None] * np.asarray(sample.intensity, np.float64)
+
+
+@dataclass
+class ExitRays:
+    """One glass object's refracted vertex rays in world space for one light sample."""
+
+    origin: np.ndarray  # (V, 3)
+    direction: np.ndarray  # (V, 3)
+    weight: np.ndarray  # (V, 3) F_t times Beer-Lambert absorption, per channel
+    face_flux: np.ndarray  # (F, 3) E S entering each lit face (0 for unlit ones)
+
+
+def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
+    """Look the table up for ``obj`` (rigid transform) lit by ``sample`` (section 5.1)."""
+    mesh = obj.mesh
+    m = np.asarray(obj.world_from_object(), dtype=np.float64)
+    a, t = m[:3, :3], m[:3, 3]
+    world = mesh.vertices.astype(np.float64) @ a.T + t
+    towards, _ = _incident(sample, world)
+    found = lookup(table, _frames(mesh), towards @ np.linalg.inv(a).T)
+    origin = found.exit_position.astype(np.float64) @ a.T + t
+    direction = normalize(found.exit_direction @ a.T)
+    sigma = np.asarray(getattr(obj.material, "absorption_coefficient", np.zeros(3)), np.float64)
+    inside = np.linalg.norm(origin - world, axis=1)
+    weight = found.transmittance[:, None] * np.exp(-sigma[None] * inside[:, None])
+    # Flux E S into each lit face (S: its area projected along the light).
+    tri = world[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    light_dir, irradiance = _incident(sample, tri.mean(axis=1))
+    projected = np.maximum(0.5 * dot(cross, light_dir), 0.0)  # area * cos, 0 for faces turned away
+    return ExitRays(origin, direction, weight, irradiance * projected[:, None])
+
+
+_FRAMES: dict[str, np.ndarray] = {}
+
+
+def _frames(mesh) -> np.ndarray:
+    key = mesh.geometry_hash()
+    if key not in _FRAMES:
+        _FRAMES[key] = tangent_frames(mesh.normals)
+    return _FRAMES[key]
+
+
+def subdivision_barycentrics(m: int) -> np.ndarray:
+    """(m^2, 3) barycentric centroids of the m x m subdivision of a triangle (equal areas)."""
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    up = (i + j) <= m - 1
+    down = (i + j) <= m - 2
+    u = np.concatenate([(i[up] + 1 / 3) / m, (i[down] + 2 / 3) / m])
+    v = np.concatenate([(j[up] + 1 / 3) / m, (j[down] + 2 / 3) / m])
+    return np.stack([1.0 - u - v, u, v], axis=1)
+
+
+@dataclass
+class PhotonSet:
+    position: np.ndarray  # (N, 3) where photons landed on receivers
+    flux: np.ndarray  # (N, 3) W
+    landed: np.ndarray  # (N,) bool
+    stats: dict
+
+
+def receiver_scene(receivers) -> RayScene:
+    return RayScene.from_meshes([o.world_mesh() for o in receivers])
+
+
+def caustic_photons(rays: ExitRays, faces: np.ndarray, receivers: RayScene, budget: int, plane_cos: float = 0.9999) -> PhotonSet:
+    """Photons on the receivers from one object's illumination volumes (eq. 2; see the module docstring)."""
+    face_weight = rays.weight[faces].mean(axis=1)  # (F, 3) mean transmittance of the three rays
+    flux = rays.face_flux * face_weight
+    lit = flux.max(axis=1) > 0
+    faces, flux = faces[lit], flux[lit]
+    empty = PhotonSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, bool), {"faces": 0, "planar": 0})
+    if len(faces) == 0:
+        return empty
+    # Land the vertex rays of the lit faces exactly.
+    used = np.unique(faces)
+    hits = receivers.intersect(rays.origin[used], rays.direction[used])
+    slot = np.full(len(rays.origin), -1)
+    slot[used] = np.arange(len(used))
+    f = slot[faces]
+    landed = hits.position[f]  # (F, 3, 3)
+    all_hit = hits.hit[f].all(axis=1)
+    same = (hits.object_index[f] == hits.object_index[f][:, :1]).all(axis=1)
+    n = hits.geometric_normal[f]
+    coplanar = (dot(n[:, 1], n[:, 0]) > plane_cos) & (dot(n[:, 2], n[:, 0]) > plane_cos)
+    planar = all_hit & same & coplanar
+    # Photon count per volume: half the budget by S_p (uniform cover of the receivers), half by flux
+    # (every bright volume gets several photons).
+    span = np.where(all_hit, 0.5 * np.linalg.norm(np.cross(landed[:, 1] - landed[:, 0], landed[:, 2] - landed[:, 0]), axis=1), 0.0)
+    span = np.where(all_hit, span, np.nanmax(np.append(span, 0.0)))  # spread-out volumes get many sub-rays
+    power = flux.sum(axis=1)
+    share = 0.5 * budget * (span / max(float(span.sum()), 1e-30) + power / max(float(power.sum()), 1e-30))
+    sub = np.clip(np.ceil(np.sqrt(share)), 1, MAX_SUBDIVISION).astype(np.int64)
+    positions, fluxes, landed_mask = [], [], []
+    for m in np.unique(sub):
+        pick = sub == m
+        bary = subdivision_barycentrics(int(m))  # (m^2, 3)
+        on_plane = planar[pick]
+        # Planar volumes: the landed triangle is S_p; photons at its sub-centroids.
+        p_plane = np.einsum("kc,fcx->fkx", bary, landed[pick][on_plane]).reshape(-1, 3)
+        positions.append(p_plane)
+        fluxes.append(np.repeat(flux[pick][on_plane] / (m * m), len(bary), axis=0))
+        landed_mask.append(np.ones(len(p_plane), bool))
+        # The rest: blend the vertex rays and land each sub-ray.
+        rest = faces[pick][~on_plane]
+        if len(rest):
+            o = np.einsum("kc,fcx->fkx", bary, rays.origin[rest]).reshape(-1, 3)
+            d = normalize(np.einsum("kc,fcx->fkx", bary, rays.direction[rest]).reshape(-1, 3))
+            h = receivers.intersect(o, d)
+            positions.append(h.position)
+            fluxes.append(np.repeat(flux[pick][~on_plane] / (m * m), len(bary), axis=0))
+            landed_mask.append(h.hit)
+    position, photon_flux, mask = np.concatenate(positions), np.concatenate(fluxes), np.concatenate(landed_mask)
+    stats = {"faces": int(len(faces)), "planar": int(planar.sum()), "photons": int(len(position)),
+             "flux_in": flux.sum(axis=0).tolist(), "flux_landed": photon_flux[mask].sum(axis=0).tolist()}
+    return PhotonSet(position, photon_flux, mask, stats)
