@@ -12,6 +12,7 @@ from .environment import Environment, procedural_environment, sky_checker
 from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
 from .mesh import Mesh, load_mesh
+from .presets_impostors import IMPOSTOR_PRESETS
 from .presets_per_vertex import PER_VERTEX_PRESETS
 from .presets_transport import TRANSPORT_PRESETS
 from .scene import Scene, SceneObject
@@ -325,6 +326,7 @@ PRESETS: dict[str, Callable[[], Scene]] = {
     "caustics-two-lights": caustics_two_lights,
 }
 PRESETS.update(PER_VERTEX_PRESETS)  # mirrors and lenses of Kakimoto et al. (presets_per_vertex.py)
+PRESETS.update(IMPOSTOR_PRESETS)  # Hu and Qin's impostor figures (presets_impostors.py)
 PRESETS.update(TRANSPORT_PRESETS)  # the light transport table of Iwasaki et al. (presets_transport.py)
 
 

@@ -42,7 +42,9 @@ line and one layer per buffer (highly concave objects and overlapping
 refractors give wrong exits, as the paper states); light reflected inside the
 object at the exit is dropped unless ``internal_reflection`` (our extension,
 not in the paper) follows it once to a second exit through the front faces;
-nothing nearby is seen through the glass.
+nothing nearby is seen through the glass unless ``nearby`` (Wyman's planes or
+image-space search, ``passes/impostors.py``; the ``impostors`` technique is
+the paper's own answer, 2.2).
 """
 from __future__ import annotations
 
@@ -51,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..passes.impostors import NearbyParams, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from .env_map import ShadowedParams
@@ -58,7 +61,7 @@ from .raster import RasterTechnique
 
 
 @dataclass
-class DepthSearchParams(ShadowedParams):
+class DepthSearchParams(NearbyParams, ShadowedParams):
     """Parameters of ``depth-search``; defaults follow Hu and Qin (2.1.2, 2.1.3, section 4)."""
 
     search_steps: int = 8  # binary-search steps for the silhouette point (2.1.2: eight suffice)
@@ -105,10 +108,12 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "assume_back_first", int(params.assume_back_first))
             set_uniform(program, "internal_reflection", int(params.internal_reflection))
 
+        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
         return [
             ShadowMaps(params.shadow_map_size),
             RefractorSurfaces("front", "nearest"),
             RefractorSurfaces("back", "farthest"),
-            ShadeSurfaces("passes/depth_search.frag", inputs=("front_surface", "back_surface"),
-                          set_uniforms=set_uniforms),
+            *nearby.passes,
+            ShadeSurfaces("passes/depth_search.frag", nearby.defines, inputs=("front_surface", "back_surface", *nearby.inputs),
+                          set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms)),
         ]

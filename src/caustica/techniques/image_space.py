@@ -22,7 +22,9 @@ channel (dispersion). Diffuse receivers and mirrors are shaded as in ``env-map``
 
 Limits: exactly two interfaces (rays that meet the refractor again, or another
 refractor, are not followed); the environment is at infinity (nothing nearby is
-seen through the glass); d~ is not physically based, so concave objects and
+seen through the glass) unless ``nearby`` intersects T2 with the diffuse planes
+or searches a camera-view texture of the scene without refractors (the
+chapter's "intersecting T2 with other geometry"; ``passes/impostors.py``); d~ is not physically based, so concave objects and
 long protrusions are approximated and P2 may land off the refractor (the eq.
 6.3.2 fallback); several refractors share one back-face buffer; the method is
 designed for n_glass > 1 (for n < 1 the interpolation weight exceeds 1).
@@ -34,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..passes.image_space import FrontDistanceAlongNormal
+from ..passes.impostors import NearbyParams, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from .env_map import ShadowedParams
@@ -44,7 +47,7 @@ SECOND_SURFACES = ("farthest", "nearest")
 
 
 @dataclass
-class ImageSpaceParams(ShadowedParams):
+class ImageSpaceParams(NearbyParams, ShadowedParams):
     """Parameters of ``image-space``; ``shadow_map_size`` lights diffuse receivers.
 
     ``tir_mode`` defaults to 'clamp', one of the two the chapter recommends: through a glass
@@ -76,9 +79,12 @@ class ImageSpace(RasterTechnique):
 
     def build_passes(self, params):
         inputs = ("back_surface", "front_dn") if params.use_dn else ("back_surface",)
-        defines = {"USE_DN": params.use_dn, "TIR_MODE": TIR_MODES.index(params.tir_mode)}
+        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
+        defines = {"USE_DN": params.use_dn, "TIR_MODE": TIR_MODES.index(params.tir_mode), **nearby.defines}
         passes = [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", params.second_surface)]
         if params.use_dn:
             passes.append(FrontDistanceAlongNormal())
-        passes.append(ShadeSurfaces("passes/image_space.frag", defines, inputs=inputs))
+        passes += nearby.passes
+        passes.append(ShadeSurfaces("passes/image_space.frag", defines, inputs=inputs + nearby.inputs,
+                                    set_uniforms=nearby.set_uniforms))
         return passes

@@ -7,12 +7,16 @@
 // Geometry (P2, N2) follows the green channel's IOR; each channel refracts with its own IOR
 // at both interfaces (dispersion). TIR at the exit reflects once (at the entry: reflect only).
 //
-// Host sets no defines beyond ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS). Uniforms set by the technique:
+// Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
+// nearby_radiance of common/impostors.glsl instead of the environment.
+// Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
+// MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
 //   tolerance (float, scene units), assume_back_first (int 0/1), internal_reflection (int 0/1),
 //   world_from_clip (mat4).
 #version 430 core
 #include "common/surface_inputs.glsl"
+#include "common/impostors.glsl"
 
 uniform sampler2D front_surface;  // nearest front face: outward normal xyz, eye distance w (0: none)
 uniform sampler2D back_surface;   // farthest back face: the same
@@ -143,10 +147,10 @@ bool second_exit(vec3 p2, vec3 r2, float start, out float dt3, out vec4 s3) {
 
 vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     vec3 reflected_dir = reflect_direction(v, n);
-    vec3 reflected = environment_radiance(environment, reflected_dir);
+    vec3 reflected = nearby_reflection(world_position, reflected_dir);
     float ior = ior_rgb[1];
     vec3 t1 = refract_direction(v, n, 1.0 / ior);
-    exit_dir = vec4(reflected_dir, 1.0);
+    exit_dir = nearby_output(vec4(reflected_dir, 1.0));
     // Entry TIR (n_t < n_i at grazing incidence): the surface only reflects.
     if (dot(t1, t1) == 0.0) return reflected;
     vec3 p1 = world_position;
@@ -210,20 +214,25 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
             // Transmitted at P2, plus reflected at P2 and transmitted at P3 (TIR at P3: dropped).
             vec3 t3 = refract_direction(r2, -n3, ior_rgb[c]);
             float f3 = fresnel_dielectric(dot(r2, n3), ior_rgb[c], 1.0);
-            float second = dot(t3, t3) > 0.0 ? f2 * (1.0 - f3) * transmittance3[c] * environment_radiance(environment, t3)[c] : 0.0;
-            float first = dot(t2, t2) > 0.0 ? (1.0 - f2) * transmittance[c] * environment_radiance(environment, t2)[c] : 0.0;
+            vec3 p2 = p1 + dt * t1;
+            float second = dot(t3, t3) > 0.0 ? f2 * (1.0 - f3) * transmittance3[c] * nearby_cached(p2 + dt3 * reflect_direction(t1, -n2), t3)[c] : 0.0;
+            float first = dot(t2, t2) > 0.0 ? (1.0 - f2) * transmittance[c] * nearby_cached(p2, t2)[c] : 0.0;
             inside = first + second;
         } else {
             // Exit TIR: one internal reflection, then out to the environment.
             vec3 out_dir = dot(t2, t2) > 0.0 ? t2 : r2;
             float through = dot(t2, t2) > 0.0 ? 1.0 - f2 : 1.0;
-            inside = through * transmittance[c] * environment_radiance(environment, out_dir)[c];
+            inside = through * transmittance[c] * nearby_cached(p1 + dt * t1, out_dir)[c];
         }
         result[c] = f1 * reflected[c] + (1.0 - f1) * inside;
     }
     vec3 t2 = refract_direction(t1, -n2, ior);
-    exit_dir = vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -n2), 1.0);
+    exit_dir = nearby_output(vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -n2), 1.0));
     return result;
 }
+
+#if NEARBY
+#define environment_radiance(env, dir) nearby_mirror_radiance(dir)  // mirrors see nearby geometry too
+#endif
 
 #include "common/surface_main.glsl"

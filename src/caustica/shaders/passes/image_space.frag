@@ -7,7 +7,8 @@
 // Exit direction (location 1): T2 of the green channel; w = 1, or 2 where the exit refraction
 // was totally internally reflected and TIR_MODE chose T2.
 // Host defines: MAX_LIGHTS, CAUSTICS (ShadeSurfaces); USE_DN (1: interpolate with d_N; 0: d~ = d_V);
-// TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2).
+// TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2); NEARBY, MAX_PLANES (common/impostors.glsl:
+// T2 from P2 and the reflections meet nearby planes or an image-space search instead of the environment).
 #version 430 core
 #ifndef USE_DN
 #define USE_DN 1
@@ -19,6 +20,7 @@
 #define TIR_MODE TIR_CLAMP
 #endif
 #include "common/surface_inputs.glsl"
+#include "common/impostors.glsl"
 
 uniform sampler2D back_surface;  // second interface: outward normal xyz, eye distance w (0: empty)
 #if USE_DN
@@ -30,6 +32,7 @@ struct Exit {
     vec3 direction;      // T2 (or the reflection at the front surface when T1 does not exist)
     float transmittance; // (1 - F2), 1 where the TIR fallback chose the direction
     float distance;      // d~, the estimated path inside
+    vec3 origin;         // P2, where the ray leaves
     bool entered;        // false: TIR at the front surface (n < 1), only the reflection remains
     bool tir;            // the exit refraction was totally internally reflected
 };
@@ -53,6 +56,7 @@ Exit refract_twice(vec3 v, vec3 n, float ior, float d_v, float d_n, bool has_dn)
     Exit e;
     e.transmittance = 1.0;
     e.distance = 0.0;
+    e.origin = world_position;
     e.tir = false;
     // Refract into the glass: T1.
     vec3 t1 = refract_direction(v, n, 1.0 / ior);
@@ -72,6 +76,7 @@ Exit refract_twice(vec3 v, vec3 n, float ior, float d_v, float d_n, bool has_dn)
     e.distance = d;
     // Find P2 and its normal.
     vec3 p2 = world_position + d * t1;
+    e.origin = p2;
     vec3 n2 = exit_normal(p2, t1, v);
     vec3 facing = dot(t1, n2) > 0.0 ? -n2 : n2;  // -N2, the normal facing the ray
     // Refract out of the glass: T2, or a TIR fallback.
@@ -106,7 +111,7 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     d_n = dn.x;
 #endif
     // Follow each channel's path and look up the environment.
-    vec3 reflected = environment_radiance(environment, reflect_direction(v, n));
+    vec3 reflected = nearby_reflection(world_position, reflect_direction(v, n));
     vec3 result;
     for (int c = 0; c < 3; ++c) {
         Exit e = refract_twice(v, n, ior_rgb[c], d_v, d_n, has_dn);
@@ -114,11 +119,14 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         float through = 0.0;
         if (e.entered)
             through = e.transmittance * exp(-absorption_coefficient[c] * e.distance)
-                    * environment_radiance(environment, e.direction)[c];
+                    * nearby_cached(e.origin, e.direction)[c];
         result[c] = f1 * reflected[c] + (1.0 - f1) * through;
         if (c == 1) exit_dir = vec4(e.direction, e.tir ? 2.0 : 1.0);
     }
     return result;
 }
 
+#if NEARBY
+#define environment_radiance(env, dir) nearby_mirror_radiance(dir)  // mirrors see nearby geometry too
+#endif
 #include "common/surface_main.glsl"

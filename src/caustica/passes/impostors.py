@@ -1,0 +1,392 @@
+"""Nearby geometry for reflected and refracted rays: impostors (Hu and Qin), planes and search (Wyman).
+
+Hu and Qin, "Interactive reflections, refractions and caustics with impostors"
+(TVCG 2007), 2.2.1: each object near a reflector/refractor R stands in as a
+rectangle RECT_k with a texture TEX_k (radiance and depth) rendered from R's
+centre towards the object's centre by a parallel projection (fig. 12-13). The
+rectangle lies through the object's centre (``rect_offset`` moves it towards R,
+fig. 17's RECT'_k), perpendicular to the axis from R's centre to the object, a
+square of the object's bounding radius; a planar object (a floor, a wall) is
+its own rectangle, with its normal as the axis, so its texture is exact.
+
+The parallel projection is a pinhole ``distance_factor`` bounding radii behind
+the rectangle (1/distance_factor rad at most from parallel; 1.1 degrees with
+the default 50): every camera-view pass (front/back refractor buffers, depth
+search, shading) then works unchanged inside the impostor texture, which is
+what recursion (an impostor of a reflector rendered with impostors itself,
+fig. 1b, 24g) needs. The shader (``shaders/common/impostors.glsl``) projects
+with the same matrix, so the lookup and the texture agree exactly.
+
+Also here, for ``image-space`` and ``depth-search``'s ``nearby`` option
+(Wyman, "intersecting T2 with other geometry"): the diffuse planar objects as
+shader planes, and a camera-view texture of the scene without refractors for
+the image-space search.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from .base import Channel, Frame, Pass
+from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
+from .surfaces import ShadeSurfaces
+
+MAX_IMPOSTORS = 8  # rectangles per reflector (texture units 24..31)
+MAX_PLANES = 8
+FIRST_IMPOSTOR_UNIT = 24  # after ShadeSurfaces' environment, inputs, shadow and caustic maps
+NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
+
+
+@dataclass
+class Impostor:
+    """RECT_k and TEX_k of one object as one reflector sees it."""
+
+    index: int  # of the object in the world scene
+    center: np.ndarray  # rectangle centre
+    axis: np.ndarray  # projection direction w (reflector -> object; a plane's normal pointing away)
+    half_u: np.ndarray  # rectangle half extents (world vectors, perpendicular to axis)
+    half_v: np.ndarray
+    radius: float  # object's bounding radius
+    origin: np.ndarray  # pinhole of the (near-parallel) projection
+    slab: tuple[float, float]  # object's depth range from origin along axis
+    camera: object  # OffscreenCamera of the texture
+    planar: bool
+    texture: object = None  # rgba32f: radiance rgb, depth from origin along axis (0: empty)
+
+    def pooled(self):
+        return [self.texture]
+
+    def texel_area(self, resolution: int) -> float:
+        """Area on the rectangle of one texel of a ``resolution``-square texture over it (scene units squared)."""
+        return 4.0 * float(np.linalg.norm(self.half_u) * np.linalg.norm(self.half_v)) / resolution**2
+
+
+@dataclass
+class ImpostorSet:
+    """Every reflector's rectangles; ``base`` numbers them globally (photon buffer k)."""
+
+    by_reflector: dict = field(default_factory=dict)  # world object index -> list[Impostor]
+    base: dict = field(default_factory=dict)  # world object index -> global index of its first rectangle
+    world: object = None
+
+    def pooled(self):
+        return [imp.texture for group in self.by_reflector.values() for imp in group]
+
+    def all(self) -> list[Impostor]:
+        return [imp for group in self.by_reflector.values() for imp in group]
+
+
+def object_sphere(obj) -> tuple[np.ndarray, float]:
+    """Bounding-box centre of the world mesh and the farthest vertex's distance from it."""
+    vertices = obj.world_mesh().vertices.astype(np.float64)
+    center = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    return center, float(np.linalg.norm(vertices - center, axis=1).max()) + 1e-9
+
+
+def planar_rectangle(obj, tolerance: float = 1e-6):
+    """(centre, unit normal, half_u, half_v) when the object's world mesh is a flat rectangle-like patch, else None."""
+    vertices = obj.world_mesh().vertices.astype(np.float64)
+    center = vertices.mean(axis=0)
+    _, s, vt = np.linalg.svd(vertices - center, full_matrices=False)
+    if len(s) < 3 or s[2] > tolerance * max(s[0], 1e-12):
+        return None
+    u, v, n = vt[0], vt[1], vt[2]
+    a, b = (vertices - center) @ u, (vertices - center) @ v
+    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v
+    return center, n, 0.5 * (a.max() - a.min()) * u, 0.5 * (b.max() - b.min()) * v
+
+
+def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(u, axis)
+
+
+def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect_offset: float = 0.0,
+                  distance_factor: float = 50.0) -> Impostor:
+    """The rectangle of ``obj`` seen from ``reflector_center`` and the camera of its texture (2.2.1)."""
+    center, radius = object_sphere(obj)
+    plane = planar_rectangle(obj) if obj.material.kind == "diffuse" else None
+    if plane is not None:
+        rect_center, axis, half_u, half_v = plane
+        if np.dot(rect_center - reflector_center, axis) < 0.0:
+            axis = -axis
+        radius = float(np.linalg.norm(half_u + half_v)) + 1e-9
+        center = rect_center
+        # Keep the texture square in texels but as large as the plane (never degenerate).
+        half_u = half_u if np.linalg.norm(half_u) > 1e-6 * radius else _basis(axis)[0] * 1e-3 * radius
+        half_v = half_v if np.linalg.norm(half_v) > 1e-6 * radius else _basis(axis)[1] * 1e-3 * radius
+    else:
+        axis = center - reflector_center
+        axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else np.array([0.0, 0.0, -1.0])
+        rect_center = center - axis * float(rect_offset) * radius
+        u, v = _basis(axis)
+        half_u, half_v = u * radius, v * radius
+    distance = float(distance_factor) * radius
+    origin = rect_center - axis * distance
+    camera = aimed_camera(origin, rect_center, half_v, float(np.linalg.norm(half_u)), float(np.linalg.norm(half_v)),
+                          max(distance - 3.0 * radius, 1e-3 * distance), distance + 3.0 * radius, (size, size))
+    depth = float(np.dot(center - origin, axis))
+    slab = (depth - 0.01 * radius, depth + 0.01 * radius) if plane is not None else (depth - radius, depth + radius)
+    return Impostor(index, rect_center, axis, half_u, half_v, radius, origin, slab, camera, plane is not None)
+
+
+def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool = False):
+    """Radiance + depth (along ``axis`` from ``origin``, or the distance from it) in one pooled rgba32f texture."""
+    gpu, ctx = frame.gpu, frame.gpu.ctx
+    out = gpu.targets.texture(camera.size, "rgba32f")
+    fbo = gpu.targets.framebuffer([out])
+    fbo.use()
+    fbo.viewport = (0, 0, *camera.size)
+    program = gpu.shaders.program("passes/fullscreen.vert", "passes/impostor_pack.frag")
+    color.use(0)
+    depth.use(1)
+    set_uniform(program, "color", 0)
+    set_uniform(program, "depth", 1)
+    set_uniform(program, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
+    set_uniform(program, "origin", np.asarray(origin, "f4"))
+    set_uniform(program, "axis", np.asarray(axis, "f4"))
+    set_uniform(program, "radial", int(radial))
+    ctx.disable(moderngl.DEPTH_TEST)
+    vao = gpu.cache.get(("fullscreen", program.glo))
+    if vao is None:
+        vao = gpu.cache[("fullscreen", program.glo)] = ctx.vertex_array(program, [])
+    vao.render(moderngl.TRIANGLES, vertices=3)
+    ctx.enable(moderngl.DEPTH_TEST)
+    out.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return out
+
+
+class BuildImpostors(Pass):
+    """RECT_k and TEX_k for every reflector/refractor drawn in this frame (TVCG 2.2.1, fig. 12-13).
+
+    ``texture_passes(depth)`` gives the passes that render one object into its
+    texture (light samples and shadow maps come from this frame): with ``depth``
+    > 0 a reflector's texture is itself rendered with impostors (recursion), at
+    0 it sees the environment. The world the rectangles come from is the
+    channel ``impostor_world`` when a parent frame set it, else this frame's scene.
+    Does nothing when an earlier pass already wrote ``impostors``.
+    """
+
+    reads = ("light_samples", "shadow_maps")
+    writes = (Channel("impostors", "ImpostorSet", "per reflector: rectangles and rgba32f textures (radiance, depth)"),)
+
+    def __init__(self, texture_passes, size: int = 512, depth: int = 0, rect_offset: float = 0.0,
+                 distance_factor: float = 50.0, max_impostors: int = MAX_IMPOSTORS):
+        self.texture_passes, self.size, self.depth = texture_passes, int(size), int(depth)
+        self.rect_offset, self.distance_factor, self.max_impostors = rect_offset, distance_factor, max_impostors
+
+    created = False  # whether the last run built the impostors (rather than finding them)
+
+    def run(self, frame: Frame) -> None:
+        self.created = "impostors" not in frame.channels
+        if not self.created:
+            return
+        world = frame.channels.get("impostor_world", frame.scene)
+        drawn = {id(o) for o in frame.scene.objects}
+        result = ImpostorSet(world=world)
+        base = 0
+        for r, reflector in enumerate(world.objects):
+            if id(reflector) not in drawn or reflector.material.kind not in ("glass", "mirror"):
+                continue
+            reflector_center, _ = object_sphere(reflector)
+            others = sorted((i for i in range(len(world.objects)) if i != r),
+                            key=lambda i: np.linalg.norm(object_sphere(world.objects[i])[0] - reflector_center))
+            group = []
+            for i in others[: self.max_impostors]:
+                impostor = make_impostor(reflector_center, world.objects[i], i, self.size, self.rect_offset,
+                                         self.distance_factor)
+                impostor.texture = self.render_texture(frame, world, impostor)
+                group.append(impostor)
+            result.by_reflector[r] = group
+            result.base[r] = base
+            base += len(group)
+        frame.write("impostors", result)
+
+    def render_texture(self, frame: Frame, world, impostor: Impostor):
+        """TEX_k: the object alone through the impostor's camera, packed with its depth along the axis."""
+        obj = world.objects[impostor.index]
+        depth = self.depth if obj.material.kind in ("glass", "mirror") else 0
+        frame.channels.setdefault("impostor_world", world)
+        kept = render_offscreen(frame, scene_subset(world, [impostor.index]), impostor.camera,
+                                self.texture_passes(depth), keep=("color", "depth"), share=("impostor_world",))
+        texture = pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis)
+        for value in kept.values():
+            frame.gpu.targets.give_back(value)
+        return texture
+
+
+class ReleaseImpostors(Pass):
+    """Return the impostor textures to the pool once the frame is shaded."""
+
+    reads = ("impostors",)
+
+    def __init__(self, owner: BuildImpostors | None = None):
+        self.owner = owner  # release only what this BuildImpostors built (None: always)
+
+    def run(self, frame: Frame) -> None:
+        if self.owner is not None and not self.owner.created:
+            return
+        give_back_pooled(frame.gpu.targets, frame.read("impostors"))
+        frame.channels["impostors"] = ImpostorSet()
+
+
+def _write_array(program, name: str, values: np.ndarray) -> None:
+    """Write the leading entries of a uniform array (drivers may shorten arrays to what a shader uses)."""
+    if name in program:
+        member = program[name]
+        program[name].write(np.ascontiguousarray(values[: max(member.array_length, 1)]).tobytes())
+
+
+def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None, params) -> None:
+    """Set impostors.glsl's uniforms for one reflector (world index) and bind its textures from unit 24."""
+    group = [] if impostors is None or reflector is None else impostors.by_reflector.get(reflector, [])
+    set_uniform(program, "impostor_count", len(group))
+    set_uniform(program, "impostor_base", 0 if not group else int(impostors.base[reflector]))
+    set_uniform(program, "impostor_iterations", int(params.impostor_iterations))
+    set_uniform(program, "impostor_tolerance", float(params.impostor_tolerance))
+    set_uniform(program, "impostor_initial_samples", int(params.initial_samples))
+    set_uniform(program, "impostor_hit_tolerance", float(params.hit_tolerance))
+    if not group:
+        return
+    n = MAX_IMPOSTORS
+    clips = np.tile(np.eye(4, dtype="f4"), (n, 1, 1))
+    vec = {name: np.zeros((n, 3), "f4") for name in ("origin", "axis", "center")}
+    slab, radius = np.zeros((n, 2), "f4"), np.ones(n, "f4")
+    units = np.full(n, FIRST_IMPOSTOR_UNIT, "i4")
+    for k, imp in enumerate(group):
+        clips[k] = imp.camera.clip_from_world().T
+        vec["origin"][k], vec["axis"][k], vec["center"][k] = imp.origin, imp.axis, imp.center
+        slab[k], radius[k] = imp.slab, imp.radius
+        imp.texture.use(FIRST_IMPOSTOR_UNIT + k)
+        units[k] = FIRST_IMPOSTOR_UNIT + k
+    _write_array(program, "impostor_clip_from_world", clips)
+    for name, values in vec.items():
+        _write_array(program, f"impostor_{name}", values)
+    _write_array(program, "impostor_slab", slab)
+    _write_array(program, "impostor_radius", radius)
+    _write_array(program, "impostor_texture", units)
+
+
+def world_index(frame: Frame, obj) -> int | None:
+    """Index of a drawn object in the impostors' world scene."""
+    world = frame.channels.get("impostor_world", frame.scene)
+    return next((i for i, o in enumerate(world.objects) if o is obj), None)
+
+
+# Wyman's options ----------------------------------------------------------------------------
+
+
+def nearby_planes(scene) -> list[tuple]:
+    """The diffuse planar objects as (centre, normal, half_u, half_v, colour), at most MAX_PLANES."""
+    planes = []
+    for obj in scene.objects_of("diffuse"):
+        rect = planar_rectangle(obj)
+        if rect is not None:
+            planes.append((*rect, np.asarray(obj.material.color, np.float64)))
+    return planes[:MAX_PLANES]
+
+
+def bind_planes(program, scene) -> None:
+    planes = nearby_planes(scene)
+    set_uniform(program, "plane_count", len(planes))
+    if not planes:
+        return
+    for k, name in enumerate(("center", "normal", "u", "v", "color")):
+        values = np.zeros((MAX_PLANES, 3), "f4")
+        values[: len(planes)] = [p[k] for p in planes]
+        _write_array(program, f"plane_{name}", values)
+
+
+class NearbyView(Pass):
+    """The scene without refractors from the camera, radiance + eye distance (Wyman's nearby-geometry texture)."""
+
+    reads = ("light_samples", "shadow_maps")
+    writes = (Channel("nearby_view", "rgba32f", "camera view without refractors: radiance rgb, eye distance a (0: none)"),)
+
+    def run(self, frame: Frame) -> None:
+        from .surfaces import RefractorSurfaces
+
+        scene = frame.scene
+        keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
+        kept = render_offscreen(frame, scene_subset(scene, keep), frame.camera,
+                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"))
+        packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
+                              np.zeros(3), radial=True)
+        for value in kept.values():
+            frame.gpu.targets.give_back(value)
+        frame.write("nearby_view", packed)
+
+
+@dataclass
+class NearbyParams:
+    """The ``nearby`` option of ``image-space`` and ``depth-search`` (Wyman, "intersecting T2 with other geometry").
+
+    'none': the environment (their original behaviour); 'planes': the diffuse planar objects intersected
+    in the shader; 'search-linear' / 'search-binary' / 'search-secant': image-space search along T2 in a
+    camera-view texture of the scene without refractors, ``search_linear_steps`` uniform steps over
+    ``search_distance`` (0: the scene's diagonal), then ``search_refine_steps`` binary or secant steps.
+    """
+
+    nearby: str = "none"
+    search_linear_steps: int = 32
+    search_refine_steps: int = 6
+    search_distance: float = 0.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.nearby not in NEARBY_MODES or self.nearby == "impostors":
+            raise ValueError(f"nearby {self.nearby!r} must be one of none, planes, search-linear, search-binary, "
+                             "search-secant (impostors: use the 'impostors' technique)")
+        for name, low, high in (("search_linear_steps", 1, 512), ("search_refine_steps", 0, 32)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value or not low <= value <= high:
+                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+            setattr(self, name, int(value))
+        if not (np.isfinite(float(self.search_distance)) and float(self.search_distance) >= 0.0):
+            raise ValueError(f"search_distance {self.search_distance} must be >= 0 scene units (0: the scene's diagonal)")
+        self.search_distance = float(self.search_distance)
+
+
+@dataclass
+class NearbyOption:
+    """What a view technique adds for its ``nearby`` option: passes before shading, inputs, defines, uniforms."""
+
+    passes: list
+    inputs: tuple
+    defines: dict
+    set_uniforms: object
+
+
+def nearby_option(nearby: str, params) -> NearbyOption:
+    """Wyman's nearby-geometry options for ``image-space`` and ``depth-search`` ('none', 'planes', 'search-*')."""
+    code = NEARBY_MODES.index(nearby)
+    if nearby == "none":
+        return NearbyOption([], (), {}, None)
+    if nearby == "planes":
+        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, frame.scene))
+
+    def set_search(program, frame, obj):
+        if obj is not None:
+            return
+        set_uniform(program, "search_linear_steps", int(params.search_linear_steps))
+        set_uniform(program, "search_refine_steps", int(params.search_refine_steps))
+        diameter = float(np.linalg.norm(np.ptp(frame.scene.bounds(), axis=0)))
+        set_uniform(program, "search_distance", float(params.search_distance or diameter))
+
+    return NearbyOption([NearbyView()], ("nearby_view",), {"NEARBY": code}, set_search)
+
+
+def chain_uniforms(*functions):
+    """One set_uniforms(program, frame, obj) calling each non-None function in turn."""
+    functions = [f for f in functions if f is not None]
+
+    def call(program, frame, obj):
+        for f in functions:
+            f(program, frame, obj)
+
+    return call if functions else None

@@ -1,0 +1,101 @@
+"""Rendering part of a scene from a virtual camera into textures (reflection maps, impostor textures).
+
+Generalises ``techniques/per_vertex.py``'s ``ViewpointCamera``, ``render_map`` and
+``scene_without``: a camera-like object, a sub-frame that shares the parent's
+light samples and shadow maps, and cached sub-scenes.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scene.scene import Scene
+from ..scene.transform import look_at_view_from_world, perspective_clip_from_view
+from .base import Frame, run_passes
+
+_SUBSCENES: OrderedDict = OrderedDict()
+_CACHE_SIZE = 64
+
+
+@dataclass
+class OffscreenCamera:
+    """What the passes read of a Camera: position, size, up, view and clip matrices."""
+
+    position: np.ndarray
+    size: tuple[int, int]
+    up: np.ndarray
+    _view: np.ndarray
+    _clip: np.ndarray
+
+    def view_from_world(self) -> np.ndarray:
+        return self._view
+
+    def clip_from_world(self) -> np.ndarray:
+        return self._clip
+
+    @property
+    def forward(self) -> np.ndarray:
+        return -self._view[2, :3]
+
+
+def aimed_camera(position, target, up, half_width: float, half_height: float, near: float, far: float,
+                 size: tuple[int, int]) -> OffscreenCamera:
+    """A pinhole at ``position`` looking at ``target`` whose image plane through ``target`` spans
+    [-half_width, half_width] x [-half_height, half_height] (scene units)."""
+    position, target = np.asarray(position, np.float64), np.asarray(target, np.float64)
+    view = look_at_view_from_world(position, target, up)
+    distance = float(np.linalg.norm(target - position))
+    fov_y = 2.0 * np.degrees(np.arctan(half_height / distance))
+    clip = perspective_clip_from_view(fov_y, half_width / half_height, near, far) @ view
+    return OffscreenCamera(position, (int(size[0]), int(size[1])), view[1, :3].copy(), view, clip)
+
+
+def scene_subset(scene: Scene, keep) -> Scene:
+    """``scene`` with only the objects whose indices are in ``keep`` (cached, so that GPU meshes
+    and Embree scenes keyed on it are built once)."""
+    keep = sorted(set(int(i) for i in keep))
+    objects = [scene.objects[i] for i in keep]
+    key = (tuple(id(o) for o in objects), tuple(id(light) for light in scene.lights), id(scene.environment),
+           scene.intensity_scale)
+    sub = _SUBSCENES.get(key)
+    if sub is None:
+        sub = Scene(camera=scene.camera, objects=objects, lights=scene.lights, environment=scene.environment,
+                    intensity_scale=scene.intensity_scale, name=f"{scene.name}-subset")
+        _SUBSCENES[key] = sub
+        while len(_SUBSCENES) > _CACHE_SIZE:
+            _SUBSCENES.popitem(last=False)
+    _SUBSCENES.move_to_end(key)
+    return sub
+
+
+def render_offscreen(frame: Frame, scene: Scene, camera, passes, keep=("color",), share=(), params=None) -> dict:
+    """Run ``passes`` on a sub-frame of ``frame`` (``scene`` seen by ``camera``); return the ``keep``
+    channels and give every other pooled texture the sub-frame made back to the pool.
+
+    The sub-frame starts with the parent's ``light_samples`` and ``shadow_maps`` and the ``share``d channels.
+    """
+    inherited = {name: frame.read(name) for name in ("light_samples", "shadow_maps", *share) if name in frame.channels}
+    sub = Frame(frame.gpu, scene, camera, frame.params if params is None else params, channels=dict(inherited))
+    run_passes(passes, sub)
+    kept = {name: sub.read(name) for name in keep}
+    kept_ids = {id(v) for v in kept.values()}
+    for name, value in sub.channels.items():
+        if name not in inherited and id(value) not in kept_ids:
+            give_back_pooled(frame.gpu.targets, value)
+    return kept
+
+
+def give_back_pooled(targets, value) -> None:
+    """Return pooled textures in ``value``: a texture, a list/tuple/dict of them, or an object with ``pooled()``."""
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            give_back_pooled(targets, item)
+    elif isinstance(value, dict):
+        for item in value.values():
+            give_back_pooled(targets, item)
+    elif hasattr(value, "pooled"):
+        give_back_pooled(targets, value.pooled())
+    elif targets.is_lent(value):
+        targets.give_back(value)

@@ -1,0 +1,288 @@
+"""``impostor-caustics``: caustics through the impostors (Hu and Qin, TVCG 2007, section 3).
+
+Per light sample, each frame, no readback:
+
+1. Photon buffer (3.1, fig. 19a-b): the reflectors/refractors rendered from
+   the light (a pinhole at the light aimed at their bounding sphere,
+   ``photon_buffer`` texels a side) with the ``impostors`` technique's shading
+   (depth-search's two interfaces for glass, the mirror's reflection), every
+   ray meeting the rectangles of ``passes/impostors.py``: each texel outputs
+   the throughput (exact Fresnel at both interfaces, Beer-Lambert) and
+   (u, v, k) of the rectangle it hit. Diffuse objects are drawn too, so they
+   occlude the light.
+2. Caustic textures (3.2, fig. 19c): a compute shader adds each photon's flux
+   (intensity x the texel's solid angle x throughput) into texel (u, v) of
+   rectangle k's tile (``caustic_size`` a side) with float atomics; the paper's
+   glReadPixels path is replaced by this. Then the filter
+   c(u, v) = s sum_{i,j=-k..k} p(u+i, v+j) sqrt(1 + 2k^2 - (i^2 + j^2)) with
+   ``filter_k`` and ``filter_s``; p is the flux per unit rectangle area. The
+   paper's s = 0.01 scales photon counts to colours; ``filter_s`` None (ours,
+   the default) sets s = 1 / sum sqrt(...), so the filtered irradiance
+   integrates to the photons' flux (energy conserved) and compares with
+   Mitsuba in W/m^2.
+3. Caustics on receivers (3.3, fig. 21-23): receivers are rendered from the
+   light (``passes/light_space.py``'s coarse view, ``receiver_size``); each
+   receiver texel looks up the tiles of its own object by the rectangle's
+   parallel projection (a planar receiver is its rectangle: the paper's
+   direct texture) and scales by |N . axis|, giving the light-space caustic
+   maps of the ``caustic_maps`` contract.
+
+Composes with any view technique (``impostors+impostor-caustics`` shows nearby
+objects and caustics; alone it uses depth-search). Reflective and refractive
+caustics; several lights (one photon buffer each); water surfaces are one
+interface (depth-search's back buffer is empty there, so T2 = T1).
+
+Limits: the impostors' (a caustic lands where the ray meets the object's
+rectangle-and-depth stand-in); one layer of casters (light through two glass
+objects is followed only as far as the first one's impostors); the photon
+buffer's resolution (the paper: 128^2 acceptable); receivers must be visible
+from the light (shadowed parts of a receiver get no caustic); point lights
+inside the casters' bounding sphere make none; needs GL_NV_shader_atomic_float.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from ..passes.base import Channel, Frame, Pass
+from ..passes.impostors import BuildImpostors, ReleaseImpostors, _write_array
+from ..passes.light_space import FitCoarseViews, LightSurfaces, float_atomics
+from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
+from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
+from ..errors import TechniqueError
+from .composite import CausticTechnique
+from .impostors import ImpostorParams, check_integers, impostor_view_passes, texture_passes
+
+MAX_TILES = 16
+
+
+@dataclass
+class ImpostorCausticsParams(ImpostorParams):
+    """Parameters of ``impostor-caustics`` (and the impostors it traces against)."""
+
+    photon_buffer: int = 256  # photon buffer texels a side (the paper: 128 acceptable; fig. 24e: larger)
+    caustic_size: int = 256  # caustic texture texels a side per rectangle
+    filter_k: int = 2  # filter half width (3.2)
+    filter_s: float | None = None  # filter scale; None: 1 / sum of the weights (energy conserving)
+    receiver_size: int = 512  # light-space receiver map texels a side (per cube face)
+
+    def __post_init__(self):
+        super().__post_init__()
+        check_integers(self, (("photon_buffer", 8, 4096), ("caustic_size", 8, 4096), ("filter_k", 0, 16),
+                              ("receiver_size", 16, 4096)))
+        if self.filter_s is not None:
+            if not (np.isfinite(float(self.filter_s)) and float(self.filter_s) > 0):
+                raise ValueError(f"filter_s {self.filter_s} must be a positive number, or None (energy conserving)")
+            self.filter_s = float(self.filter_s)
+
+
+def filter_weights(k: int) -> np.ndarray:
+    """The (2k+1)^2 weights sqrt(1 + 2k^2 - (i^2 + j^2)) of the caustic texture filter."""
+    i = np.arange(-k, k + 1)
+    return np.sqrt(1.0 + 2.0 * k * k - (i[:, None] ** 2 + i[None, :] ** 2))
+
+
+def photon_camera(sample, casters, size: int):
+    """The photon buffer's pinhole at the light, aimed at the casters' bounding sphere; None if inside it."""
+    points = np.concatenate([o.world_mesh().vertices.astype(np.float64) for o in casters])
+    center = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    radius = float(np.linalg.norm(points - center, axis=1).max()) * 1.02 + 1e-9
+    if sample.type == LIGHT_DIRECTIONAL:
+        position = center - np.asarray(sample.direction) * 50.0 * radius
+    else:
+        position = np.asarray(sample.position, np.float64)
+    distance = float(np.linalg.norm(center - position))
+    if distance <= radius * 1.01:
+        return None
+    half = radius * distance / np.sqrt(distance**2 - radius**2)  # the sphere's silhouette on the plane through its centre
+    up = np.array([0.0, 1.0, 0.0]) if abs((center - position)[1]) < 0.9 * distance else np.array([1.0, 0.0, 0.0])
+    return aimed_camera(position, center, up, half, half, max(distance - 1.5 * radius, 1e-3 * distance),
+                        distance + 1.5 * radius, (size, size))
+
+
+class ImpostorPhotons(Pass):
+    """3.1: per light, the photon buffer: throughput rgb and (u, v, k + 1, hit) of the rectangle each texel's ray met."""
+
+    reads = ("light_samples", "shadow_maps", "impostors")
+    writes = (Channel("impostor_photons", "list", "per light: (throughput rgba32f, record rgba32f, camera, sample) or None"),)
+
+    def __init__(self, params: ImpostorCausticsParams):
+        self.params = params
+
+    def run(self, frame: Frame) -> None:
+        casters = [o for o in frame.scene.objects if o.material.kind in ("glass", "mirror")]
+        out = []
+        for sample in frame.read("light_samples"):
+            camera = photon_camera(sample, casters, self.params.photon_buffer) if casters else None
+            if camera is None:
+                out.append(None)
+                continue
+            passes = impostor_view_passes(self.params, 0, output=2, photon=True)[1:]
+            passes = [p for p in passes if type(p).__name__ not in ("BuildImpostors", "ReleaseImpostors")]
+            kept = render_offscreen(frame, frame.scene, camera, passes, keep=("color", "exit_direction"),
+                                    share=("impostors", "impostor_world"))
+            out.append((kept["color"], kept["exit_direction"], camera, sample))
+        frame.write("impostor_photons", out)
+
+
+class CausticTextures(Pass):
+    """3.2: photons into per-rectangle flux tiles (float atomics), then the sqrt(1 + 2k^2 - (i^2 + j^2)) filter."""
+
+    reads = ("impostors", "impostor_photons")
+    writes = (Channel("caustic_textures", "rgba32f", "rectangles' caustic tiles side by side: irradiance across each axis"),)
+
+    def __init__(self, params: ImpostorCausticsParams):
+        self.params = params
+
+    def run(self, frame: Frame) -> None:
+        if not float_atomics(frame):
+            raise TechniqueError("impostor-caustics needs GL_NV_shader_atomic_float (float image atomics)")
+        impostors = frame.read("impostors").all()[:MAX_TILES]
+        size = self.params.caustic_size
+        width = size * max(len(impostors), 1)
+        flux = [frame.gpu.targets.texture((width, size), "r32f") for _ in range(3)]
+        for tex in flux:
+            tex.write(np.zeros(width * size, "f4").tobytes())
+        program = frame.gpu.shaders.compute("passes/impostor_caustic_splat.comp")
+        set_uniform(program, "tile_size", size)
+        set_uniform(program, "tile_count", len(impostors))
+        set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale) or 1.0)
+        for entry in frame.read("impostor_photons"):
+            if entry is None or not impostors:
+                continue
+            throughput, record, camera, sample = entry
+            splat_photons(frame, program, throughput, record, camera, sample, flux)
+        caustic = filter_tiles(frame, flux, size, [imp.texel_area(size) for imp in impostors], self.params.filter_k,
+                               self.params.filter_s)
+        for tex in flux:
+            frame.gpu.targets.give_back(tex)
+        frame.write("caustic_textures", caustic)
+
+
+def splat_photons(frame: Frame, program, throughput, record, camera, sample, flux) -> None:
+    """One light's photon buffer into the flux atlases (impostor_caustic_splat.comp)."""
+    clip = camera.clip_from_world()
+    intensity = np.asarray(sample.intensity, np.float64)
+    if sample.type == LIGHT_DIRECTIONAL:
+        distance = float(np.linalg.norm(np.asarray(camera.position) - frame.scene.bounds().mean(axis=0)))
+        intensity = intensity * distance**2  # irradiance through a far pinhole
+    set_uniform(program, "light_position", np.asarray(camera.position, "f4"))
+    set_uniform(program, "light_intensity", intensity.astype("f4"))
+    set_uniform(program, "light_axis", np.asarray(sample.direction, "f4"))
+    set_uniform(program, "light_cone", np.asarray(sample.cone_cos if sample.type == LIGHT_SPOT else (-2.0, -2.0), "f4"))
+    set_uniform(program, "world_from_clip", np.linalg.inv(clip))
+    set_uniform(program, "camera_forward", np.asarray(camera.forward, "f4"))
+    n = camera.size[0]
+    projection = clip @ np.linalg.inv(camera.view_from_world())  # clip_from_view
+    set_uniform(program, "unit_area", float((2.0 / projection[0, 0] / n) * (2.0 / projection[1, 1] / camera.size[1])))
+    throughput.use(0)
+    record.use(1)
+    set_uniform(program, "throughput", 0)
+    set_uniform(program, "record", 1)
+    for unit, tex in enumerate(flux):
+        tex.bind_to_image(unit, read=True, write=True)
+    program.run(group_x=(n + 7) // 8, group_y=(camera.size[1] + 7) // 8)
+    frame.gpu.ctx.memory_barrier()
+
+
+def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | None):
+    """The 3.2 filter over three r32f flux atlases of ``size`` tiles: a pooled rgba32f atlas of irradiance."""
+    width = flux[0].size[0]
+    out = frame.gpu.targets.texture((width, size), "rgba32f")
+    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp")
+    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
+        tex.use(unit)
+        set_uniform(program, name, unit)
+    set_uniform(program, "tile_size", size)
+    set_uniform(program, "filter_k", int(k))
+    set_uniform(program, "filter_s", float(s if s is not None else 1.0 / filter_weights(k).sum()))
+    areas = np.ones(MAX_TILES, "f4")
+    areas[: len(texel_areas)] = texel_areas
+    _write_array(program, "texel_area", areas)
+    out.bind_to_image(0, read=False, write=True)
+    program.run(group_x=(width + 7) // 8, group_y=(size + 7) // 8)
+    frame.gpu.ctx.memory_barrier()
+    return out
+
+
+class ResolveImpostorCaustics(Pass):
+    """3.3: receivers from each light look up their objects' caustic tiles (the ``caustic_maps`` contract)."""
+
+    reads = ("impostors", "caustic_textures", "coarse_views", "impostor_receivers")
+    writes = (Channel("caustic_maps", "list", "per light: CausticMap (light-space irradiance, receiver distance)"),)
+
+    def __init__(self, params: ImpostorCausticsParams):
+        self.params = params
+
+    def run(self, frame: Frame) -> None:
+        impostors = frame.read("impostors").all()[:MAX_TILES]
+        world = frame.read("impostors").world or frame.scene
+        diffuse = [o for o in frame.scene.objects if o.material.kind == "diffuse"]
+        codes = np.zeros(MAX_TILES, "f4")
+        clips = np.tile(np.eye(4, dtype="f4"), (MAX_TILES, 1, 1))
+        axes = np.zeros((MAX_TILES, 3), "f4")
+        for k, imp in enumerate(impostors):
+            obj = world.objects[imp.index]
+            codes[k] = diffuse.index(obj) + 1 if obj in diffuse else -10.0
+            clips[k], axes[k] = imp.camera.clip_from_world().T, imp.axis
+        program = frame.gpu.shaders.compute("passes/impostor_caustic_resolve.comp", {"MAX_TILES": MAX_TILES})
+        set_uniform(program, "tile_size", self.params.caustic_size)
+        set_uniform(program, "tile_count", len(impostors))
+        _write_array(program, "tile_clip_from_world", clips)
+        _write_array(program, "tile_axis", axes)
+        _write_array(program, "tile_code", codes)
+        frame.read("caustic_textures").use(2)
+        set_uniform(program, "caustic", 2)
+        maps = []
+        for view, receivers in zip(frame.read("coarse_views"), frame.read("impostor_receivers")):
+            if view is None or receivers is None:
+                maps.append(None)
+                continue
+            out = frame.gpu.targets.texture(view.atlas_size, "rgba32f")
+            receivers[0].use(0)
+            receivers[1].use(1)
+            set_uniform(program, "receiver_position", 0)
+            set_uniform(program, "receiver_normal", 1)
+            out.bind_to_image(0, read=False, write=True)
+            program.run(group_x=(view.atlas_size[0] + 7) // 8, group_y=(view.atlas_size[1] + 7) // 8)
+            frame.gpu.ctx.memory_barrier()
+            maps.append(view.caustic_map(out))
+        # The surface pass reads the maps after this chain: keep them until the next frame's resolve.
+        key = ("impostor-caustic-maps",)
+        give_back_pooled(frame.gpu.targets, [m.texture for m in frame.gpu.cache.pop(key, []) if m is not None])
+        frame.gpu.cache[key] = maps
+        frame.write("caustic_maps", maps)
+
+
+class ReleaseCausticInputs(Pass):
+    """Give the photon buffers, caustic tiles and receiver maps back to the pool (the caustic maps stay)."""
+
+    reads = ("impostor_photons", "caustic_textures", "impostor_receivers")
+
+    def run(self, frame: Frame) -> None:
+        for name in self.reads:
+            give_back_pooled(frame.gpu.targets, [v for v in _flat(frame.read(name)) if not hasattr(v, "view_from_world")])
+            frame.channels[name] = []
+
+
+def _flat(value):
+    if isinstance(value, (list, tuple)):
+        for item in value:
+            yield from _flat(item)
+    elif value is not None:
+        yield value
+
+
+class ImpostorCaustics(CausticTechnique):
+    name = "impostor-caustics"
+    summary = "Caustics through impostors: photon buffer (u, v, k), GPU caustic textures, sqrt filter (Hu and Qin 3)"
+    Params = ImpostorCausticsParams
+
+    def caustic_passes(self, params):
+        build = BuildImpostors(lambda d: texture_passes(params, d), params.impostor_size, params.depth,
+                               params.rect_offset, params.distance_factor, params.max_impostors)
+        return [build, ImpostorPhotons(params), CausticTextures(params), FitCoarseViews(params.receiver_size),
+                LightSurfaces("coarse_views", "impostor_receivers", coded=("diffuse",)),
+                ResolveImpostorCaustics(params), ReleaseCausticInputs(), ReleaseImpostors(owner=build)]
