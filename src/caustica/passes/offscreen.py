@@ -1,8 +1,8 @@
 """Rendering part of a scene from a virtual camera into textures (reflection maps, impostor textures).
 
-Generalises ``techniques/per_vertex.py``'s ``ViewpointCamera``, ``render_map`` and
-``scene_without``: a camera-like object, a sub-frame that shares the parent's
-light samples and shadow maps, and cached sub-scenes.
+Shared by per-vertex reflection maps and impostor textures: a camera-like
+object, a sub-frame that shares the parent's light samples and shadow maps,
+and cached sub-scenes.
 """
 from __future__ import annotations
 

@@ -49,8 +49,9 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
-from ..passes.base import Channel, Frame, Pass, run_passes
+from ..passes.base import Channel, Frame, Pass
 from ..passes.lights import ShadowMaps
+from ..passes.offscreen import OffscreenCamera, render_offscreen, scene_subset
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..per_vertex.patches import Patch, split_patches
 from ..per_vertex.rays import double_refraction, reflection_rays, trace_lines
@@ -63,7 +64,6 @@ from .raster import RasterTechnique
 
 LAST_STATS: dict = {}  # the last frame's figures: per-vertex ms, ray-issuing vertices, patches, maps
 _LENS_CACHE: OrderedDict = OrderedDict()  # refraction vectors in eye space while a lens is fixed to the eye
-_SUBSCENES: OrderedDict = OrderedDict()  # scenes without one reflector (their ray scenes cache on them)
 _CACHE_SIZE = 32
 
 
@@ -106,23 +106,6 @@ class PerVertexParams(ShadowedParams):
             if ior.shape != (3,) or not np.all(np.isfinite(ior) & (ior > 0)):
                 raise ValueError(f"ior_rgb {self.ior_rgb} must be three positive IORs (red, green, blue)")
             self.ior_rgb = tuple(float(x) for x in ior)
-
-
-@dataclass
-class ViewpointCamera:
-    """The first-pass camera at a virtual viewpoint: what the passes read of a Camera."""
-
-    position: np.ndarray
-    size: tuple[int, int]
-    up: np.ndarray
-    _view: np.ndarray
-    _clip: np.ndarray
-
-    def view_from_world(self) -> np.ndarray:
-        return self._view
-
-    def clip_from_world(self) -> np.ndarray:
-        return self._clip
 
 
 @dataclass
@@ -298,18 +281,12 @@ def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVer
                reverse: bool = False):
     """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map (bilinear, clamped)."""
     view = volume.view_from_world
-    camera = ViewpointCamera(volume.position, (params.map_size, params.map_size), view[1, :3].copy(), view,
+    camera = OffscreenCamera(volume.position, (params.map_size, params.map_size), view[1, :3].copy(), view,
                              volume.clip_from_world(reverse))
-    sub = Frame(frame.gpu, subscene, camera, params,
-                channels={"light_samples": frame.read("light_samples"), "shadow_maps": frame.read("shadow_maps")})
     passes = [RefractorSurfaces("back", "farthest"), ShadeSurfaces()]
     if depth > 0:
         passes.append(PerVertexReflectors(params, depth))
-    run_passes(passes, sub)
-    color = sub.read("color")
-    for name, texture in sub.channels.items():
-        if name != "color" and frame.gpu.targets.is_lent(texture):
-            frame.gpu.targets.give_back(texture)
+    color = render_offscreen(frame, subscene, camera, passes, params=params)["color"]
     color.filter = (moderngl.LINEAR, moderngl.LINEAR)
     color.repeat_x = color.repeat_y = False
     return color
@@ -317,17 +294,7 @@ def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVer
 
 def scene_without(scene: Scene, index: int) -> Scene:
     """``scene`` less one object (cached, so that its Embree scene is built once)."""
-    objects = [o for i, o in enumerate(scene.objects) if i != index]
-    key = (tuple(id(o) for o in objects), tuple(id(light) for light in scene.lights), id(scene.environment),
-           scene.intensity_scale)
-    sub = _SUBSCENES.get(key)
-    if sub is None:
-        sub = Scene(camera=scene.camera, objects=objects, lights=scene.lights, environment=scene.environment,
-                    intensity_scale=scene.intensity_scale, name=f"{scene.name}-without-{index}")
-        _SUBSCENES[key] = sub
-        while len(_SUBSCENES) > _CACHE_SIZE:
-            _SUBSCENES.popitem(last=False)
-    return sub
+    return scene_subset(scene, [i for i in range(len(scene.objects)) if i != index])
 
 
 def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, params: PerVertexParams) -> None:
