@@ -85,3 +85,24 @@ def test_composite_names_and_parameters():
     assert view_params.shadow_map_size == 512 and caustic_params.shadow_map_size == 512
     with pytest.raises(TechniqueError, match="no parameter 'shadow_map_sise'"):
         composite.make_params(shadow_map_sise=512)
+
+
+def test_parameters_both_halves_have_must_be_qualified():
+    """depth-search and caustic-mapping both have 'iterations' (different meanings): unqualified is refused."""
+    composite = get_technique("depth-search+caustic-mapping")
+    with pytest.raises(TechniqueError, match="depth-search.iterations or caustic-mapping.iterations"):
+        composite.make_params(iterations=3)
+    view, caustics = composite.make_params(**{"caustic-mapping.iterations": 3, "depth_search.iterations": 2})
+    assert (view.iterations, caustics.iterations) == (2, 3)
+    with pytest.raises(TechniqueError, match="not part of"):
+        composite.make_params(**{"image-space.use_dn": False})
+
+
+def test_caustic_technique_alone_keeps_the_view_defaults():
+    """Named alone, a caustic technique's own 'iterations' must not leak into depth-search's."""
+    from caustica.techniques.composite import _shared_params
+
+    caustics = get_technique("caustic-mapping")
+    view_params = _shared_params(get_technique("depth-search"), caustics.make_params(iterations=1, shadow_map_size=256))
+    assert view_params.iterations == get_technique("depth-search").make_params().iterations
+    assert view_params.shadow_map_size == 256

@@ -150,7 +150,11 @@ def _material(material, channel: int | None) -> tuple[dict, dict | None]:
         sigma = np.asarray(material.absorption_coefficient, dtype=np.float64)
         medium = None
         if np.any(sigma > 0):
-            medium = {"type": "homogeneous", "sigma_t": _rgb(sigma), "albedo": _rgb(np.zeros(3))}
+            # Mitsuba's RGB textures must lie in [0, 1]: normalise sigma_t and carry its size in ``scale``;
+            # a zero channel makes volpath's distance sampling divide by zero (NaN), so floor it at 1e-4.
+            scale = float(sigma.max())
+            medium = {"type": "homogeneous", "sigma_t": _rgb(np.maximum(sigma / scale, 1e-4)), "scale": scale,
+                      "albedo": _rgb(np.zeros(3))}
         return bsdf, medium
     raise ValueError(f"cannot export material kind '{material.kind}' to Mitsuba")
 

@@ -18,6 +18,7 @@ from ..passes.surfaces import ShadeSurfaces
 from .raster import RasterTechnique
 
 DEFAULT_VIEW = "depth-search"  # the most accurate view technique without preprocessing
+SHARED_PARAMS = {"shadow_map_size"}  # parameters that mean the same in both halves of a composite
 
 
 class CausticTechnique(RasterTechnique):
@@ -42,18 +43,31 @@ class Composite(RasterTechnique):
         self.summary = f"{view.name} for what the camera sees, {caustics.name} for caustics"
 
     def make_params(self, **values):
-        """Each value goes to the technique(s) that have a parameter of that name."""
-        view_fields = {f.name for f in dataclasses.fields(self.view.Params)}
-        caustic_fields = {f.name for f in dataclasses.fields(self.caustics.Params)}
-        for key in values:
-            if key not in view_fields | caustic_fields:
-                raise TechniqueError(
-                    f"technique '{self.name}' has no parameter '{key}'{closest_name(key, view_fields | caustic_fields)}; "
-                    f"its parameters are: {', '.join(sorted(view_fields | caustic_fields))}"
-                )
-        view_params = self.view.make_params(**{k: v for k, v in values.items() if k in view_fields})
-        caustic_params = self.caustics.make_params(**{k: v for k, v in values.items() if k in caustic_fields})
-        return view_params, caustic_params
+        """Route each value to its technique: ``name`` where only one has it (or it is shared, like
+        shadow_map_size), ``<technique>.name`` where both have a parameter of that name."""
+        halves = {self.view: {}, self.caustics: {}}
+        fields = {t: {f.name for f in dataclasses.fields(t.Params)} for t in halves}
+        prefixes = {t.name.replace("-", "_"): t for t in halves}
+        for key, value in values.items():
+            prefix, _, name = key.rpartition(".")
+            if prefix:
+                technique = prefixes.get(prefix.replace("-", "_"))
+                if technique is None:
+                    raise TechniqueError(f"'{prefix}' in parameter '{key}' is not part of '{self.name}'; "
+                                         f"use {' or '.join(t.name for t in halves)}")
+                targets = [technique]
+            else:
+                targets = [t for t in halves if name in fields[t]]
+                if len(targets) == 2 and name not in SHARED_PARAMS:
+                    raise TechniqueError(f"both {self.view.name} and {self.caustics.name} have a parameter '{name}'; "
+                                         f"write {self.view.name}.{name} or {self.caustics.name}.{name}")
+            if not targets:
+                known = fields[self.view] | fields[self.caustics]
+                raise TechniqueError(f"technique '{self.name}' has no parameter '{name}'{closest_name(name, known)}; "
+                                     f"its parameters are: {', '.join(sorted(known))}")
+            for technique in targets:
+                halves[technique][name] = value
+        return self.view.make_params(**halves[self.view]), self.caustics.make_params(**halves[self.caustics])
 
     def build_passes(self, params):
         view_params, caustic_params = params
@@ -68,9 +82,9 @@ def compose_passes(view: RasterTechnique, caustics: CausticTechnique, view_param
 
 
 def _shared_params(view: RasterTechnique, caustic_params):
-    """The view's default parameters, with any the caustic technique shares (e.g. shadow_map_size)."""
+    """The view's default parameters, with the ones both mean alike (SHARED_PARAMS) from the caustic technique."""
     view_fields = {f.name for f in dataclasses.fields(view.Params)}
-    shared = {k: v for k, v in dataclasses.asdict(caustic_params).items() if k in view_fields}
+    shared = {k: v for k, v in dataclasses.asdict(caustic_params).items() if k in view_fields and k in SHARED_PARAMS}
     return view.make_params(**shared)
 
 
