@@ -31,7 +31,8 @@ outline. This module holds what they share:
   a chain only when lights, objects or materials change.
 
 Photons live in :class:`Photons`: an SSBO of ``{vec4 position (w = 1 landed);
-vec4 flux (W, RGB)}``, the format every splat here reads.
+vec4 flux (W, RGB)}``, the format every splat here reads; :func:`dispatch_photons`
+runs a compute shader that writes one (``photon_land.comp``).
 """
 from __future__ import annotations
 
@@ -198,15 +199,17 @@ def _perspective_view(sample: LightSample, scene, size: int, axis, x0, x1, y0, y
 
 
 def coarse_view(sample: LightSample, size: int, scene) -> LightView:
-    """A view over the whole scene: orthographic box (directional), the cone (spot), the atlas (point)."""
-    if sample.type == LIGHT_POINT:
+    """A view over the whole scene: orthographic box (directional), the atlas (point and spot lights).
+
+    Spot lights get the atlas too, not their cone: refracted light leaves the
+    cone (a prism bends a narrow beam by tens of degrees onto receivers the
+    cone never sees), and this view must hold every landing point.
+    """
+    if sample.type != LIGHT_DIRECTIONAL:
         return cube_view(sample, size, scene)
     low, high = scene.bounds()
     corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    if sample.type == LIGHT_DIRECTIONAL:
-        return fit_view(sample, corners, size, scene, margin_texels=1.0)
-    half = np.sqrt(max(1.0 - sample.cone_cos[1] ** 2, 0.0)) / max(sample.cone_cos[1], 1e-3)
-    return _perspective_view(sample, scene, size, sample.direction, -half, half, -half, half)
+    return fit_view(sample, corners, size, scene, margin_texels=1.0)
 
 
 def fit_view(sample: LightSample, points: np.ndarray, size: int, scene, margin_texels: float = 2.0,
@@ -287,6 +290,19 @@ class Photons:
         return data[landed, :3].astype(np.float64), data[landed, 4:7].astype(np.float64)
 
 
+def dispatch_photons(frame: Frame, program, size: tuple[int, int], count: int, initial: Photons | None,
+                     stats: dict) -> Photons:
+    """Run a photon compute shader over a ``size`` texel grid (8 x 8 groups) into a new buffer of ``count``
+    photons (binding 0); binding 1 holds the ``initial`` photons (``has_initial``), or the new buffer."""
+    buffer = frame.gpu.ctx.buffer(reserve=count * PHOTON_BYTES)
+    buffer.bind_to_storage_buffer(0)
+    set_uniform(program, "has_initial", int(initial is not None))
+    (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
+    program.run(group_x=(size[0] + 7) // 8, group_y=(size[1] + 7) // 8)
+    frame.gpu.ctx.memory_barrier()
+    return Photons(buffer, count, stats)
+
+
 # Passes -----------------------------------------------------------------------
 
 
@@ -315,7 +331,7 @@ class FitCasterViews(Pass):
                     view = fit_view(sample, points, self.size, frame.scene, margin_texels=1.0)
                 if view is None and sample.type == LIGHT_POINT:
                     view = cube_view(sample, self.size, frame.scene)
-                if view is None:  # a spot light whose casters spread wider than a frustum: its own cone
+                if view is None:  # a spot light whose casters spread wider than a frustum: the atlas
                     view = coarse_view(sample, self.size, frame.scene)
             views.append(view)
         frame.write("caster_views", views)

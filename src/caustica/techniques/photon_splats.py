@@ -1,0 +1,136 @@
+"""``photon-splats``: image-space caustics from a photon buffer splatted into a caustic map (Wyman).
+
+Wyman, "Approximate, Image-Space Caustics" (with Davis, I3D 2006), in the
+chapter after "Approximate, Image-Space Refraction". Per light sample:
+
+1. Rendering from the light ("Rendering From the Light"): the scene is drawn
+   from the light with the image-space refraction routine of ``image-space``
+   (``passes/photon_splats.py``, :class:`RefractFromLight`): T1 at the front
+   surface, d~ = (theta_t/theta_i) d_V + (1 - theta_t/theta_i) d_N (eq. 6.3.1)
+   with d_V from the light's front and farthest back distances and d_N per
+   vertex (exact, cached), P2 = P1 + d~ T1, N2 from the back faces at P2's
+   projection (eq. 6.3.2 where empty), T2, and ``tir_mode`` at the exit as in
+   ``image-space`` ('keep-t1', 'clamp', 'reflect') or 'drop'. Through a sphere
+   the exact paths never meet TIR, but d~ and N2 send about a fifth of the flux
+   (the rim) beyond the critical angle at the estimated exit; 'keep-t1' (the
+   default here) keeps those photons near their true path: caustic-region
+   relMSE against Mitsuba on caustic-sphere 0.0041 ('clamp', image-space's
+   default, 0.0045, and it scatters them far: 3x the spot's spread). The photon buffer
+   is ``photon_buffer_size`` texels a side, fitted around the refractors (the
+   paper couples it to the shadow map; fitting spends every photon on the
+   refractors). Water (open meshes) refracts once; mirrors reflect once
+   ("any interactive reflection or refraction scheme").
+2. Photon hits (the photon buffer): each exit ray lands on the receivers found
+   from a distance estimate (:class:`LandPhotons`: Newton-Raphson steps of
+   Shah et al.'s intersection estimate against the receivers' light-space
+   position texture, the one ``caustic-mapping`` uses). A first landing on a
+   coarse view of the whole scene fits the caustic map's view tightly around
+   the hits (``passes/light_space.py``, FitCausticViews); the photons then
+   land again on that view's receivers, ``land_iterations`` steps from the first hits.
+3. Caustic map ("Rendering the Caustic Map"): Gaussian splats of radius
+   ``splat_radius`` caustic-map texels (sigma = radius / 2; the paper's 7 x 7
+   splats are radius 3), additive point sprites as in the paper or a compute
+   shader with float atomics (``splat``). Energy: the paper's weights sum to
+   R = pixelsInCausticMap / totalPhotons, counting photons; ours carry
+   physical flux (the light's intensity times the texel's solid angle, the
+   per-photon weighting the paper notes it ignores, times exact Fresnel
+   transmittance (1 - F1)(1 - F2) and Beer-Lambert exp(-sigma_a d~)), and
+   every splat's weights sum to one, so the map (flux / receiver texel area)
+   is irradiance in W/m^2, the ``caustic_maps`` contract
+   (``passes/caustics.py``). RGB dispersion: one photon per channel.
+4. Applying the caustic map: the view technique's surface shader projects it
+   like a shadow map (``shaders/common/caustics.glsl``). The map is rebuilt only
+   when a light, an object or a material changes (CachedPasses; "Putting it
+   Together").
+
+Approximate: d~ is not physically based (the exit point and N2 are off for
+oblique paths, which blurs and shifts the focus: see tests/test_photon_splats.py;
+through the flat faces of caustics-prism the dispersed spot lands 0.1 short of
+the exact trace's, tests/test_caustics_oracle.py),
+one back-face layer (farthest) for all refractors, exit TIR handled by
+``tir_mode`` instead of internal bounces, the first caster layer only, the
+receiver found by an estimate against one light-space layer (a receiver hidden
+from the light gets no caustic), Fresnel-reflected light off glass is not
+splatted, one photon per texel (aliasing where the photon buffer is coarse).
+Limits: at most 32 casters.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..passes.light_space import (
+    CachedPasses,
+    FitCasterViews,
+    FitCausticViews,
+    FitCoarseViews,
+    LightSurfaces,
+    ResolveCausticMaps,
+    SplatPhotons,
+)
+from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
+from .composite import CausticTechnique
+from .env_map import ShadowedParams
+
+COARSE_NEWTON_STEPS = 6  # the first landing converges, so the fitted caustic map holds the hits
+COARSE_MAP_SIZE = 256
+
+
+def _check_int(name: str, value, low: int, high: int) -> int:
+    if isinstance(value, bool) or int(value) != value or not low <= value <= high:
+        raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+    return int(value)
+
+
+@dataclass
+class PhotonSplatsParams(ShadowedParams):
+    """Parameters of ``photon-splats`` (Wyman)."""
+
+    photon_buffer_size: int = 512  # photons a side of the light's view of the refractors
+    caustic_map_size: int = 256  # caustic-map texels a side (per cube face); the paper: photons at twice this
+    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2; the paper's 7x7: 3)
+    splat: str = "auto"  # 'points' (additive point sprites, the paper), 'compute' (float atomics) or 'auto'
+    tir_mode: str = "keep-t1"  # exit TIR: 'keep-t1', 'clamp', 'reflect' (as image-space) or 'drop'
+    use_dn: bool = True  # d~ interpolates d_V and d_N (False: d~ = d_V)
+    land_iterations: int = 2  # Newton-Raphson steps landing the photons on the fitted map's receivers
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.photon_buffer_size = _check_int("photon_buffer_size", self.photon_buffer_size, 8, 4096)
+        self.caustic_map_size = _check_int("caustic_map_size", self.caustic_map_size, 16, 4096)
+        self.land_iterations = _check_int("land_iterations", self.land_iterations, 0, 64)
+        if not 0.75 <= float(self.splat_radius) <= 8.0:
+            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
+        self.splat_radius = float(self.splat_radius)
+        if self.splat not in ("auto", "compute", "points"):
+            raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
+        if self.tir_mode not in TIR_MODES:
+            raise ValueError(f"tir_mode {self.tir_mode!r} must be one of {', '.join(TIR_MODES)}")
+        if not isinstance(self.use_dn, (bool, np.bool_)):
+            raise TypeError(f"use_dn {self.use_dn!r} must be true or false")
+        self.use_dn = bool(self.use_dn)
+
+
+class PhotonSplats(CausticTechnique):
+    name = "photon-splats"
+    summary = "Caustics from the light: refraction routine into a photon buffer, Gaussian splats in a caustic map (Wyman)"
+    Params = PhotonSplatsParams
+
+    def caustic_passes(self, params):
+        p = params
+        inner = [
+            FitCasterViews(p.photon_buffer_size),
+            LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
+            RefractFromLight(p.tir_mode, p.use_dn),
+            FitCoarseViews(min(p.caustic_map_size, COARSE_MAP_SIZE)),
+            LightSurfaces("coarse_views", "coarse_receivers"),
+            LandPhotons("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, p.land_iterations)),
+            FitCausticViews("coarse_photons", p.caustic_map_size, margin_texels=p.splat_radius + 2.0),
+            LightSurfaces("caustic_views", "receivers"),
+            LandPhotons("receivers", "caustic_views", "photons", p.land_iterations, initial="coarse_photons"),
+            SplatPhotons("photons", mode=p.splat, radius=p.splat_radius),
+            ResolveCausticMaps("receivers"),
+        ]
+        key = tuple(sorted(vars(p).items()))
+        return [CachedPasses("photon-splats", key, inner)]
