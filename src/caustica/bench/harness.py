@@ -3,9 +3,10 @@
 Per scene, size and technique: the median ms per frame, per-pass ms (GPU timer
 queries on a GPU, finish() and wall clock on llvmpipe), triangle count, and
 the ratio to a ``plain`` diffuse frame of the same scene in the same run.
-Time to quality: each technique's relMSE against the high-sample reference,
-then Mitsuba at 1, 2, 4, ... spp timed on the same machine; the spp and
-seconds Mitsuba needs to match the technique's error give the speed ratio.
+Time to quality: each technique's relMSE against the high-sample reference
+(whole image, and the caustic region where the scene has one), then Mitsuba
+at 1, 2, 4, ... spp timed on the same machine; the spp and seconds Mitsuba
+needs to match the technique's error give the speed ratio.
 """
 from __future__ import annotations
 
@@ -46,15 +47,21 @@ def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
 
 def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
     """Each technique's relMSE and ms, and Mitsuba's (spp, seconds, relMSE) curve on the same machine."""
-    from ..metrics import relmse
+    from ..metrics import region_masks, relmse
     from ..reference.render import render_reference
 
     reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=True)
     renderer = Renderer((size, size))
     techniques_out = {}
+    caustic = region_masks(scene, renderer.camera_for(scene))["caustic"]
+    regions = {"relmse": None, "caustic_relmse": caustic} if caustic.any() else {"relmse": None}
+
+    def errors(image) -> dict:
+        return {key: float(relmse(image, reference, mask)) for key, mask in regions.items()}
+
     for name in techniques:
         image, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
-        techniques_out[name] = {"ms": ms, "relmse": float(relmse(image, reference))}
+        techniques_out[name] = {"ms": ms, **errors(image)}
     curve = []
     render_reference(scene, size=(size, size), spp=1, cache=False, progress=False)  # warm-up: JIT compile
     spp = 1
@@ -62,17 +69,19 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
         start = time.perf_counter()
         image = render_reference(scene, size=(size, size), spp=spp, cache=False, progress=False)
         seconds = time.perf_counter() - start
-        curve.append({"spp": spp, "seconds": seconds, "relmse": float(relmse(image, reference))})
-        log(f"  mitsuba {spp:4d} spp: {seconds:7.2f} s, relMSE {curve[-1]['relmse']:.5f}")
+        curve.append({"spp": spp, "seconds": seconds, **errors(image)})
+        log(f"  mitsuba {spp:4d} spp: {seconds:7.2f} s, " + ", ".join(f"{k} {curve[-1][k]:.5f}" for k in regions))
         spp *= 2
     for name, entry in techniques_out.items():
-        reached = next((c for c in curve if c["relmse"] <= entry["relmse"]), None)
-        entry["mitsuba_spp"] = reached["spp"] if reached else None
-        entry["mitsuba_seconds"] = reached["seconds"] if reached else None
-        entry["speed_ratio"] = reached["seconds"] * 1000.0 / entry["ms"] if reached else None
-        log(f"{scene.name:16s} {name:12s} relMSE {entry['relmse']:.5f} in {entry['ms']:.1f} ms; "
-            + (f"Mitsuba needs {reached['spp']} spp, {reached['seconds']:.2f} s: x{entry['speed_ratio']:.0f} faster"
-               if reached else f"Mitsuba does not reach it within {max_spp} spp"))
+        for key in regions:  # whole image, and the caustic region where the scene has one
+            suffix = "" if key == "relmse" else "_caustic"
+            reached = next((c for c in curve if c[key] <= entry[key]), None)
+            entry["mitsuba_spp" + suffix] = reached["spp"] if reached else None
+            entry["mitsuba_seconds" + suffix] = reached["seconds"] if reached else None
+            entry["speed_ratio" + suffix] = reached["seconds"] * 1000.0 / entry["ms"] if reached else None
+            log(f"{scene.name:16s} {name:12s} {key} {entry[key]:.5f} in {entry['ms']:.1f} ms; "
+                + (f"Mitsuba needs {reached['spp']} spp, {reached['seconds']:.2f} s: x{entry['speed_ratio' + suffix]:.0f} faster"
+                   if reached else f"Mitsuba does not reach it within {max_spp} spp"))
     return {"scene": scene.name, "size": size, "reference_spp": reference_spp, "techniques": techniques_out,
             "mitsuba_curve": curve}
 
