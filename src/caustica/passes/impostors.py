@@ -71,6 +71,7 @@ class ImpostorSet:
     by_reflector: dict = field(default_factory=dict)  # world object index -> list[Impostor]
     base: dict = field(default_factory=dict)  # world object index -> global index of its first rectangle
     world: object = None
+    cached: bool = False  # kept across frames in the device cache: ReleaseImpostors leaves it alone
 
     def pooled(self):
         return [imp.texture for group in self.by_reflector.values() for imp in group]
@@ -169,7 +170,10 @@ class BuildImpostors(Pass):
     > 0 a reflector's texture is itself rendered with impostors (recursion), at
     0 it sees the environment. The world the rectangles come from is the
     channel ``impostor_world`` when a parent frame set it, else this frame's scene.
-    Does nothing when an earlier pass already wrote ``impostors``.
+    Does nothing when an earlier pass already wrote ``impostors``. The textures
+    do not depend on the camera, so the top-level set is kept across frames until
+    an object, material, light or the environment changes (the paper, 2.2.1:
+    textures need updating only when the objects move).
     """
 
     reads = ("light_samples", "shadow_maps")
@@ -186,9 +190,15 @@ class BuildImpostors(Pass):
         self.created = "impostors" not in frame.channels
         if not self.created:
             return
+        top_level = "impostor_world" not in frame.channels  # recursive sub-frames share the parent's world
+        key = ("impostors", self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors,
+               _impostor_state_key(frame.scene)) if top_level else None
+        if top_level and key in frame.gpu.cache:
+            frame.write("impostors", frame.gpu.cache[key])
+            return
         world = frame.channels.get("impostor_world", frame.scene)
         drawn = {id(o) for o in frame.scene.objects}
-        result = ImpostorSet(world=world)
+        result = ImpostorSet(world=world, cached=top_level)
         base = 0
         for r, reflector in enumerate(world.objects):
             if id(reflector) not in drawn or reflector.material.kind not in ("glass", "mirror"):
@@ -205,6 +215,10 @@ class BuildImpostors(Pass):
             result.by_reflector[r] = group
             result.base[r] = base
             base += len(group)
+        if top_level:
+            for old in [k for k in frame.gpu.cache if isinstance(k, tuple) and k and k[0] == "impostors"]:
+                give_back_pooled(frame.gpu.targets, frame.gpu.cache.pop(old))
+            frame.gpu.cache[key] = result
         frame.write("impostors", result)
 
     def render_texture(self, frame: Frame, world, impostor: Impostor):
@@ -231,8 +245,17 @@ class ReleaseImpostors(Pass):
     def run(self, frame: Frame) -> None:
         if self.owner is not None and not self.owner.created:
             return
-        give_back_pooled(frame.gpu.targets, frame.read("impostors"))
+        if not frame.read("impostors").cached:
+            give_back_pooled(frame.gpu.targets, frame.read("impostors"))
         frame.channels["impostors"] = ImpostorSet()
+
+
+def _impostor_state_key(scene) -> tuple:
+    """What impostor textures depend on: geometry, placement, materials, lights, environment."""
+    from .lights import _scene_state_key
+
+    return (_scene_state_key(scene), tuple(repr(o.material) for o in scene.objects), id(scene.environment.image),
+            scene.intensity_scale)
 
 
 def _write_array(program, name: str, values: np.ndarray) -> None:
