@@ -215,12 +215,15 @@ def render_reference(
     cache: bool = True,
     analytic_spheres: bool = True,
     camera=None,
+    seed: int = 0,
 ) -> np.ndarray:
     """The Mitsuba ground truth of ``scene``: (H, W, 3) float32 linear RGB, row 0 at the top.
 
     ``size`` (width, height) overrides the camera's (``camera`` replaces the
     scene's); ``spp`` samples per pixel for each integrator; ``max_depth`` is
-    Mitsuba's path length limit. See the module docstring for the composite.
+    Mitsuba's path length limit; ``seed`` selects independent sample sequences
+    (renders with different seeds share no samples). See the module docstring
+    for the composite.
     """
     spp = int(spp)
     if spp < 1:
@@ -232,7 +235,8 @@ def render_reference(
         camera = camera.with_size(*size)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(scene, camera, spp, max_depth, active, analytic_spheres)
-    path = cache_dir / f"{scene.name}-{camera.size[0]}x{camera.size[1]}-{spp}spp-{key}.npy"
+    seed_tag = f"-seed{int(seed)}" if seed else ""  # seed 0 keeps the names existing caches have
+    path = cache_dir / f"{scene.name}-{camera.size[0]}x{camera.size[1]}-{spp}spp{seed_tag}-{key}.npy"
     if cache:
         cached = load_array(path)
         if cached is not None:
@@ -262,7 +266,7 @@ def render_reference(
                     bar.set_postfix_str(label if channel is None else f"{label} channel {channel}")
                 part = _render_integrator(
                     mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel, analytic_spheres,
-                    bar, seed_base=1000 * k,
+                    bar, seed_base=1000 * k + 100_000 * int(seed),
                 )
                 image += weights[integrator, emitters] * part
             if channel is None:
