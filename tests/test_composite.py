@@ -14,6 +14,7 @@ from caustica.scene.shapes import plane
 from caustica.scene.transform import look_at_view_from_world, orthographic_clip_from_view
 from caustica.techniques import get_technique
 from caustica.techniques.composite import CausticTechnique, Composite
+from caustica.techniques.env_map import ShadowedParams
 
 CAUSTIC_E = 2.0  # irradiance the fake map delivers, W/m^2
 
@@ -37,8 +38,8 @@ class ConstantCausticMap(Pass):
 
 
 @dataclass
-class FakeParams:
-    shadow_map_size: int = 256
+class FakeParams(ShadowedParams):
+    """Inherits shadow_map_size, so a composite shares it with the view."""
 
 
 class FakeCaustics(CausticTechnique):
@@ -103,6 +104,7 @@ def test_caustic_technique_alone_keeps_the_view_defaults():
     from caustica.techniques.composite import _shared_params
 
     caustics = get_technique("caustic-mapping")
-    view_params = _shared_params(get_technique("depth-search"), caustics.make_params(iterations=1, shadow_map_size=256))
+    view_params = _shared_params(get_technique("depth-search"), caustics,
+                                 caustics.make_params(iterations=1, shadow_map_size=256))
     assert view_params.iterations == get_technique("depth-search").make_params().iterations
     assert view_params.shadow_map_size == 256

@@ -18,7 +18,17 @@ from ..passes.surfaces import ShadeSurfaces
 from .raster import RasterTechnique
 
 DEFAULT_VIEW = "depth-search"  # the most accurate view technique without preprocessing
-SHARED_PARAMS = {"shadow_map_size"}  # parameters that mean the same in both halves of a composite
+
+
+def _defined_in(params_class: type, name: str) -> type:
+    """The dataclass in ``params_class``'s ancestry that declares the field ``name``."""
+    return next(c for c in params_class.__mro__ if name in getattr(c, "__annotations__", {}))
+
+
+def is_shared(view: RasterTechnique, caustics: RasterTechnique, name: str) -> bool:
+    """A parameter both halves have means the same when both inherit it from one declaration
+    (shadow_map_size from ShadowedParams, the impostor settings from ImpostorParams, ...)."""
+    return _defined_in(view.Params, name) is _defined_in(caustics.Params, name)
 
 
 class CausticTechnique(RasterTechnique):
@@ -31,7 +41,8 @@ class CausticTechnique(RasterTechnique):
     def build_passes(self, params):
         from .base import get_technique
 
-        return compose_passes(get_technique(DEFAULT_VIEW), self, _shared_params(get_technique(DEFAULT_VIEW), params), params)
+        view = get_technique(DEFAULT_VIEW)
+        return compose_passes(view, self, _shared_params(view, self, params), params)
 
 
 class Composite(RasterTechnique):
@@ -43,8 +54,8 @@ class Composite(RasterTechnique):
         self.summary = f"{view.name} for what the camera sees, {caustics.name} for caustics"
 
     def make_params(self, **values):
-        """Route each value to its technique: ``name`` where only one has it (or it is shared, like
-        shadow_map_size), ``<technique>.name`` where both have a parameter of that name."""
+        """Route each value to its technique: ``name`` where only one has it or both share its declaration
+        (:func:`is_shared`), ``<technique>.name`` where both have unrelated parameters of that name."""
         halves = {self.view: {}, self.caustics: {}}
         fields = {t: {f.name for f in dataclasses.fields(t.Params)} for t in halves}
         prefixes = {t.name.replace("-", "_"): t for t in halves}
@@ -58,7 +69,7 @@ class Composite(RasterTechnique):
                 targets = [technique]
             else:
                 targets = [t for t in halves if name in fields[t]]
-                if len(targets) == 2 and name not in SHARED_PARAMS:
+                if len(targets) == 2 and not is_shared(self.view, self.caustics, name):
                     raise TechniqueError(f"both {self.view.name} and {self.caustics.name} have a parameter '{name}'; "
                                          f"write {self.view.name}.{name} or {self.caustics.name}.{name}")
             if not targets:
@@ -81,10 +92,11 @@ def compose_passes(view: RasterTechnique, caustics: CausticTechnique, view_param
     return passes[:shade] + caustics.caustic_passes(caustic_params) + passes[shade:]
 
 
-def _shared_params(view: RasterTechnique, caustic_params):
-    """The view's default parameters, with the ones both mean alike (SHARED_PARAMS) from the caustic technique."""
+def _shared_params(view: RasterTechnique, caustics: RasterTechnique, caustic_params):
+    """The view's default parameters, with the ones both declare alike (:func:`is_shared`) from the caustic technique."""
     view_fields = {f.name for f in dataclasses.fields(view.Params)}
-    shared = {k: v for k, v in dataclasses.asdict(caustic_params).items() if k in view_fields and k in SHARED_PARAMS}
+    shared = {k: v for k, v in dataclasses.asdict(caustic_params).items()
+              if k in view_fields and is_shared(view, caustics, k)}
     return view.make_params(**shared)
 
 
