@@ -45,13 +45,11 @@ def casters(scene) -> list:
 
 def caster_kind(obj) -> int:
     """How the photon pass treats an object (an open glass mesh is a single refracting surface)."""
-    from ..techniques.caustic_mapping import is_open_mesh
-
     kind = obj.material.kind
     if kind == "mirror":
         return KIND_MIRROR
     if kind == "glass":
-        return KIND_SURFACE if is_open_mesh(obj.mesh) else KIND_SOLID
+        return KIND_SURFACE if obj.mesh.is_open() else KIND_SOLID
     return KIND_OCCLUDER
 
 

@@ -31,6 +31,7 @@ class Mesh:
     # the exact oracle then intersects the true sphere (raytrace/embree_scene.py).
     analytic_sphere: tuple | None = None
     _hash: str | None = field(default=None, repr=False, compare=False)
+    _open: bool | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32)
@@ -68,6 +69,20 @@ class Mesh:
             h.update(self.faces.tobytes())
             self._hash = h.hexdigest()[:16]
         return self._hash
+
+    def is_open(self) -> bool:
+        """Whether some edge borders one triangle only (a water surface rather than a solid).
+
+        Vertices are welded by position first: icospheres and revolved shapes may
+        repeat vertices along seams.
+        """
+        if self._open is None:
+            edges = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+            _, weld = np.unique(np.round(self.vertices, 6), axis=0, return_inverse=True)
+            edges = np.sort(weld.reshape(-1)[edges], axis=1)
+            _, counts = np.unique(edges, axis=0, return_counts=True)
+            self._open = bool(np.any(counts == 1))
+        return self._open
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""

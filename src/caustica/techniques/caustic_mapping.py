@@ -124,22 +124,6 @@ class CausticMappingParams(ShadowedParams):
         self.splat_radius = float(self.splat_radius)
 
 
-def is_open_mesh(mesh) -> bool:
-    """Whether some edge borders one triangle only (a water surface rather than a solid)."""
-    key = mesh.content_hash()
-    if key not in _OPEN:
-        edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        # Welded by position: icospheres and revolved shapes may repeat vertices along seams.
-        _, weld = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
-        edges = np.sort(weld.reshape(-1)[edges], axis=1)
-        _, counts = np.unique(edges, axis=0, return_counts=True)
-        _OPEN[key] = bool(np.any(counts == 1))
-    return _OPEN[key]
-
-
-_OPEN: dict[str, bool] = {}
-
-
 class TracePhotons(Pass):
     """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D)."""
 
@@ -165,7 +149,7 @@ class TracePhotons(Pass):
             if material.kind == "mirror":
                 types[i], colors[i] = CASTER_MIRROR, material.color
             else:
-                types[i] = CASTER_SURFACE if is_open_mesh(obj.mesh) else CASTER_SOLID
+                types[i] = CASTER_SURFACE if obj.mesh.is_open() else CASTER_SOLID
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
         channels = 3 if dispersive else 1
