@@ -244,3 +244,30 @@ def test_show_returns_an_image_without_widgets():
     assert image.size == (64, 48)
     reference = caustica.Renderer((64, 48)).render(caustica.load_scene("glass-sphere"), "env-map")
     assert np.abs(np.asarray(image, np.int16) - srgb8(reference)).max() <= 1
+
+
+def test_object_technique_switches_to_per_object(display, tmp_path):
+    """Choosing a glass object's technique in the panel shows that object with it: the headless ``per-object`` render."""
+    result = run_child(display, """
+scene = caustica.load_scene("tvcg-fig11")
+viewer = Viewer(scene, "depth-search", size=(160, 96), fixed_step=True)
+viewer.run(frames=2, script=[("object_technique", "sphere-0", "env-map"), ("wait", 1)])
+result.update(technique=viewer.technique, params=viewer.params, error=viewer.error,
+              shown=[viewer.object_technique(o.name) for o in viewer.scene.objects_of("glass")])
+viewer.apply(("object_technique", "floor", "env-map"))
+result["floor_error"] = viewer.error
+viewer.screenshot("shot.exr")
+open("scene.pkl", "wb").write(pickle.dumps(viewer.scene_view()))
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+""", tmp_path)
+    assert result["error"] is None
+    assert result["technique"] == "per-object"
+    assert result["params"] == {"techniques": {"sphere-0": "env-map"}, "default": "depth-search"}
+    assert result["shown"] == ["env-map", "depth-search", "depth-search"]
+    assert "only glass objects" in result["floor_error"]
+    reference = headless(tmp_path / "scene.pkl", "per-object", **result["params"])
+    assert np.abs(read_image(tmp_path / "shot.exr") - reference).max() < 1e-3
+    # The env-map sphere really differs from the depth-search render.
+    assert np.abs(reference - headless(tmp_path / "scene.pkl", "depth-search")).max() > 0.1
+    assert result["gl_error"] == "GL_NO_ERROR" and result["live"] == {}

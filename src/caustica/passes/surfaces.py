@@ -77,30 +77,62 @@ class ShadeSurfaces(Pass):
     optional_reads = ("caustic_maps",)  # added to diffuse receivers when a caustic technique wrote them
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
-                 inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None):
+                 inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
+                 tag: str = "", vertex: str = "common/mesh_vertex.glsl"):
         """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
-        sets a technique's own uniforms per object (``obj`` None once per frame)."""
+        sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
+        stage (it writes world_position and world_normal as the shared one does).
+
+        ``objects`` (a set of object names or a predicate ``f(obj) -> bool``; None: all) limits the
+        objects drawn. ``background`` False draws over the ``color``, ``exit_direction`` and ``depth``
+        an earlier ShadeSurfaces wrote, without clearing them: several runs, each with its own shader
+        and objects, then make one image (``per-object``). ``tag`` names the run in pass timings."""
         if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
             raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
-        self.fragment = fragment
+        self.fragment, self.vertex = fragment, vertex
         self.defines = defines or {}
         self.material_override = material_override
         self.inputs = tuple(inputs)
         self.set_uniforms = set_uniforms
-        self.reads = ("light_samples", "shadow_maps") + self.inputs
+        self.objects = objects if objects is None or callable(objects) else frozenset(objects)
+        self.background = bool(background)
+        self.tag = tag
+        targets = () if self.background else tuple(c.name for c in self.writes)
+        self.reads = ("light_samples", "shadow_maps") + self.inputs + targets
+
+    @property
+    def label(self) -> str:
+        return f"ShadeSurfaces({self.tag})" if self.tag else "ShadeSurfaces"
+
+    def draws(self, obj) -> bool:
+        """Whether this run shades ``obj``."""
+        if self.objects is None:
+            return True
+        return self.objects(obj) if callable(self.objects) else obj.name in self.objects
 
     def run(self, frame: Frame) -> None:
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
-        color = gpu.targets.texture(camera.size, "rgba32f")
-        exit_direction = gpu.targets.texture(camera.size, "rgba32f")
-        depth = gpu.targets.texture(camera.size, "depth")
+        if self.background:
+            color = gpu.targets.texture(camera.size, "rgba32f")
+            exit_direction = gpu.targets.texture(camera.size, "rgba32f")
+            depth = gpu.targets.texture(camera.size, "depth")
+        else:  # draw over an earlier run's image
+            color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
         fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         environment = gpu.environment_texture(scene.environment)
         environment.use(0)
+        if self.background:
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            self._draw_background(frame)
+        self._draw_objects(frame)
+        frame.write("color", color)
+        frame.write("exit_direction", exit_direction)
+        frame.write("depth", depth)
 
-        # Background: the environment through every pixel.
+    def _draw_background(self, frame: Frame) -> None:
+        """The environment through every pixel."""
+        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         ctx.disable(moderngl.DEPTH_TEST)
         background = gpu.shaders.program("passes/fullscreen.vert", "passes/background.frag")
         set_uniform(background, "environment", 0)
@@ -111,12 +143,14 @@ class ShadeSurfaces(Pass):
             fullscreen = gpu.cache[("fullscreen", background.glo)] = ctx.vertex_array(background, [])
         fullscreen.render(moderngl.TRIANGLES, vertices=3)
 
-        # Objects over it.
+    def _draw_objects(self, frame: Frame) -> None:
+        """This run's objects over the background, depth tested against what earlier runs drew."""
+        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         caustic_maps = frame.channels.get("caustic_maps")
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
-        program = gpu.shaders.program("common/mesh_vertex.glsl", self.fragment, defines)
+        program = gpu.shaders.program(self.vertex, self.fragment, defines)
         set_uniform(program, "environment", 0)
         for unit, name in enumerate(self.inputs, start=self.FIRST_INPUT_UNIT):
             frame.read(name).use(unit)
@@ -132,6 +166,8 @@ class ShadeSurfaces(Pass):
             self.set_uniforms(program, frame, None)
         clip_from_world = camera.clip_from_world()
         for obj in scene.objects:
+            if not self.draws(obj):
+                continue
             material = self.material_override or obj.material
             set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
             set_uniform(program, "material_color", _material_color(material))
@@ -141,9 +177,6 @@ class ShadeSurfaces(Pass):
             if self.set_uniforms is not None:
                 self.set_uniforms(program, frame, obj)
             draw_objects(frame, program, [obj], clip_from_world)
-        frame.write("color", color)
-        frame.write("exit_direction", exit_direction)
-        frame.write("depth", depth)
 
 
 def _material_color(material) -> np.ndarray:

@@ -360,6 +360,52 @@ class Viewer:
         self.error = None
         self.changed()
 
+    def object_technique(self, obj) -> str:
+        """The view technique that shows glass object ``obj`` (index or name) now."""
+        from ..techniques.per_object import VIEW_TECHNIQUES
+
+        view = self.technique.split("+")[0]
+        if view == "per-object":
+            params = {k: self.params[k] for k in ("techniques", "default") if k in self.params}
+            return self._per_object_params(**params).technique_of(self._object(obj))
+        return view if view in VIEW_TECHNIQUES else self._per_object_params().default
+
+    def set_object_technique(self, obj, technique: str) -> None:
+        """Show glass object ``obj`` (index or name) with view ``technique``: switches to ``per-object``
+        (``per-object+<caustics>`` when caustics were on), the other objects keeping what they showed."""
+        target = self._object(obj)
+        if target.material.kind != "glass":
+            self.error = f"{target.name} is {target.material.kind}; only glass objects choose a technique"
+            return
+        from ..techniques import get_technique
+        from ..techniques.composite import CausticTechnique
+
+        view, plus, caustics = self.technique.partition("+")
+        if not plus and isinstance(get_technique(view), CausticTechnique):  # a caustic technique named alone
+            plus, caustics = "+", view
+        mapping = {o.name: self.object_technique(o.name) for o in self.scene.objects_of("glass")}
+        mapping[target.name] = technique
+        default = self.object_technique(target.name) if view != "per-object" else self.params.get(
+            "default", self._per_object_params().default)
+        try:
+            self._per_object_params(techniques=mapping, default=default)
+        except CausticaError as exc:
+            self.error = str(exc)
+            return
+        name = "per-object" + plus + caustics
+        if name != self.technique:
+            self.set_technique(name)
+        self.params = {**self.params, "techniques": {k: v for k, v in mapping.items() if v != default},
+                       "default": default}
+        self.error = None
+        self.changed()
+
+    @staticmethod
+    def _per_object_params(**values):
+        from ..techniques import get_technique
+
+        return get_technique("per-object").make_params(**values)
+
     def _object(self, obj):
         if isinstance(obj, str):
             found = [o for o in self.scene.objects if o.name == obj]
@@ -591,6 +637,7 @@ EVENTS = {
     "orbit": Viewer.orbit_by, "pan": Viewer.pan_by, "zoom": Viewer.zoom_by,
     "frame": Viewer.frame_scene, "reset": Viewer.reset_camera,
     "technique": Viewer.set_technique, "param": Viewer.set_param, "material": Viewer.set_material,
+    "object_technique": Viewer.set_object_technique,
     "light": Viewer.move_light, "drag_light": Viewer.drag_light,
     "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
     "exposure": lambda v, value: setattr(v, "exposure", float(value)),

@@ -121,6 +121,8 @@ def _materials(viewer, imgui) -> None:
         fields = MATERIAL_FIELDS.get(obj.material.kind, ())
         if not fields or not imgui.tree_node(f"{obj.name} ({obj.material.kind})##{index}"):
             continue
+        if obj.material.kind == "glass":
+            _object_technique(viewer, imgui, obj, index)
         for name, kind, low, high in fields:
             value = getattr(obj.material, name)
             if kind == "color":
@@ -131,6 +133,15 @@ def _materials(viewer, imgui) -> None:
                 viewer.set_material(index, name, np.clip(np.asarray(new, dtype=float), low, high)
                                     if kind == "color" else float(np.clip(new, low, high)))
         imgui.tree_pop()
+
+
+def _object_technique(viewer, imgui, obj, index: int) -> None:
+    """The view technique of one glass object: choosing one switches the viewer to ``per-object``."""
+    from ..techniques.per_object import VIEW_TECHNIQUES
+
+    changed, technique = _combo(imgui, f"technique##object{index}", viewer.object_technique(index), VIEW_TECHNIQUES)
+    if changed:
+        viewer.set_object_technique(index, technique)
 
 
 def _lights(viewer, imgui) -> None:

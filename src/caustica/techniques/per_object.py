@@ -1,0 +1,114 @@
+"""``per-object``: each glass object shown by its own view technique, in one image.
+
+``techniques`` maps glass object names to ``env-map``, ``image-space`` or
+``depth-search``; every other object (and every glass object not named) takes
+``default``. The passes are the union of what the chosen techniques need
+before shading (shadow maps, refractor front/back buffers, image-space's d_N
+buffer), each channel made once, then one :class:`ShadeSurfaces` run per
+technique: the first (the default technique, which also shades diffuse
+receivers and mirrors) clears and draws the background, the others draw only
+their objects over it, depth tested against the same depth buffer. A glass
+object's pixels are therefore exactly those of a full render with its
+technique, which reads the same buffers of all refractors.
+
+Each chosen technique runs with its default parameters except
+``shadow_map_size``, which all share (and share with a caustic technique in
+``per-object+caustic-mapping``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..errors import TechniqueError, closest_name
+from ..passes.base import Pass
+from ..passes.surfaces import ShadeSurfaces
+from .env_map import ShadowedParams
+from .raster import RasterTechnique
+
+VIEW_TECHNIQUES = ("env-map", "image-space", "depth-search")
+
+
+@dataclass
+class PerObjectParams(ShadowedParams):
+    """Parameters of ``per-object``: ``techniques`` maps glass object names to view techniques.
+
+    ``techniques`` may also be written ``"name=technique,name=technique"`` (the command line's ``-p``).
+    """
+
+    techniques: dict[str, str] = field(default_factory=dict)
+    default: str = "depth-search"
+
+    def __post_init__(self):
+        super().__post_init__()
+        if isinstance(self.techniques, str):
+            self.techniques = _parse_mapping(self.techniques)
+        if not isinstance(self.techniques, dict):
+            raise ValueError(f"techniques {self.techniques!r} must map object names to view techniques")
+        if self.default not in VIEW_TECHNIQUES:
+            raise ValueError(f"default {self.default!r} must be one of {', '.join(VIEW_TECHNIQUES)}")
+        for name, technique in self.techniques.items():
+            if technique not in VIEW_TECHNIQUES:
+                raise ValueError(f"technique {technique!r} of object '{name}' must be one of "
+                                 f"{', '.join(VIEW_TECHNIQUES)}{closest_name(str(technique), VIEW_TECHNIQUES)}")
+        self.techniques = {str(k): str(v) for k, v in self.techniques.items()}
+
+    def technique_of(self, obj) -> str:
+        """The view technique that shades ``obj`` (non-glass objects: the default)."""
+        return self.techniques.get(obj.name, self.default) if obj.material.kind == "glass" else self.default
+
+
+def _parse_mapping(text: str) -> dict[str, str]:
+    mapping = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, sep, technique = item.partition("=")
+        if not sep or not name.strip() or not technique.strip():
+            raise ValueError(f"techniques item '{item}' must read object=technique, e.g. ball=env-map")
+        mapping[name.strip()] = technique.strip()
+    return mapping
+
+
+class CheckObjectNames(Pass):
+    """Checks that every object named in ``techniques`` is a glass object of the scene (before any GPU work)."""
+
+    reads = ()
+    writes = ()
+
+    def __init__(self, names):
+        self.names = tuple(names)
+
+    def run(self, frame) -> None:
+        glass = [o.name for o in frame.scene.objects_of("glass")]
+        for name in self.names:
+            if name not in glass:
+                raise TechniqueError(
+                    f"technique 'per-object': '{name}' is not a glass object of scene '{frame.scene.name}'"
+                    f"{closest_name(name, glass)}; glass objects: {', '.join(glass) or 'none'}")
+
+
+class PerObject(RasterTechnique):
+    name = "per-object"
+    summary = "A view technique per glass object (env-map, image-space, depth-search) in one image"
+    Params = PerObjectParams
+
+    def build_passes(self, params):
+        from .base import get_technique
+
+        order = [params.default] + [t for t in dict.fromkeys(params.techniques.values()) if t != params.default]
+        before, shades, made = [CheckObjectNames(params.techniques)], [], set()
+        for technique in order:
+            passes = get_technique(technique).build_passes(get_technique(technique).make_params(
+                shadow_map_size=params.shadow_map_size))
+            at = next(i for i, p in enumerate(passes) if isinstance(p, ShadeSurfaces))
+            for stage in passes[:at]:  # each channel made once: the techniques' buffers are alike
+                key = tuple(c.name for c in stage.writes)
+                if key not in made:
+                    made.add(key)
+                    before.append(stage)
+            shades.append(_restricted(passes[at], technique, params, first=not shades))
+        return before + shades
+
+
+def _restricted(shade: ShadeSurfaces, technique: str, params: PerObjectParams, first: bool) -> ShadeSurfaces:
+    """``shade`` limited to the objects ``technique`` shades; only the first run clears and draws the background."""
+    return ShadeSurfaces(shade.fragment, shade.defines, shade.material_override, shade.inputs, shade.set_uniforms,
+                         objects=lambda obj: params.technique_of(obj) == technique, background=first, tag=technique)
