@@ -26,7 +26,8 @@ refraction through the same table (5.3) is the view technique
 
 Differs from the paper: caustics land on the receiver surfaces (exact
 intersection of the volumes' edge rays with Embree) instead of on sample
-planes with sliced object images (5.2), so any receiver shape works. Limits:
+planes with sliced object images (5.2), so any receiver shape works (the
+sample planes themselves are ``caustica.transport.sample_planes``). Limits:
 see ``caustica.transport.runtime``.
 """
 from __future__ import annotations
@@ -51,13 +52,35 @@ from .env_map import ShadowedParams
 
 
 @dataclass
-class TransportTableParams(ShadowedParams):
-    """Parameters of ``transport-table`` (Iwasaki et al.)."""
+class TableParams(ShadowedParams):
+    """The table settings shared by ``transport-table`` and ``transport-table-view`` (one declaration, so a
+    ``view+caustics`` pair of them shares one value and one cached table)."""
 
-    map_size: int = 512  # caustic-map texels a side (per cube face)
     directions: int = 129  # sampled incident directions per vertex (2 r^2 + 1; the paper: 129)
     max_depth: int = 8  # glass interfaces followed in the precompute (internal reflections included)
     quantized: bool = True  # use the 12-byte-a-sample table of section 6 (False: the float table, not cached)
+
+    def __post_init__(self):
+        super().__post_init__()
+        check_integers(self, {"directions": (3, 100000), "max_depth": (1, 64)})
+        DirectionGrid.of_count(self.directions)
+        self.quantized = bool(self.quantized)
+
+
+def check_integers(params, ranges: dict) -> None:
+    """Each named field an integer within its (low, high), or a ValueError naming it."""
+    for name, (low, high) in ranges.items():
+        value = getattr(params, name)
+        if int(value) != value or not low <= value <= high:
+            raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+        setattr(params, name, int(value))
+
+
+@dataclass
+class TransportTableParams(TableParams):
+    """Parameters of ``transport-table`` (Iwasaki et al.)."""
+
+    map_size: int = 512  # caustic-map texels a side (per cube face)
     photon_budget: int = 1 << 18  # photons spread over the illumination volumes' footprints, per light sample
     splat: str = "auto"  # 'compute' (float atomics), 'points' (additive point sprites) or 'auto'
     splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels
@@ -65,21 +88,16 @@ class TransportTableParams(ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        for name, (low, high) in _INTEGER_RANGES.items():
-            value = getattr(self, name)
-            if int(value) != value or not low <= value <= high:
-                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-            setattr(self, name, int(value))
-        DirectionGrid.of_count(self.directions)
+        check_integers(self, _INTEGER_RANGES)
         for name, options in _CHOICES.items():
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} '{getattr(self, name)}' must be one of {', '.join(options)}")
         if not 0.75 <= float(self.splat_radius) <= 8.0:
             raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
-        self.splat_radius, self.quantized = float(self.splat_radius), bool(self.quantized)
+        self.splat_radius = float(self.splat_radius)
 
 
-_INTEGER_RANGES = {"map_size": (16, 4096), "directions": (3, 100000), "max_depth": (1, 64), "photon_budget": (1, 1 << 24)}
+_INTEGER_RANGES = {"map_size": (16, 4096), "photon_budget": (1, 1 << 24)}
 _CHOICES = {"splat": ("auto", "compute", "points"), "point_map": ("frustum", "cube")}
 
 
