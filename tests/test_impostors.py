@@ -215,4 +215,5 @@ def test_morphing_mesh_needs_no_preprocessing(renderer):
                            caustic_size=64) for t in (0.0, 0.5, 0.5)]
     assert np.all(np.isfinite(frames[0])) and frames[0].max() > 0.0
     assert np.abs(frames[0] - frames[1]).mean() > 1e-3  # the shape moved: the image follows
-    np.testing.assert_array_equal(frames[1], frames[2])  # the same shape: the same image
+    # The same shape: the same image, up to the order of float atomic adds in the photon splats.
+    np.testing.assert_allclose(frames[1], frames[2], rtol=1e-4, atol=1e-5)
