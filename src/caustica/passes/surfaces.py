@@ -111,7 +111,7 @@ class ShadeSurfaces(Pass):
         return self.objects(obj) if callable(self.objects) else obj.name in self.objects
 
     def run(self, frame: Frame) -> None:
-        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
+        gpu, camera, scene = frame.gpu, frame.camera, frame.scene
         if self.background:
             color = gpu.targets.texture(camera.size, "rgba32f")
             exit_direction = gpu.targets.texture(camera.size, "rgba32f")
@@ -150,7 +150,27 @@ class ShadeSurfaces(Pass):
         ctx.depth_func = "<"
         caustic_maps = frame.channels.get("caustic_maps")
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
-        program = gpu.shaders.program(self.vertex, self.fragment, defines)
+        clip_from_world = camera.clip_from_world()
+        drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
+        # One program variant per material kind (SURFACE_KIND in surface_main.glsl).
+        for kind in sorted({material.kind for _, material in drawn}):
+            program = gpu.shaders.program(self.vertex, self.fragment, {**defines, "SURFACE_KIND": MATERIAL_CODES[kind]})
+            self._set_frame_uniforms(frame, program, caustic_maps)
+            for obj, material in drawn:
+                if material.kind != kind:
+                    continue
+                set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
+                set_uniform(program, "material_color", _material_color(material))
+                if material.kind == "glass":
+                    set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
+                    set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+                if self.set_uniforms is not None:
+                    self.set_uniforms(program, frame, obj)
+                draw_objects(frame, program, [obj], clip_from_world)
+
+    def _set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
+        """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
+        camera, scene = frame.camera, frame.scene
         set_uniform(program, "environment", 0)
         for unit, name in enumerate(self.inputs, start=self.FIRST_INPUT_UNIT):
             frame.read(name).use(unit)
@@ -164,19 +184,6 @@ class ShadeSurfaces(Pass):
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
-        clip_from_world = camera.clip_from_world()
-        for obj in scene.objects:
-            if not self.draws(obj):
-                continue
-            material = self.material_override or obj.material
-            set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
-            set_uniform(program, "material_color", _material_color(material))
-            if material.kind == "glass":
-                set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
-                set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
-            if self.set_uniforms is not None:
-                self.set_uniforms(program, frame, obj)
-            draw_objects(frame, program, [obj], clip_from_world)
 
 
 def _material_color(material) -> np.ndarray:

@@ -1,19 +1,35 @@
 // main() of surface shading: diffuse (direct light with shadow maps + SH ambient + caustics),
 // mirror (colour * environment in the reflected direction), glass (the technique's
 // shade_refractor). Include after defining shade_refractor.
+// Host defines: SURFACE_KIND (MATERIAL_DIFFUSE, _MIRROR or _GLASS): ShadeSurfaces compiles one
+// variant per material kind, since CPU rasterizers (llvmpipe) run every side of a branch;
+// -1 (the default) selects at run time by the material_kind uniform.
+#ifndef SURFACE_KIND
+#define SURFACE_KIND -1
+#endif
+
 void main() {
     vec3 v = normalize(world_position - camera_position);
     vec3 n = normalize(world_normal);
     if (!gl_FrontFacing) n = -n;
-    vec3 radiance;
+    vec3 radiance = vec3(0.0);
     exit_direction = vec4(0.0);
-    if (material_kind == MATERIAL_DIFFUSE) {
+    int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
+#if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
+    if (kind == MATERIAL_DIFFUSE) {
         vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n) + caustic_irradiance(world_position);
         radiance = material_color / PI * e;
-    } else if (material_kind == MATERIAL_MIRROR) {
+    }
+#endif
+#if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_MIRROR
+    if (kind == MATERIAL_MIRROR) {
         radiance = material_color * environment_radiance(environment, reflect_direction(v, n));
-    } else {
+    }
+#endif
+#if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_GLASS
+    if (kind == MATERIAL_GLASS) {
         radiance = shade_refractor(v, n, exit_direction);
     }
+#endif
     color = vec4(intensity_scale * radiance, 1.0);
 }
