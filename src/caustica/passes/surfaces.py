@@ -152,12 +152,15 @@ class ShadeSurfaces(Pass):
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
         clip_from_world = camera.clip_from_world()
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
-        # One program variant per material kind (SURFACE_KIND in surface_main.glsl).
-        for kind in sorted({material.kind for _, material in drawn}):
-            program = gpu.shaders.program(self.vertex, self.fragment, {**defines, "SURFACE_KIND": MATERIAL_CODES[kind]})
+        # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
+        # rasterizers pay for every side of a branch, even one on a uniform.
+        variants = sorted({_variant(material) for _, material in drawn})
+        for kind, dispersion in variants:
+            variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion)}
+            program = gpu.shaders.program(self.vertex, self.fragment, variant_defines)
             self._set_frame_uniforms(frame, program, caustic_maps)
             for obj, material in drawn:
-                if material.kind != kind:
+                if _variant(material) != (kind, dispersion):
                     continue
                 set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
                 set_uniform(program, "material_color", _material_color(material))
@@ -184,6 +187,12 @@ class ShadeSurfaces(Pass):
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
+
+
+def _variant(material) -> tuple[str, bool]:
+    """(kind, dispersive): which compiled shader variant shades a material."""
+    dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
+    return material.kind, dispersive
 
 
 def _material_color(material) -> np.ndarray:

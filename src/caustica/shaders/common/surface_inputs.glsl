@@ -8,6 +8,10 @@
 #include "common/lighting.glsl"
 #include "common/caustics.glsl"
 
+#ifndef DISPERSION
+#define DISPERSION 1  // 1: one IOR per channel; ShadeSurfaces sets 0 for glass with a single IOR
+#endif
+
 #define MATERIAL_DIFFUSE 0
 #define MATERIAL_MIRROR 1
 #define MATERIAL_GLASS 2
