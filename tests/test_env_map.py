@@ -84,3 +84,15 @@ def test_exit_directions_are_the_single_refraction(renderer):
         expected, _ = refract(d[None], n[None], 1.0 / 1.5)
         angle = np.degrees(np.arccos(np.clip(np.dot(dirs[row, col], expected[0]) / np.linalg.norm(dirs[row, col]), -1, 1)))
         assert angle < 0.5, (row, col, angle)  # tessellated sphere: interpolated normals, flat facets
+
+
+def test_dispersive_glass_uses_one_ior_per_channel(renderer):
+    """Low-Abbe glass bends red and blue differently: the channels separate where the single-IOR
+    variant keeps them together (the shader variant with DISPERSION=1)."""
+    plain = renderer.render(sphere_scene(Glass(1.5)), "env-map")
+    dispersive = renderer.render(sphere_scene(Glass(1.5, abbe=15.0)), "env-map")
+    ball = (slice(30, 66), slice(30, 66))
+    assert np.all(np.isfinite(dispersive))
+    assert np.abs(dispersive[ball] - plain[ball]).max() > 0.05
+    outside = (slice(0, 8), slice(0, 8))
+    np.testing.assert_allclose(dispersive[outside], plain[outside], atol=1e-6)
