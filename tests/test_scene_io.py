@@ -269,7 +269,7 @@ def test_unknown_preset_suggests_the_nearest():
         load_scene("glass-sphre")
     message = str(info.value)
     assert "unknown preset 'glass-sphre'" in message and "did you mean 'glass-sphere'" in message
-    assert "caustic-sphere" in message
+    assert "caustica presets" in message  # 40-odd presets: point to the list rather than print it
 
 
 def test_toml_syntax_error_names_the_line(tmp_path):

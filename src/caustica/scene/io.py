@@ -73,8 +73,8 @@ def load_scene(source: str | Path) -> Scene:
     if not path.exists():
         if path.suffix == "" and path.parent == Path("."):
             raise SceneError(f"unknown preset '{source}'{closest_name(str(source), PRESETS)}; "
-                             f"presets: {', '.join(preset_names())} (or give a .toml scene file)")
-        raise SceneError(f"scene file not found: {path}; check the path (presets: {', '.join(preset_names())})")
+                             "run 'caustica presets' to list them, or give a .toml scene file")
+        raise SceneError(f"scene file not found: {path}; check the path, or run 'caustica presets' for the built-in scenes")
     if not path.is_file():
         raise SceneError(f"scene path {path} is not a file; give a .toml scene file")
     return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem)
