@@ -40,6 +40,15 @@ def test_each_sphere_shows_its_own_technique(renderer, scene):
     np.testing.assert_allclose(mixed[:, half:], depth_search[:, half:], atol=1e-5)
 
 
+def test_env_map_default_does_not_starve_depth_search(renderer, scene):
+    """env-map alone skips its back faces when no glass absorbs; merged with depth-search, which
+    reads them, the full buffer is made whichever technique comes first."""
+    mixed = renderer.render(scene, "per-object", default="env-map", techniques={"right": "depth-search"})
+    depth_search = renderer.render(scene, "depth-search")
+    half = SIZE[0] // 2
+    np.testing.assert_allclose(mixed[:, half:], depth_search[:, half:], atol=1e-5)
+
+
 @pytest.mark.parametrize("technique", ["env-map", "image-space", "depth-search"])
 def test_every_object_on_one_technique_is_that_technique(renderer, scene, technique):
     expected = renderer.render(scene, technique)

@@ -22,10 +22,12 @@ class RefractorSurfaces(Pass):
 
     reads = ()
 
-    def __init__(self, face: str = "back", order: str = "farthest"):
+    def __init__(self, face: str = "back", order: str = "farthest", absorbing_only: bool = False):
+        """``absorbing_only``: the buffer only serves Beer-Lambert thickness (env-map), so it stays
+        empty (cleared, nothing drawn) when no glass in the scene absorbs."""
         if face not in ("front", "back") or order not in ("nearest", "farthest"):
             raise ValueError("face must be 'front' or 'back', order 'nearest' or 'farthest'")
-        self.face, self.order = face, order
+        self.face, self.order, self.absorbing_only = face, order, absorbing_only
         self.channel = f"{face}_surface"
         self.writes = (Channel(self.channel, "rgba32f",
                                f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)"),)
@@ -33,12 +35,16 @@ class RefractorSurfaces(Pass):
     def run(self, frame: Frame) -> None:
         program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
         set_uniform(program, "origin", frame.camera.position.astype("f4"))
-        frame.write(self.channel, draw_refractor_buffer(frame, program, "rgba32f", self.face, self.order))
+        objects = frame.scene.objects_of("glass")
+        if self.absorbing_only:
+            objects = [o for o in objects if np.any(o.material.absorption_coefficient > 0)]
+        frame.write(self.channel, draw_refractor_buffer(frame, program, "rgba32f", self.face, self.order, objects))
 
 
-def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest"):
-    """Draw the glass objects' ``face`` faces, keeping the ``order`` one per pixel, into a pooled
-    camera-sized ``fmt`` target cleared to 0; returns the target."""
+def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest",
+                          objects=None):
+    """Draw the glass objects' (or ``objects``') ``face`` faces, keeping the ``order`` one per pixel,
+    into a pooled camera-sized ``fmt`` target cleared to 0; returns the target."""
     gpu, ctx = frame.gpu, frame.gpu.ctx
     target = gpu.targets.texture(frame.camera.size, fmt)
     depth = gpu.targets.texture(frame.camera.size, "depth")
@@ -50,7 +56,9 @@ def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", 
     ctx.front_face = "ccw"
     ctx.cull_face = "front" if face == "back" else "back"
     ctx.depth_func = ">" if farthest else "<"
-    draw_objects(frame, program, frame.scene.objects_of("glass"), frame.camera.clip_from_world())
+    objects = frame.scene.objects_of("glass") if objects is None else objects
+    if objects:
+        draw_objects(frame, program, objects, frame.camera.clip_from_world())
     ctx.depth_func = "<"
     ctx.cull_face = "back"
     ctx.disable(moderngl.CULL_FACE)

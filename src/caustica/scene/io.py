@@ -65,7 +65,7 @@ OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, 
 
 def load_scene(source: str | Path) -> Scene:
     """A built-in preset by name, or a TOML scene file."""
-    from .presets import PRESETS, preset_names
+    from .presets import PRESETS
 
     if isinstance(source, str) and source in PRESETS:
         return PRESETS[source]()

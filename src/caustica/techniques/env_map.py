@@ -38,7 +38,9 @@ class EnvMap(RasterTechnique):
     Params = ShadowedParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces()]
+        # The back faces only give the Beer-Lambert thickness: skipped when no glass absorbs.
+        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
+                ShadeSurfaces()]
 
 
 class Plain(RasterTechnique):

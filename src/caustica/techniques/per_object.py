@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from ..errors import TechniqueError, closest_name
 from ..passes.base import Pass
-from ..passes.surfaces import ShadeSurfaces
+from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -101,6 +101,8 @@ class PerObject(RasterTechnique):
             at = next(i for i, p in enumerate(passes) if isinstance(p, ShadeSurfaces))
             for stage in passes[:at]:  # each channel made once: the techniques' buffers are alike
                 key = tuple(c.name for c in stage.writes)
+                if isinstance(stage, RefractorSurfaces) and stage.absorbing_only:
+                    stage = RefractorSurfaces(stage.face, stage.order)  # another technique may read every face
                 if key not in made:
                     made.add(key)
                     before.append(stage)
