@@ -24,6 +24,16 @@ class NoParams:
     """A technique without parameters."""
 
 
+def check_integers(params, ranges: dict) -> None:
+    """Each field ``name: (low, high)`` of ``params`` must be an integer (not a bool) in [low, high];
+    stored as int. A ValueError names the field otherwise (parameter dataclasses' __post_init__)."""
+    for name, (low, high) in ranges.items():
+        value = getattr(params, name)
+        if isinstance(value, bool) or int(value) != value or not low <= value <= high:
+            raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
+        setattr(params, name, int(value))
+
+
 class Technique:
     """One way of rendering a scene. Subclasses set ``name``, ``summary``, ``Params``."""
 

@@ -45,15 +45,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import TechniqueError
 from ..gpu.meshes import set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.impostors import BuildImpostors, ReleaseImpostors, _write_array
 from ..passes.light_space import FitCoarseViews, LightSurfaces, float_atomics
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
-from ..errors import TechniqueError
+from .base import check_integers
 from .composite import CausticTechnique
-from .impostors import ImpostorParams, check_integers, impostor_view_passes, texture_passes
+from .impostors import ImpostorParams, impostor_view_passes, texture_passes
 
 MAX_TILES = 16
 
@@ -70,8 +71,8 @@ class ImpostorCausticsParams(ImpostorParams):
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, (("photon_buffer", 8, 4096), ("caustic_size", 8, 4096), ("filter_k", 0, 16),
-                              ("receiver_size", 16, 4096)))
+        check_integers(self, {"photon_buffer": (8, 4096), "caustic_size": (8, 4096), "filter_k": (0, 16),
+                              "receiver_size": (16, 4096)})
         if self.filter_s is not None:
             if not (np.isfinite(float(self.filter_s)) and float(self.filter_s) > 0):
                 raise ValueError(f"filter_s {self.filter_s} must be a positive number, or None (energy conserving)")

@@ -50,6 +50,7 @@ from ..passes.impostors import (
     chain_uniforms,
     world_index,
 )
+from .base import check_integers
 from .depth_search import DepthSearch, DepthSearchParams
 from .raster import RasterTechnique
 
@@ -72,8 +73,8 @@ class ImpostorParams(DepthSearchParams):
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, (("impostor_size", 16, 4096), ("depth", 0, 4), ("impostor_iterations", 0, 64),
-                              ("initial_samples", 0, 64), ("max_impostors", 1, MAX_IMPOSTORS)))
+        check_integers(self, {"impostor_size": (16, 4096), "depth": (0, 4), "impostor_iterations": (0, 64),
+                              "initial_samples": (0, 64), "max_impostors": (1, MAX_IMPOSTORS)})
         for name, low in (("impostor_tolerance", 0.0), ("hit_tolerance", 0.0), ("rect_offset", 0.0),
                           ("distance_factor", 4.0)):
             value = float(getattr(self, name))
@@ -88,15 +89,6 @@ class ImpostorParams(DepthSearchParams):
             if not isinstance(getattr(self, flag), (bool, np.bool_)):
                 raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
             setattr(self, flag, bool(getattr(self, flag)))
-
-
-def check_integers(params, ranges) -> None:
-    """Each (name, low, high): the field must be an integer in [low, high]; stored as int."""
-    for name, low, high in ranges:
-        value = getattr(params, name)
-        if isinstance(value, bool) or int(value) != value or not low <= value <= high:
-            raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-        setattr(params, name, int(value))
 
 
 def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, photon: bool = False) -> list:

@@ -70,17 +70,12 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
+from .base import check_integers
 from .composite import CausticTechnique
 from .env_map import ShadowedParams
 
 COARSE_NEWTON_STEPS = 6  # the first landing converges, so the fitted caustic map holds the hits
 COARSE_MAP_SIZE = 256
-
-
-def _check_int(name: str, value, low: int, high: int) -> int:
-    if isinstance(value, bool) or int(value) != value or not low <= value <= high:
-        raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-    return int(value)
 
 
 @dataclass
@@ -97,9 +92,8 @@ class PhotonSplatsParams(ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        self.photon_buffer_size = _check_int("photon_buffer_size", self.photon_buffer_size, 8, 4096)
-        self.caustic_map_size = _check_int("caustic_map_size", self.caustic_map_size, 16, 4096)
-        self.land_iterations = _check_int("land_iterations", self.land_iterations, 0, 64)
+        check_integers(self, {"photon_buffer_size": (8, 4096), "caustic_map_size": (16, 4096),
+                              "land_iterations": (0, 64)})
         if not 0.75 <= float(self.splat_radius) <= 8.0:
             raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
         self.splat_radius = float(self.splat_radius)

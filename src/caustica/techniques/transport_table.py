@@ -47,6 +47,7 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..transport.precompute import DirectionGrid
+from .base import check_integers
 from .composite import CausticTechnique
 from .env_map import ShadowedParams
 
@@ -65,15 +66,6 @@ class TableParams(ShadowedParams):
         check_integers(self, {"directions": (3, 100000), "max_depth": (1, 64)})
         DirectionGrid.of_count(self.directions)
         self.quantized = bool(self.quantized)
-
-
-def check_integers(params, ranges: dict) -> None:
-    """Each named field an integer within its (low, high), or a ValueError naming it."""
-    for name, (low, high) in ranges.items():
-        value = getattr(params, name)
-        if int(value) != value or not low <= value <= high:
-            raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-        setattr(params, name, int(value))
 
 
 @dataclass
