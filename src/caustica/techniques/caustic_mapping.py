@@ -68,16 +68,15 @@ import numpy as np
 from ..gpu.meshes import set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.light_space import (
-    PHOTON_BYTES,
     CachedPasses,
     FitCasterViews,
     FitCausticViews,
     FitCoarseViews,
     LightSurfaces,
-    Photons,
     ResolveCausticMaps,
     SplatPhotons,
     bind_views,
+    dispatch_photons,
 )
 from .composite import CausticTechnique
 from .env_map import ShadowedParams
@@ -172,20 +171,14 @@ class TracePhotons(Pass):
                 out.append(None)
                 continue
             width, height = caster_view.atlas_size
-            count = width * height * channels
-            buffer = frame.gpu.ctx.buffer(reserve=count * PHOTON_BYTES)
             bind_views(program, [caster_view, receiver_view])
             textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
             for unit, (name, tex) in enumerate(zip(("front_position", "front_normal", "back_position", "back_normal",
                                                     "receiver_position"), textures)):
                 tex.use(unit)
                 set_uniform(program, name, unit)
-            buffer.bind_to_storage_buffer(0)
-            set_uniform(program, "has_initial", int(initial is not None))
-            (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
-            program.run(group_x=(width + 7) // 8, group_y=(height + 7) // 8)
-            frame.gpu.ctx.memory_barrier()
-            out.append(Photons(buffer, count, {"channels": channels}))
+            out.append(dispatch_photons(frame, program, (width, height), width * height * channels, initial,
+                                        {"channels": channels}))
         frame.write(self.channel, out)
 
 
