@@ -32,6 +32,12 @@ class OutputError(CausticaError, OSError):
     """An output file cannot be written (missing directory, unknown format)."""
 
 
+def first_line(exc: BaseException) -> str:
+    """An exception's message reduced to one line (its type name when empty), for one-line errors."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
 def closest_name(name: str, candidates) -> str:
     """A ' (did you mean X?)' hint for the candidate nearest to ``name``, or ''."""
     import difflib

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import EnvironmentImageError, OutputError
+from .errors import EnvironmentImageError, OutputError, first_line
 
 READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
 WRITE_SUFFIXES = (".png", ".exr")
@@ -33,12 +33,6 @@ def srgb_to_linear(x) -> np.ndarray:
     return np.where(x <= 0.04045, x / 12.92, np.power((np.maximum(x, 0.04045) + 0.055) / 1.055, 2.4))
 
 
-def _first_line(exc: BaseException) -> str:
-    """An exception's message reduced to one line (its type name when empty)."""
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
-
-
 # Reading ---------------------------------------------------------------------
 
 
@@ -54,7 +48,7 @@ def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError)
     try:
         image = reader(path)
     except Exception as exc:  # our decoders raise ValueError; OpenEXR and Pillow raise many types
-        raise error(f"cannot read image {path}: {_first_line(exc)}; "
+        raise error(f"cannot read image {path}: {first_line(exc)}; "
                     f"check that it is a valid {suffix[1:]} file or re-export it") from None
     if image.ndim != 3 or image.shape[2] != 3 or image.size == 0:
         raise error(f"image {path} has shape {image.shape}; give an RGB image")
@@ -249,5 +243,5 @@ def write_atomic(path: Path, write) -> Path:
         os.replace(tmp, path)
     except Exception as exc:
         Path(tmp).unlink(missing_ok=True)
-        raise OutputError(f"cannot write {path}: {_first_line(exc)}; check permissions and free space") from None
+        raise OutputError(f"cannot write {path}: {first_line(exc)}; check permissions and free space") from None
     return path

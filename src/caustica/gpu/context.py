@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 
-from ..errors import GLUnavailableError
+from ..errors import GLUnavailableError, first_line
 
 REQUIRED_GL = 430
 APT_HINT = "install Mesa's EGL and llvmpipe: apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"
@@ -36,7 +36,7 @@ def create_context():
     try:
         ctx = moderngl.create_standalone_context(**kwargs)
     except Exception as exc:  # glcontext raises plain Exceptions for missing libraries
-        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        reason = first_line(exc)
         if "version" in reason.lower() or "require" in reason.lower():
             raise GLUnavailableError(
                 f"OpenGL {REQUIRED_GL // 100}.{REQUIRED_GL % 100 // 10} core is required but not available ({reason}); "

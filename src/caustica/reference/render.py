@@ -74,7 +74,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import cache_dir, load_array, store_array
-from ..errors import ReferenceUnavailableError
+from ..errors import ReferenceUnavailableError, first_line
 from .mitsuba_export import environment_hash, has_dispersion, mesh_file_hash, scene_to_mitsuba
 
 REFERENCE_VERSION = "1"
@@ -98,7 +98,7 @@ def mitsuba_module(variant: str | None = None):
             mi.set_variant(variant)
         except Exception as exc:
             raise ReferenceUnavailableError(
-                f"Mitsuba variant '{variant}' is unavailable ({_first_line(exc)}); choose one of {', '.join(mi.variants())}"
+                f"Mitsuba variant '{variant}' is unavailable ({first_line(exc)}); choose one of {', '.join(mi.variants())}"
             ) from None
         return mi
     try:
@@ -106,18 +106,13 @@ def mitsuba_module(variant: str | None = None):
     except Exception as exc:
         if not _warned_fallback:
             warnings.warn(
-                f"Mitsuba variant {PREFERRED_VARIANT} failed to initialise ({_first_line(exc)}); "
+                f"Mitsuba variant {PREFERRED_VARIANT} failed to initialise ({first_line(exc)}); "
                 f"rendering the reference with {FALLBACK_VARIANT}, which is much slower",
                 stacklevel=3,
             )
             _warned_fallback = True
         mi.set_variant(FALLBACK_VARIANT)
     return mi
-
-
-def _first_line(exc: Exception) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def default_cache_dir() -> Path:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError
+from ..errors import MeshError, first_line
 
 SUPPORTED_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".off")
 
@@ -131,7 +131,7 @@ def load_mesh(path: str | Path) -> Mesh:
         # Unprocessed first: processing silently drops the faces of non-finite vertices.
         loaded = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on malformed files
-        raise MeshError(f"cannot read mesh {path}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}; check the file") from None
+        raise MeshError(f"cannot read mesh {path}: {first_line(exc)}; check the file") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"mesh file {path} holds no triangles; give a mesh with at least one triangle")
     if not np.all(np.isfinite(np.asarray(loaded.vertices))):

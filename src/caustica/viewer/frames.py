@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import first_line
 from ..passes.base import Frame, run_passes
 from ..renderer import Renderer
 from ..techniques import get_technique
@@ -108,7 +109,7 @@ class LiveRenderer:
             job["result"] = renderer.render(dataclasses.replace(scene, camera=camera), technique, spp, **params)
             job["ms"] = (time.perf_counter() - start) * 1000.0
         except Exception as exc:  # shown in the panel; the viewer keeps running
-            job["error"] = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            job["error"] = first_line(exc)
 
     def wait(self, slot: str, timeout: float | None = None) -> None:
         """Block until the CPU render of ``slot`` finishes (scripted runs and tests)."""
