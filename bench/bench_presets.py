@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -18,12 +17,13 @@ import time
 from pathlib import Path
 
 import caustica
+from caustica.bench.timing import timed_render
 from caustica.renderer import Renderer
 
 
 def time_frames(renderer, scene, technique, frames):
-    renderer.render(scene, technique)  # warm-up: shader compile, uploads, shadow maps
-    return statistics.median(renderer.render_timed(scene, technique)[1] for _ in range(frames))
+    """Median ms of ``frames`` frames after a warm-up (shader compile, uploads, shadow maps)."""
+    return timed_render(renderer, scene, technique, 1, frames)[1]
 
 
 def peak_memory_of_cli_render(preset: str) -> float:
