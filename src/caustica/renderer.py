@@ -76,16 +76,10 @@ class Renderer:
 
     def keep_channels(self, frame) -> None:
         """Return the frame's pooled textures, or keep them readable (``keep_channels=True``)."""
-        for texture in self.channels.values():  # the previous frame's, kept for inspection
-            if frame.gpu.targets.is_lent(texture):
-                frame.gpu.targets.give_back(texture)
-        if self._keep:
-            self.channels = dict(frame.channels)
-            return
-        self.channels = {}
-        for texture in frame.channels.values():
-            if frame.gpu.targets.is_lent(texture):
-                frame.gpu.targets.give_back(texture)
+        _give_back(frame.gpu.targets, self.channels)  # the previous frame's, kept for inspection
+        self.channels = dict(frame.channels) if self._keep else {}
+        if not self._keep:
+            _give_back(frame.gpu.targets, frame.channels)
 
     def exit_directions(self, scene: Scene, technique: str, **params):
         """Per-pixel exit directions (H, W, 3) and validity (H, W) at pixel centres, or None.
@@ -102,9 +96,7 @@ class Renderer:
             if texture is not None:
                 data = read_rgba(texture)
                 result = (data[..., :3].copy(), data[..., 3] > 0.5)
-            for value in self.channels.values():
-                if self.device.targets.is_lent(value):
-                    self.device.targets.give_back(value)
+            _give_back(self.device.targets, self.channels)
             self.channels = {}
             return result
         finally:
@@ -112,3 +104,10 @@ class Renderer:
 
     def info(self) -> dict:
         return self.device.info
+
+
+def _give_back(targets, channels: dict) -> None:
+    """Return the pooled textures among a frame's channels (cached ones are not the pool's)."""
+    for texture in channels.values():
+        if targets.is_lent(texture):
+            targets.give_back(texture)
