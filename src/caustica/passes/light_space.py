@@ -42,7 +42,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
-from ..scene.transform import look_at_view_from_world, perspective_clip_from_view
+from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .base import Channel, Frame, Pass, run_passes
 from .caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE, CausticMap
 from .lights import (
@@ -149,10 +149,6 @@ def _cube_face(rays: np.ndarray) -> np.ndarray:
     return 2 * axis + np.where(positive, 0, 1)
 
 
-def _any_up(direction: np.ndarray) -> np.ndarray:
-    return np.array([0.0, 0.0, 1.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
-
-
 def _scene_depth_range(sample: LightSample, scene) -> tuple[float, float]:
     """Near and far distances of the scene's bounding box from the light (along its direction if directional)."""
     low, high = scene.bounds()
@@ -175,7 +171,7 @@ def cube_view(sample: LightSample, size: int, scene) -> LightView:
 
 
 def _ortho_view(sample: LightSample, scene, size: int, x0, x1, y0, y1) -> LightView:
-    view = look_at_view_from_world(sample.position, sample.position + sample.direction, _any_up(sample.direction))
+    view = look_at_view_from_world(sample.position, sample.position + sample.direction, up_hint(sample.direction))
     near, far = _scene_depth_range(sample, scene)
     m = np.eye(4)
     m[0, 0], m[0, 3] = 2.0 / (x1 - x0), -(x1 + x0) / (x1 - x0)
@@ -187,7 +183,7 @@ def _ortho_view(sample: LightSample, scene, size: int, x0, x1, y0, y1) -> LightV
 
 def _perspective_view(sample: LightSample, scene, size: int, axis, x0, x1, y0, y1) -> LightView:
     """Off-axis perspective view along ``axis`` over [x0, x1] x [y0, y1] on the plane at unit distance."""
-    view = look_at_view_from_world(sample.position, sample.position + axis, _any_up(axis))
+    view = look_at_view_from_world(sample.position, sample.position + axis, up_hint(axis))
     near, far = _scene_depth_range(sample, scene)
     m = np.zeros((4, 4))
     m[0, 0], m[0, 2] = 2.0 / (x1 - x0), (x1 + x0) / (x1 - x0)
@@ -235,7 +231,7 @@ def fit_view(sample: LightSample, points: np.ndarray, size: int, scene, margin_t
         if np.linalg.norm(axis) < 1e-6:
             return None
         axis /= np.linalg.norm(axis)
-    view = look_at_view_from_world(sample.position, sample.position + axis, _any_up(axis))
+    view = look_at_view_from_world(sample.position, sample.position + axis, up_hint(axis))
     local = points @ view[:3, :3].T + view[:3, 3]
     if sample.type == LIGHT_DIRECTIONAL:
         xy = local[:, :2]

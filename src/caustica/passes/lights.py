@@ -16,7 +16,12 @@ import numpy as np
 from ..errors import TechniqueError
 from ..gpu.meshes import set_uniform
 from ..scene.lights import DirectionalLight, SpotLight
-from ..scene.transform import look_at_view_from_world, orthographic_clip_from_view, perspective_clip_from_view
+from ..scene.transform import (
+    look_at_view_from_world,
+    orthographic_clip_from_view,
+    perspective_clip_from_view,
+    up_hint,
+)
 from .base import Channel, Frame, Pass
 
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -45,11 +50,11 @@ def light_samples(scene) -> list[LightSample]:
     for light in scene.lights:
         if isinstance(light, DirectionalLight):
             origin = center - light.direction * 2.0 * radius
-            view = look_at_view_from_world(origin, center, _any_up(light.direction))
+            view = look_at_view_from_world(origin, center, up_hint(light.direction))
             clip = orthographic_clip_from_view(radius, radius, 0.01 * radius, 4.0 * radius) @ view
             samples.append(LightSample(LIGHT_DIRECTIONAL, origin, light.direction, light.intensity, clip_from_world=clip))
         elif isinstance(light, SpotLight):
-            view = look_at_view_from_world(light.position, light.position + light.direction, _any_up(light.direction))
+            view = look_at_view_from_world(light.position, light.position + light.direction, up_hint(light.direction))
             far = np.linalg.norm(light.position - center) + 2 * radius
             clip = perspective_clip_from_view(2 * light.outer_angle + 2.0, 1.0, 0.01 * radius, far) @ view
             cones = (float(np.cos(np.radians(light.inner_angle))), float(np.cos(np.radians(light.outer_angle))))
@@ -63,10 +68,6 @@ def light_samples(scene) -> list[LightSample]:
             "use fewer lights or fewer line-light samples"
         )
     return samples
-
-
-def _any_up(direction: np.ndarray) -> np.ndarray:
-    return np.array([0.0, 0.0, 1.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
 
 
 def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) -> None:

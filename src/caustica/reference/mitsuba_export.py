@@ -56,7 +56,7 @@ import numpy as np
 from ..cache import atomic_write_bytes
 from ..raytrace.embree_scene import world_sphere
 from ..scene.mesh import Mesh
-from ..scene.transform import look_at_view_from_world
+from ..scene.transform import look_at_view_from_world, up_hint
 
 INTEGRATORS = ("path", "volpath", "ptracer")
 
@@ -84,11 +84,6 @@ def look_at_to_world(origin, target, up) -> np.ndarray:
     """
     world_from_view = np.linalg.inv(look_at_view_from_world(origin, target, up))
     return world_from_view @ np.diag([-1.0, 1.0, -1.0, 1.0])
-
-
-def _any_up(direction: np.ndarray) -> np.ndarray:
-    """An up vector not parallel to ``direction``."""
-    return np.array([1.0, 0.0, 0.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
 
 
 def mesh_file_hash(mesh: Mesh) -> str:
@@ -173,7 +168,7 @@ def _lights(scene) -> dict:
             pos, d = light.position, light.direction
             out[f"light{i}"] = {
                 "type": "spot",
-                "to_world": _matrix(look_at_to_world(pos, pos + d, _any_up(d))),
+                "to_world": _matrix(look_at_to_world(pos, pos + d, up_hint(d))),
                 "intensity": _rgb(light.intensity, s),
                 "cutoff_angle": float(light.outer_angle),
                 "beam_width": float(light.inner_angle),

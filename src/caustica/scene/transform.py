@@ -50,6 +50,11 @@ class Transform:
         return m
 
 
+def up_hint(direction) -> np.ndarray:
+    """An up vector for looking along ``direction``: +Y, or +Z when ``direction`` is nearly vertical."""
+    return np.array([0.0, 0.0, 1.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])
+
+
 def look_at_view_from_world(eye, target, up) -> np.ndarray:
     """OpenGL view matrix: the camera at ``eye`` looks down -Z towards ``target``."""
     eye, target, up = (np.asarray(x, dtype=np.float64) for x in (eye, target, up))
