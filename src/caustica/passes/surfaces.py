@@ -160,6 +160,8 @@ class ShadeSurfaces(Pass):
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
         clip_from_world = camera.clip_from_world()
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
+        # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.
+        drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
         # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
         # rasterizers pay for every side of a branch, even one on a uniform.
         variants = sorted({_variant(material) for _, material in drawn})
@@ -195,6 +197,12 @@ class ShadeSurfaces(Pass):
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
+
+
+def _distance_to_bounds(point, bounds: np.ndarray) -> float:
+    """Distance from ``point`` to the box ``bounds`` (2, 3); 0 inside it."""
+    point = np.asarray(point, np.float64)
+    return float(np.linalg.norm(point - np.clip(point, bounds[0], bounds[1])))
 
 
 def _variant(material) -> tuple[str, bool]:
