@@ -1,6 +1,6 @@
 """per-vertex (Kakimoto et al.) figures: accuracy against exact/env-map/Mitsuba, tessellation, timings.
 
-    .venv/bin/python bench/bench_per_vertex.py [--size 256] [--mitsuba] [--reference-spp 64]
+    .venv/bin/python bench/bench_per_vertex.py [--size 512] [--mitsuba] [--reference-spp 64]
 
 Prints, with the GL renderer string:
 1. PSNR (linear, whole image and reflector pixels) of per-vertex and env-map (the paper's
@@ -9,7 +9,10 @@ Prints, with the GL renderer string:
 2. Scalable accuracy: the door mirror's PSNR against `exact` as its tessellation grows.
 3. Per-vertex CPU work (rays, least squares, frustum, texture coordinates) and the whole frame
    for 49, ~500 and ~1000 ray-issuing vertices, mirrors and lenses, lens with and without the
-   cached refraction vectors, against the env-map frame of the same scene.
+   cached refraction vectors, against the env-map frame of the same scene (timed in turns).
+4. Reflection map size on the 49-vertex door mirror: the paper's fixed square maps against maps
+   sized to the mirror's screen footprint (map_density texels per covered pixel): PSNR against
+   exact and the frame time against env-map.
 """
 from __future__ import annotations
 
@@ -39,13 +42,20 @@ def psnr_pair(image, reference, mask) -> tuple[float, float]:
 
 
 def median_ms(fn, repeats: int = 7) -> float:
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+    return interleaved_ms([fn], repeats)[0]
+
+
+def interleaved_ms(fns, repeats: int = 9) -> list[float]:
+    """Median ms of each of ``fns``, timed in turns so that load on the shared cores hits them alike."""
+    for fn in fns:
         fn()
-        times.append((time.perf_counter() - start) * 1000.0)
-    return float(np.median(times))
+    times = [[] for _ in fns]
+    for _ in range(repeats):
+        for fn, spent in zip(fns, times):
+            start = time.perf_counter()
+            fn()
+            spent.append((time.perf_counter() - start) * 1000.0)
+    return [float(np.median(t)) for t in times]
 
 
 def per_vertex_ms(scene, params) -> tuple[float, int]:
@@ -62,7 +72,7 @@ def per_vertex_ms(scene, params) -> tuple[float, int]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--mitsuba", action="store_true", help="also compare with the Mitsuba reference (slow once)")
     parser.add_argument("--reference-spp", type=int, default=64)
     args = parser.parse_args()
@@ -113,10 +123,24 @@ def main() -> None:
                    {"ior_rgb": presets.ABERRATION_IOR_RGB, "cache": True}))
     for name, scene, params in timing:
         work, count = per_vertex_ms(scene, pv.PerVertexParams(**params))
-        frame = median_ms(lambda: renderer.render_timed(scene, "per-vertex", **params))
-        base = median_ms(lambda: renderer.render_timed(scene, "env-map"))
+        frame, base = interleaved_ms([lambda: renderer.render_timed(scene, "per-vertex", **params),
+                                      lambda: renderer.render_timed(scene, "env-map")])
         print(f"  {name:24s} {count:5d} ray vertices   work {work:6.2f}   frame {frame:7.1f}   env-map {base:6.1f}"
               f"   ratio {frame / base:4.1f}")
+
+    print("\n4. Reflection map size, door mirror (49 vertices): PSNR dB against exact (whole / mirror), frame / env-map")
+    scene = presets.door_mirror(size=size)
+    mask, exact = reflector_mask(renderer, scene), renderer.render(scene, "exact")
+    for params in ({"map_size": 256}, {"map_size": 512}, {"map_density": 0.25}, {"map_density": 0.5},
+                   {"map_density": 1.0}, {"map_density": 2.0}):
+        ours = renderer.render(scene, "per-vertex", **params)
+        maps = [pv.map_texels(renderer.camera_for(scene), r.points, p, pv.PerVertexParams(**params))
+                for r in pv.LAST_STATS["reflectors"] for p in r.patches]
+        frame, base = interleaved_ms([lambda: renderer.render_timed(scene, "per-vertex", **params),
+                                      lambda: renderer.render_timed(scene, "env-map")])
+        label = ", ".join(f"{k} {v}" for k, v in params.items())
+        print(f"  {label:18s} map {' + '.join(f'{w}x{h}' for w, h in maps):12s} {'%.1f / %.1f' % psnr_pair(ours, exact, mask):>13s}"
+              f"   frame {frame:6.1f}   env-map {base:5.1f}   ratio {frame / base:4.2f}")
 
 
 if __name__ == "__main__":

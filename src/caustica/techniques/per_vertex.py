@@ -13,7 +13,11 @@ and lens in the scene, each frame:
    reflector whose frustum field of view exceeds ``fov_threshold`` is split
    into patches that share their boundary vertices, each with its own E (4.1).
 4. The reflection map: the scene without the reflector, rendered from E with
-   the off-axis frustum (ShadeSurfaces, the same shading as the eye view).
+   the off-axis frustum (ShadeSurfaces, the same shading as the eye view). The
+   paper's map is square and fixed (``map_size``); by default (``map_size`` 0,
+   our extension) it holds ``map_density`` texels per screen pixel the patch
+   covers, shaped like the frustum, since on a CPU rasterizer this second
+   render is most of the frame's cost.
    Hits between a concave mirror (or a convex lens) and E, the zooming region,
    get a second map looking back at the reflector with the reversed depth test
    (4.2, fig. 8-9). Mirrors inside a map are themselves rendered per vertex
@@ -71,7 +75,8 @@ _CACHE_SIZE = 32
 class PerVertexParams(ShadowedParams):
     """Parameters of ``per-vertex``; defaults follow Kakimoto et al."""
 
-    map_size: int = 512  # reflection map resolution (square)
+    map_size: int = 0  # reflection map texels a side (square, the paper's); 0: sized to the reflector on screen
+    map_density: float = 0.5  # map_size 0: map texels per screen pixel the reflector covers
     depth: int = 1  # reflector levels rendered per vertex (4.4): 2 shows a mirror in a mirror
     fov_threshold: float = 100.0  # split a reflector into patches while a frustum is wider (degrees, 4.1)
     max_patches: int = 8  # at most this many patches per reflector
@@ -84,13 +89,20 @@ class PerVertexParams(ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        for name, low, high in (("map_size", 16, 8192), ("depth", 0, 8), ("max_patches", 1, 256),
-                                ("max_interfaces", 1, 32)):
+        size = self.map_size
+        if isinstance(size, bool) or not isinstance(size, (int, float, np.integer)) or int(size) != size \
+                or not (size == 0 or 16 <= size <= 8192):
+            raise ValueError(f"map_size {size!r} must be 0 (sized to the reflector) or an integer in [16, 8192]")
+        self.map_size = int(size)
+        for name, low, high in (("depth", 0, 8), ("max_patches", 1, 256), ("max_interfaces", 1, 32)):
             value = getattr(self, name)
             if isinstance(value, bool) or int(value) != value or not low <= value <= high:
                 raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
             setattr(self, name, int(value))
         self.fov_threshold = float(self.fov_threshold)
+        self.map_density = float(self.map_density)
+        if not 0.05 <= self.map_density <= 64.0:
+            raise ValueError(f"map_density {self.map_density} must lie in [0.05, 64] texels per covered pixel")
         if not 1.0 <= self.fov_threshold <= 179.0:
             raise ValueError(f"fov_threshold {self.fov_threshold} must lie in [1, 179] degrees")
         if self.up not in UP_MODES:
@@ -119,6 +131,7 @@ class Reflector:
     channels: list[Lines]  # per colour channel (one for mirrors), per ray-issuing vertex
     weight: np.ndarray  # (m, 3) mirror colour, or lens exit transmittance per channel
     valid: np.ndarray  # (m,) the vertex has a usable ray
+    points: np.ndarray  # (m, 3) world positions of the ray-issuing vertices
     patches: list[Patch] = field(default_factory=list)
     uv: list[np.ndarray] = field(default_factory=list)  # per patch: (3, k, 2)
     zoom: list[np.ndarray] = field(default_factory=list)  # per patch: (k,) bool
@@ -157,7 +170,7 @@ def prepare_reflector(scene, index: int, eye, camera_up, ray_scene, params: PerV
         channels, weight, valid = [lines], np.tile(obj.material.color, (len(p), 1)), np.ones(len(p), bool)
     else:
         channels, weight, valid = _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world)
-    reflector = Reflector(index, lens, vertex_ids, faces_local, channels, weight, valid)
+    reflector = Reflector(index, lens, vertex_ids, faces_local, channels, weight, valid, p)
     _fit_patches(reflector, scene, p, n, eye, camera_up, params)
     return reflector
 
@@ -251,7 +264,8 @@ class PerVertexReflectors(Pass):
         maps = []
         for reflector in reflectors:
             subscene = scene_without(scene, reflector.index)
-            maps.append([self._maps(frame, subscene, patch.volume, zoom.any())
+            maps.append([self._maps(frame, subscene, patch.volume, zoom.any(),
+                                    map_texels(frame.camera, reflector.points, patch, params))
                          for patch, zoom in zip(reflector.patches, reflector.zoom)])
         map_ms = (time.perf_counter() - start) * 1000.0
         # Second pass: the reflectors over the eye view.
@@ -268,22 +282,52 @@ class PerVertexReflectors(Pass):
                               patches=int(sum(len(r.patches) for r in reflectors)))
         frame.write("color", frame.read("color"))
 
-    def _maps(self, frame: Frame, subscene: Scene, volume: ViewVolume, zoom: bool):
+    def _maps(self, frame: Frame, subscene: Scene, volume: ViewVolume, zoom: bool, size: tuple[int, int]):
         """The forward reflection map and, for a zooming region, the reversed one."""
-        forward = render_map(frame, subscene, volume, self.params, self.depth - 1, reverse=False)
+        forward = render_map(frame, subscene, volume, self.params, self.depth - 1, size, reverse=False)
         backward = None
         if zoom and self.params.zoom_region and volume.has_zoom:
-            backward = render_map(frame, subscene, volume, self.params, 0, reverse=True)
+            backward = render_map(frame, subscene, volume, self.params, 0, size, reverse=True)
         return forward, backward
 
 
+# Map sides an automatic size rounds up to, so that few distinct sizes enter the texture pool as the view moves.
+_MAP_SIDES = (32, 48, 64, 96, 128, 192, 256, 384, 512, 768, 1024, 1536, 2048)
+
+
+def map_texels(camera, points: np.ndarray, patch: Patch, params: PerVertexParams) -> tuple[int, int]:
+    """Reflection map size (width, height) for one patch.
+
+    A fixed ``map_size`` gives the paper's square map. ``map_size`` 0 (our extension, not in
+    the paper) spends ``map_density`` texels per screen pixel the patch covers, shaped
+    like the frustum, so that a small or distant mirror does not pay for a full-size
+    second render while the map keeps its texel density where the mirror is seen.
+    """
+    if params.map_size:
+        return params.map_size, params.map_size
+    clip = np.c_[points, np.ones(len(points))] @ np.asarray(camera.clip_from_world(), np.float64).T
+    w = clip[:, 3]
+    if np.any(w <= 1e-9):  # the patch reaches behind the eye: no footprint to measure
+        covered = float(camera.size[0] * camera.size[1])
+    else:
+        pixels = (np.clip(clip[:, :2] / w[:, None], -1.0, 1.0) * 0.5 + 0.5) * np.asarray(camera.size, np.float64)
+        a, b, c = (pixels[patch.faces[:, k]] for k in range(3))
+        (ux, uy), (vx, vy) = (b - a).T, (c - a).T
+        covered = 0.5 * float(np.abs(ux * vy - uy * vx).sum())
+    left, right, bottom, top = patch.volume.bounds
+    aspect = (right - left) / max(top - bottom, 1e-9)
+    texels = max(params.map_density * covered, 1.0)
+    width, height = np.sqrt(texels * aspect), np.sqrt(texels / aspect)
+    return tuple(next((s for s in _MAP_SIDES if s >= side), _MAP_SIDES[-1]) for side in (width, height))
+
+
 def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVertexParams, depth: int,
-               reverse: bool = False):
-    """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map (bilinear, clamped)."""
+               size: tuple[int, int], reverse: bool = False):
+    """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map of ``size`` (bilinear, clamped)."""
     view = volume.view_from_world
-    camera = OffscreenCamera(volume.position, (params.map_size, params.map_size), view[1, :3].copy(), view,
-                             volume.clip_from_world(reverse))
-    passes = [RefractorSurfaces("back", "farthest"), ShadeSurfaces()]
+    camera = OffscreenCamera(volume.position, size, view[1, :3].copy(), view, volume.clip_from_world(reverse))
+    # The back faces only give absorbing glass its thickness (as in env-map).
+    passes = [RefractorSurfaces("back", "farthest", absorbing_only=True), ShadeSurfaces()]
     if depth > 0:
         passes.append(PerVertexReflectors(params, depth))
     color = render_offscreen(frame, subscene, camera, passes, params=params)["color"]
@@ -309,18 +353,23 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     remap = np.full(len(reflector.vertex_ids), -1, np.int64)
     remap[patch.vertices] = np.arange(len(patch.vertices))
     indices = remap[patch.faces].astype("i4")
-    program = gpu.shaders.program("passes/per_vertex_surface.vert", "passes/per_vertex_surface.frag")
+    # One variant per case (the shader's LENS, ZOOM, DISPERSION): CPU rasterizers run every branch.
+    defines = {"LENS": int(reflector.lens), "ZOOM": int(backward is not None),
+               "DISPERSION": int(len(reflector.channels) > 1)}
+    program = gpu.shaders.program("passes/per_vertex_surface.vert", "passes/per_vertex_surface.frag", defines)
     vbo, ibo = ctx.buffer(data.tobytes()), ctx.buffer(indices.tobytes())
+    # skip_errors: a variant's linker drops the attributes it does not read (uv_r, uv_b, zoom).
     vao = ctx.vertex_array(program, [(vbo, "3f 3f 2f 2f 2f 1f 3f", "in_position", "in_normal", "in_uv_r",
-                                      "in_uv_g", "in_uv_b", "in_zoom", "in_weight")], ibo, index_element_size=4)
+                                      "in_uv_g", "in_uv_b", "in_zoom", "in_weight")], ibo, index_element_size=4,
+                           skip_errors=True)
     fbo = gpu.targets.framebuffer([frame.read("color"), frame.read("exit_direction")], frame.read("depth"))
     fbo.use()
     gpu.environment_texture(frame.scene.environment).use(0)
     forward.use(1)
     (backward or forward).use(2)
     m = obj.world_from_object()
-    for name, value in (("environment", 0), ("reflection_map", 1), ("zoom_map", 2), ("has_zoom", int(backward is not None)),
-                        ("lens", int(reflector.lens)), ("intensity_scale", float(frame.scene.intensity_scale))):
+    for name, value in (("environment", 0), ("reflection_map", 1), ("zoom_map", 2),
+                        ("intensity_scale", float(frame.scene.intensity_scale))):
         set_uniform(program, name, value)
     set_uniform(program, "world_from_object", m)
     set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
@@ -348,5 +397,8 @@ class PerVertex(RasterTechnique):
     Params = PerVertexParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces(),
-                PerVertexReflectors(params, params.depth)]
+        # Reflectors drawn per vertex are left out of the eye view's shading (PerVertexReflectors
+        # draws them); the back faces only give absorbing glass its thickness (as in env-map).
+        shaded = None if params.depth == 0 else (lambda obj: reflector_kind(obj, params) is None)
+        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
+                ShadeSurfaces(objects=shaded), PerVertexReflectors(params, params.depth)]
