@@ -31,6 +31,7 @@ class Mesh:
     # the exact oracle then intersects the true sphere (raytrace/embree_scene.py).
     analytic_sphere: tuple | None = None
     _hash: str | None = field(default=None, repr=False, compare=False)
+    _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
     _open: bool | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
@@ -56,8 +57,10 @@ class Mesh:
 
     @property
     def bounds(self) -> np.ndarray:
-        """(2,3) array: min and max corner."""
-        return np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+        """(2,3) array: min and max corner (computed once; meshes are not edited in place)."""
+        if self._bounds is None:
+            self._bounds = np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+        return self._bounds
 
     def content_hash(self) -> str:
         """A stable hash of the geometry, for on-disk caches."""

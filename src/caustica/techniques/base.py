@@ -88,8 +88,14 @@ def get_technique(name: str) -> Technique:
 _HELPER_MODULES = {"base", "raster", "composite"}
 
 
+_LOADED = False
+
+
 def _load_builtin() -> None:
     """Import every module of this package once: each technique registers itself by subclassing."""
+    global _LOADED
+    if _LOADED:
+        return
     import importlib
     import pkgutil
     from pathlib import Path
@@ -97,3 +103,4 @@ def _load_builtin() -> None:
     for info in pkgutil.iter_modules([str(Path(__file__).parent)]):
         if info.name not in _HELPER_MODULES:
             importlib.import_module(f"{__package__}.{info.name}")
+    _LOADED = True

@@ -192,8 +192,16 @@ class Viewer:
             self.other = self._render("second", self.second, self.second_params, camera)
         # Draw the views.
         self.ctx.screen.use()
-        self.ctx.screen.viewport = (0, 0, *glfw.get_framebuffer_size(self.window))
-        self.ctx.clear(0.1, 0.1, 0.11)
+        width, height = glfw.get_framebuffer_size(self.window)
+        self.ctx.screen.viewport = (0, 0, width, height)
+        # Clear only what neither the views nor the (opaque) panel cover: a CPU render pending.
+        drawn = rects if self.main.color is not None else []
+        if len(drawn) > 1 and self.other.color is None:
+            drawn = drawn[:1]
+        covered = max((x + w for x, _, w, _ in drawn), default=0)
+        uncovered = width - covered - (PANEL_WIDTH if self.show_panel else 0)
+        if uncovered > 0:
+            self.ctx.clear(0.1, 0.1, 0.11, viewport=(covered, 0, uncovered, height))
         self._draw_views(rects)
         # Draw the panel and the overlay on top.
         self._collect_gl_error("drawing the views")

@@ -19,13 +19,14 @@ void main() {
 }
 """
 
+# Compiled once per (MODE, FIT, K): a CPU rasterizer runs every side of a branch, even a uniform one.
 _FRAGMENT = """
 #version 430
+// MODE: 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain.
+// FIT 1: the texture holds K x K samples per view pixel (box average); FIT 0: letterboxed lookup.
 uniform sampler2D image_a;
 uniform sampler2D image_b;
-uniform int mode;            // 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain
 uniform int components;      // of image_a: 1 grey, 2 (r, g, 0), 3/4 rgb
-uniform int supersampling;   // k: the texture holds k x k samples per pixel when it matches the view
 uniform ivec2 origin;        // the view's lower-left corner in window pixels
 uniform ivec2 view_size;
 uniform float exposure;
@@ -44,22 +45,23 @@ vec3 expand(vec4 v) {
     return v.rgb;
 }
 
-// The pixel's value: a k x k box average when the texture matches the view, else a letterboxed lookup.
+// The pixel's value: a K x K box average when the texture matches the view, else a letterboxed lookup.
 vec4 sample_pixel(sampler2D image, ivec2 pixel, out bool inside) {
-    ivec2 size = textureSize(image, 0);
     inside = true;
-    if (size == view_size * supersampling) {
-        vec4 sum = vec4(0.0);
-        for (int j = 0; j < supersampling; ++j)
-            for (int i = 0; i < supersampling; ++i)
-                sum += texelFetch(image, pixel * supersampling + ivec2(i, j), 0);
-        return sum / float(supersampling * supersampling);
-    }
+#if FIT
+    vec4 sum = vec4(0.0);
+    for (int j = 0; j < K; ++j)
+        for (int i = 0; i < K; ++i)
+            sum += texelFetch(image, pixel * K + ivec2(i, j), 0);
+    return sum / float(K * K);
+#else
+    ivec2 size = textureSize(image, 0);
     float scale = min(float(view_size.x) / float(size.x), float(view_size.y) / float(size.y));
     vec2 shown = vec2(size) * scale;
     vec2 uv = (vec2(pixel) + 0.5 - (vec2(view_size) - shown) * 0.5) / shown;
     inside = all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)));
     return textureLod(image, uv, 0.0);
+#endif
 }
 
 void main() {
@@ -67,18 +69,17 @@ void main() {
     bool inside;
     vec3 a = expand(sample_pixel(image_a, pixel, inside));
     if (!inside) { frag_color = vec4(0.08, 0.08, 0.09, 1.0); return; }
-    vec3 shown;
-    if (mode == 0) {
-        shown = srgb(a * exp2(exposure));
-    } else if (mode == 1) {
-        shown = clamp(a * 0.5 + 0.5, 0.0, 1.0);
-    } else if (mode == 2) {
-        shown = clamp((a - value_range.x) / max(value_range.y - value_range.x, 1e-20), 0.0, 1.0);
-    } else {
-        bool inside_b;
-        vec3 b = sample_pixel(image_b, pixel, inside_b).rgb;
-        shown = srgb(abs(a - b) * exp2(exposure) * gain);
-    }
+#if MODE == 0
+    vec3 shown = srgb(a * exp2(exposure));
+#elif MODE == 1
+    vec3 shown = clamp(a * 0.5 + 0.5, 0.0, 1.0);
+#elif MODE == 2
+    vec3 shown = clamp((a - value_range.x) / max(value_range.y - value_range.x, 1e-20), 0.0, 1.0);
+#else
+    bool inside_b;
+    vec3 b = sample_pixel(image_b, pixel, inside_b).rgb;
+    vec3 shown = srgb(abs(a - b) * exp2(exposure) * gain);
+#endif
     frag_color = vec4(shown, 1.0);
 }
 """
@@ -109,12 +110,20 @@ def value_range(texture) -> tuple[float, float]:
 
 
 class Display:
-    """One program and one empty vertex array: each call draws a texture into a rectangle of the window."""
+    """Shader variants, each with an empty vertex array: each call draws a texture into a rectangle of the window."""
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT)
-        self.vao = ctx.vertex_array(self.program, [])
+        self.programs: dict[tuple[int, int, int], tuple] = {}  # key -> (program, its empty vertex array)
+
+    def variant(self, mode: int, fit: bool, k: int):
+        """The variant for ``mode`` (index in MODES), a view-sized texture of k x k samples or a letterbox."""
+        key = (mode, int(fit), k if fit else 1)
+        if key not in self.programs:
+            header = f"#version 430\n#define MODE {key[0]}\n#define FIT {key[1]}\n#define K {key[2]}\n"
+            program = self.ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT.replace("#version 430\n", header, 1))
+            self.programs[key] = (program, self.ctx.vertex_array(program, []))
+        return self.programs[key]
 
     def draw(self, texture, rect: tuple[int, int, int, int], mode: str = "color", exposure: float = 0.0,
              supersampling: int = 1, values: tuple[float, float] = (0.0, 1.0), other=None, gain: float = 4.0) -> None:
@@ -122,6 +131,9 @@ class Display:
         x, y, width, height = (int(v) for v in rect)
         if width <= 0 or height <= 0:
             return
+        k = int(supersampling)
+        fit = tuple(texture.size) == (width * k, height * k)
+        program, vao = self.variant(MODES.index(mode), fit, k)
         screen = self.ctx.screen
         screen.use()
         screen.viewport = (x, y, width, height)
@@ -131,16 +143,18 @@ class Display:
             texture.compare_func = ""  # read depths as values, not as shadow comparisons
         texture.use(0)
         (other if other is not None else texture).use(1)
-        values_of = {"image_a": 0, "image_b": 1, "mode": MODES.index(mode), "components": texture.components,
-                     "supersampling": int(supersampling), "origin": (x, y), "view_size": (width, height),
-                     "exposure": float(exposure), "value_range": tuple(float(v) for v in values), "gain": float(gain)}
+        values_of = {"image_a": 0, "image_b": 1, "components": texture.components, "origin": (x, y),
+                     "view_size": (width, height), "exposure": float(exposure),
+                     "value_range": tuple(float(v) for v in values), "gain": float(gain)}
         for name, value in values_of.items():
-            if name in self.program:
-                self.program[name].value = value
-        self.vao.render(vertices=3)
+            if name in program:
+                program[name].value = value
+        vao.render(vertices=3)
         if compare is not None:
             texture.compare_func = compare
 
     def release(self) -> None:
-        self.vao.release()
-        self.program.release()
+        for program, vao in self.programs.values():
+            vao.release()
+            program.release()
+        self.programs.clear()

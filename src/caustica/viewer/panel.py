@@ -5,6 +5,7 @@ new technique's parameters appear with no change here.
 """
 from __future__ import annotations
 
+import functools
 import statistics
 
 import numpy as np
@@ -17,15 +18,16 @@ from .params import MATERIAL_FIELDS, param_specs
 SPP_CHOICES = (1, 4, 9, 16)
 
 
-def technique_choices() -> list[str]:
-    """Every technique, plus each view technique combined with each caustic technique."""
+@functools.lru_cache(maxsize=1)
+def technique_choices() -> tuple[str, ...]:
+    """Every technique, plus each view technique combined with each caustic technique (built once)."""
     from ..techniques.composite import CausticTechnique
     from ..techniques.raster import RasterTechnique
 
     names = technique_names()
     caustic = [n for n in names if isinstance(get_technique(n), CausticTechnique)]
     views = [n for n in names if n not in caustic and n != "plain" and isinstance(get_technique(n), RasterTechnique)]
-    return names + [f"{v}+{c}" for v in views for c in caustic]
+    return (*names, *(f"{v}+{c}" for v in views for c in caustic))
 
 
 def _combo(imgui, label: str, value, choices) -> tuple[bool, object]:
@@ -71,6 +73,7 @@ def draw_panel(viewer) -> None:
 
     imgui.set_next_window_pos((width - PANEL_WIDTH, 0))
     imgui.set_next_window_size((PANEL_WIDTH, height))
+    imgui.set_next_window_bg_alpha(1.0)  # opaque: the window under it is not cleared each frame
     flags = imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
     imgui.begin("caustica", None, flags)
     imgui.text(f"{viewer.scene.name}  ({viewer.device.info['renderer'][:28]})")
