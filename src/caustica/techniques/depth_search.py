@@ -27,24 +27,35 @@ refractors (outward normal and eye distance). For each glass fragment:
    about 8 steps where these need 4 to 5.
 4. N2 from the front or back normal buffer at P2 (2.1.4), T2 = refract(T1, N2),
    environment lookup (fig. 10c). Where no buffer holds P2, T2 = T1.
+5. Our extension, not in the paper: ``internal_bounces`` (default 0, the paper's
+   two interfaces, bit for bit) follows the light reflected inside at each exit
+   (weight F) to the next exit, up to that many times. First guess: the previous
+   chord length (exact on a sphere, whose successive chords are equal); then
+   step 3's tangent-plane correction against whichever buffer holds the surface
+   nearer the point in eye distance, since the next exit may be front- or
+   back-facing. At each exit (1 - F) leaves by Snell; TIR at the last exit
+   leaves in the reflected direction, as the paper's single exit does.
 
 Works for n_t < n_i (the IOR 0.8 sphere of fig. 10: T1 bends away from the
 normal and often exits through a front face). Shading: exact dielectric Fresnel
-at both interfaces, Beer-Lambert absorption over |P2 - P1|. Dispersion: the
-geometry (P2, N2) is found for the green channel's IOR; each channel then
-refracts with its own IOR at both interfaces. Entry TIR (IOR < 1) reflects only;
-exit TIR (not treated by the paper) reflects once at P2 and leaves to the
-environment. The exit direction T2 is written to output location 1.
+at every interface, Beer-Lambert absorption over the path length inside.
+Dispersion: the geometry (P2, N2, further exits) is found for the green
+channel's IOR; each channel then refracts with its own IOR at every interface.
+Entry TIR (IOR < 1) reflects only; exit TIR (not treated by the paper) reflects
+once at the last exit and leaves to the environment. The exit direction T2 (at
+P2) is written to output location 1. ``internal_bounces`` and
+``assume_back_first`` are compile-time switches (shader variants): llvmpipe
+runs both sides of every branch.
 
-Limits: two interfaces; P2 found in screen space, so it is only as exact as the
-buffers' resolution and it must lie inside the view; one silhouette per search
-line and one layer per buffer (highly concave objects and overlapping
-refractors give wrong exits, as the paper states); light reflected inside the
-object at the exit is dropped unless ``internal_reflection`` (our extension,
-not in the paper) follows it once to a second exit through the front faces;
-nothing nearby is seen through the glass unless ``nearby`` (Wyman's planes or
-image-space search, ``passes/impostors.py``; the ``impostors`` technique is
-the paper's own answer, 2.2).
+Limits: two interfaces (more with ``internal_bounces``); P2 found in screen
+space, so it is only as exact as the buffers' resolution and it must lie inside
+the view; one silhouette per search line and one layer per buffer (highly
+concave objects and overlapping refractors give wrong exits, as the paper
+states); the light reflected inside at the last exit followed is dropped (at P2
+unless ``internal_bounces`` > 0); nothing nearby is seen through the glass
+unless ``nearby`` (Wyman's planes or image-space search,
+``passes/impostors.py``; the ``impostors`` technique is the paper's own
+answer, 2.2).
 """
 from __future__ import annotations
 
@@ -56,8 +67,11 @@ from ..gpu.meshes import set_uniform
 from ..passes.impostors import NearbyParams, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from .base import check_integers
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
+
+MAX_INTERNAL_BOUNCES = 8
 
 
 @dataclass
@@ -69,7 +83,7 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
     iterations: int = 5  # dT corrections (section 4: "four or five iterations are enough")
     tolerance: float = 1e-3  # stop correcting once dT moves less than this (scene units)
     assume_back_first: bool = True  # section 4: iterate on the back faces first
-    internal_reflection: bool = False  # our extension: follow the light reflected inside at P2 once
+    internal_bounces: int = 0  # our extension: internal reflections followed to further exits (0: the paper)
 
     def __post_init__(self):
         super().__post_init__()
@@ -82,13 +96,12 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
             raise ValueError(f"iterations {self.iterations} must be an integer in [0, 32] (the paper uses 2 to 5)")
         if not (np.isfinite(float(self.tolerance)) and float(self.tolerance) >= 0.0):
             raise ValueError(f"tolerance {self.tolerance} must be a non-negative distance in scene units")
-        for flag in ("assume_back_first", "internal_reflection"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
+        if not isinstance(self.assume_back_first, (bool, np.bool_)):
+            raise ValueError(f"assume_back_first {self.assume_back_first!r} must be true or false")
+        check_integers(self, {"internal_bounces": (0, MAX_INTERNAL_BOUNCES)})
         self.search_steps, self.iterations = int(self.search_steps), int(self.iterations)
         self.search_start, self.tolerance = float(self.search_start), float(self.tolerance)
         self.assume_back_first = bool(self.assume_back_first)
-        self.internal_reflection = bool(self.internal_reflection)
 
 
 class DepthSearch(RasterTechnique):
@@ -105,15 +118,16 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "search_start", params.search_start)
             set_uniform(program, "iterations", params.iterations)
             set_uniform(program, "tolerance", params.tolerance)
-            set_uniform(program, "assume_back_first", int(params.assume_back_first))
-            set_uniform(program, "internal_reflection", int(params.internal_reflection))
 
         nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
+        defines = {**nearby.defines, "INTERNAL_BOUNCES": params.internal_bounces,
+                   "ASSUME_BACK_FIRST": int(params.assume_back_first)}
         return [
             ShadowMaps(params.shadow_map_size),
             RefractorSurfaces("front", "nearest"),
             RefractorSurfaces("back", "farthest"),
             *nearby.passes,
-            ShadeSurfaces("passes/depth_search.frag", nearby.defines, inputs=("front_surface", "back_surface", *nearby.inputs),
+            ShadeSurfaces("passes/depth_search.frag", defines,
+                          inputs=("front_surface", "back_surface", *nearby.inputs),
                           set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms)),
         ]

@@ -5,16 +5,25 @@
 // dT iteratively against that face's depth buffer (2.1.3); N2 from that face's normal
 // texture (2.1.4); T2 = refract(T1, N2) per RGB channel; environment lookup.
 // Geometry (P2, N2) follows the green channel's IOR; each channel refracts with its own IOR
-// at both interfaces (dispersion). TIR at the exit reflects once (at the entry: reflect only).
+// at every interface (dispersion). TIR at the last exit reflects once (at the entry: reflect only).
+// Our extension, not in the paper: INTERNAL_BOUNCES > 0 follows the light reflected inside at
+// each exit (weight F) to the next exit, found against the nearer of the two buffers.
 //
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
-// Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
+// Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
+// INTERNAL_BOUNCES (0: the paper's two interfaces), ASSUME_BACK_FIRST (0/1; compile-time, since
+// llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
-//   tolerance (float, scene units), assume_back_first (int 0/1), internal_reflection (int 0/1),
-//   world_from_clip (mat4).
+//   tolerance (float, scene units), world_from_clip (mat4).
 #version 430 core
+#ifndef INTERNAL_BOUNCES
+#define INTERNAL_BOUNCES 0  // our extension: internal reflections followed to further exits (0: the paper)
+#endif
+#ifndef ASSUME_BACK_FIRST
+#define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
+#endif
 #include "common/surface_inputs.glsl"
 #include "common/impostors.glsl"
 
@@ -25,8 +34,6 @@ uniform int search_steps;
 uniform float search_start;
 uniform int iterations;
 uniform float tolerance;
-uniform int assume_back_first;
-uniform int internal_reflection;  // 1: follow the light reflected inside at P2 to a second exit (our extension)
 
 // Buffer pixel (continuous, origin at the lower left) of a world point; false behind the eye.
 bool buffer_pixel(vec3 p, out vec2 pixel) {
@@ -45,14 +52,22 @@ vec4 surface_at(sampler2D surfaces, vec2 pixel) {
 }
 
 // The surface at a continuous pixel position, bilinear between the four nearest texels when
-// all hold a surface (the nearest texel otherwise): sub-texel P2 and N2.
+// all hold a surface (the nearest texel otherwise): sub-texel P2 and N2. Four fetches at
+// clamped texels; texels off the buffer count as empty.
 vec4 surface_filtered(sampler2D surfaces, vec2 pixel) {
-    vec4 nearest = surface_at(surfaces, pixel);
-    if (nearest.w <= 0.0) return nearest;
+    ivec2 size = textureSize(surfaces, 0);
     vec2 base = floor(pixel - 0.5);
     vec2 f = pixel - 0.5 - base;
-    vec4 s00 = surface_at(surfaces, base + vec2(0.5, 0.5)), s10 = surface_at(surfaces, base + vec2(1.5, 0.5));
-    vec4 s01 = surface_at(surfaces, base + vec2(0.5, 1.5)), s11 = surface_at(surfaces, base + vec2(1.5, 1.5));
+    ivec2 lo = ivec2(base), hi = lo + 1;
+    ivec2 clo = clamp(lo, ivec2(0), size - 1), chi = clamp(hi, ivec2(0), size - 1);
+    vec4 s00 = texelFetch(surfaces, clo, 0), s10 = texelFetch(surfaces, ivec2(chi.x, clo.y), 0);
+    vec4 s01 = texelFetch(surfaces, ivec2(clo.x, chi.y), 0), s11 = texelFetch(surfaces, chi, 0);
+    bvec2 lo_in = equal(lo, clo), hi_in = equal(hi, chi);
+    s00.w = lo_in.x && lo_in.y ? s00.w : 0.0;
+    s10.w = hi_in.x && lo_in.y ? s10.w : 0.0;
+    s01.w = lo_in.x && hi_in.y ? s01.w : 0.0;
+    s11.w = hi_in.x && hi_in.y ? s11.w : 0.0;
+    vec4 nearest = f.y < 0.5 ? (f.x < 0.5 ? s00 : s10) : (f.x < 0.5 ? s01 : s11);
     if (min(min(s00.w, s10.w), min(s01.w, s11.w)) <= 0.0) return nearest;
     return mix(mix(s00, s10, f.x), mix(s01, s11, f.x), f.y);
 }
@@ -87,14 +102,29 @@ bool silhouette_point(vec2 p1, vec2 t1, out vec3 pe) {
     return true;
 }
 
-// 2.1.3: correct dT against one buffer. S (normal N_S) is the surface the buffer holds where
+// Which buffer correct_distance reads (a constant at each call, so the compiler keeps one side).
+const int BACK_LAYER = 0;   // the farthest back faces
+const int FRONT_LAYER = 1;  // the nearest front faces
+const int NEAREST_LAYER = 2;  // our extension: whichever of the two lies nearer the point's eye distance
+
+// The surface a buffer (or the nearer of the two) holds at a continuous pixel position.
+vec4 layer_surface(int layer, vec2 pixel, float depth) {
+    if (layer == BACK_LAYER) return surface_filtered(back_surface, pixel);
+    vec4 f = surface_filtered(front_surface, pixel);
+    if (layer == FRONT_LAYER) return f;
+    vec4 b = surface_filtered(back_surface, pixel);
+    return f.w > 0.0 && (b.w <= 0.0 || abs(depth - f.w) < abs(depth - b.w)) ? f : b;
+}
+
+// 2.1.3: correct dT against a buffer. S (normal N_S) is the surface the buffer holds where
 // P1 + dT T1 projects. Back faces: dT += (|S - E| - |P1 + dT T1 - E|) / (T1 . ray), the depth
 // difference along the pixel ray turned into a step along T1 (|S - P1| where that rate is
-// small). Front faces (steep near the silhouette, where front exits happen): dT = the
-// distance along T1 to the tangent plane at S. A point that leaves the silhouette steps back
-// halfway to the last point inside and sets `left`. Returns false if no point was inside.
-bool correct_distance(sampler2D surfaces, bool tangent_plane, vec3 p1, vec3 t1, inout float dt,
-                      out vec4 s2, out bool left) {
+// small). Front faces (steep near the silhouette, where front exits happen), and the nearer
+// layer: dT = the distance along T1 to the tangent plane at S. A point that leaves the
+// silhouette steps back halfway to the last point inside and sets `left`. Returns false if
+// no point was inside.
+bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, out bool left) {
+    bool tangent_plane = layer != BACK_LAYER;
     left = false;
     s2 = vec4(0.0);
     float inside_dt = 0.0;
@@ -102,7 +132,7 @@ bool correct_distance(sampler2D surfaces, bool tangent_plane, vec3 p1, vec3 t1, 
     for (int i = 0; ; ++i) {
         vec3 q = p1 + dt * t1;
         vec2 pixel;
-        vec4 s = buffer_pixel(q, pixel) ? surface_filtered(surfaces, pixel) : vec4(0.0);
+        vec4 s = buffer_pixel(q, pixel) ? layer_surface(layer, pixel, length(q - camera_position)) : vec4(0.0);
         if (s.w <= 0.0) {
             left = true;
             dt = 0.5 * (dt + inside_dt);
@@ -128,21 +158,36 @@ bool correct_distance(sampler2D surfaces, bool tangent_plane, vec3 p1, vec3 t1, 
     return s2.w > 0.0;
 }
 
-// Our extension, not in the paper: the light reflected inside at P2 (weight F2) heads back
-// towards the eye side and leaves through a front face. Start from the front surface the
-// buffer holds at P2's pixel and correct against the tangent planes there (2.1.3's front
-// rule). Rays heading away from the eye are not followed (false).
-bool second_exit(vec3 p2, vec3 r2, float start, out float dt3, out vec4 s3) {
-    dt3 = 0.0;
-    s3 = vec4(0.0);
-    if (dot(r2, normalize(p2 - camera_position)) >= 0.0) return false;
-    vec2 pixel;
-    if (!buffer_pixel(p2, pixel)) return false;
-    vec4 front = surface_filtered(front_surface, pixel);
-    if (front.w <= 0.0) return false;
-    dt3 = max(length(surface_point(pixel, front.w) - p2), start);
-    bool left;
-    return correct_distance(front_surface, true, p2, r2, dt3, s3, left);
+// The exits of the green channel's path: exit_point[k], outward exit_normal[k], path length
+// inside up to it, exit_length[k]; exit_count of them (1 + the internal bounces followed).
+const int MAX_EXITS = INTERNAL_BOUNCES + 1;
+vec3 exit_point[MAX_EXITS];
+vec3 exit_normal[MAX_EXITS];
+float exit_length[MAX_EXITS];
+int exit_count = 0;
+
+// Light leaving the glass for refractive index `ior` along the exits (the geometry is the
+// green channel's): d is T1 for this ior. At each exit the transmitted share (1 - F) leaves
+// (2.1.4) and the reflected share F goes on inside to the next exit (our extension; the paper
+// stops at the first). TIR at the last exit: the light leaves in the reflected direction.
+vec3 inside_radiance(vec3 d, float ior) {
+    vec3 radiance = vec3(0.0);
+    float weight = 1.0;
+    // A fixed trip count (unrolled, constant indices); exits past exit_count add nothing.
+    for (int k = 0; k < MAX_EXITS; ++k) {
+        vec3 nk = exit_normal[k];
+        vec3 t = refract_direction(d, -nk, ior);
+        vec3 r = reflect_direction(d, -nk);
+        bool tir = dot(t, t) == 0.0;
+        float f = fresnel_dielectric(dot(d, nk), ior, 1.0);  // 1 on TIR
+        // One lookup per exit (llvmpipe runs both sides of a branch): TIR leaves along R, and only at the last exit.
+        float leaving = tir ? (k == exit_count - 1 ? 1.0 : 0.0) : 1.0 - f;
+        vec3 seen = nearby_cached(exit_point[k], tir ? r : t);
+        if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * exit_length[k]) * seen;
+        weight *= f;
+        d = r;
+    }
+    return radiance;
 }
 
 vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
@@ -164,7 +209,11 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     float dt = start;
     vec4 s2;
     bool left = true;
-    bool found = assume_back_first != 0 && correct_distance(back_surface, false, p1, t1, dt, s2, left);
+#if ASSUME_BACK_FIRST
+    bool found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+#else
+    bool found = false;
+#endif
     if (left) {
         // 2.1.2: silhouette point Pe along the projected T1; front exit when T1 turns further
         // from V than the chord P1 -> Pe does.
@@ -184,50 +233,54 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         // result when it ran.
         if (front_exit) {
             dt = max(length(chord), start);
-            found = correct_distance(front_surface, true, p1, t1, dt, s2, left);
-        } else if (assume_back_first == 0) {
-            dt = start;
-            found = correct_distance(back_surface, false, p1, t1, dt, s2, left);
+            found = correct_distance(FRONT_LAYER, p1, t1, dt, s2, left);
         }
+#if !ASSUME_BACK_FIRST
+        else {
+            dt = start;
+            found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+        }
+#endif
     }
-    // P2 outside every buffer: N2 = T1, so T2 = T1 (env-map's single refraction).
-    vec3 n2 = found ? normalize(s2.xyz) : t1;
-    // Optionally one internal reflection at P2, leaving at P3 through N3 (extension).
-    float dt3 = 0.0;
-    vec4 s3;
-    bool bounce = internal_reflection != 0 && found
-        && second_exit(p1 + dt * t1, reflect_direction(t1, -n2), start, dt3, s3);
-    vec3 n3 = bounce ? normalize(s3.xyz) : n2;
-    // Exit through the outward normal N2 (2.1.4); per-channel Snell and Fresnel at every interface.
-    vec3 transmittance = exp(-absorption_coefficient * dt);
-    vec3 transmittance3 = exp(-absorption_coefficient * (dt + dt3));
+    // P2 with N2 from the buffer (2.1.4); outside every buffer N2 = T1, so T2 = T1 (env-map's
+    // single refraction).
+    exit_point[0] = p1 + dt * t1;
+    exit_normal[0] = found ? normalize(s2.xyz) : t1;
+    exit_length[0] = dt;
+    exit_count = 1;
+#if INTERNAL_BOUNCES > 0
+    // Our extension, not in the paper: follow the light reflected inside at each exit to the
+    // next one. First guess: the previous chord length (exact on a sphere, whose successive
+    // chords are equal); then 2.1.3's tangent-plane correction against whichever buffer lies
+    // nearer the point, since the next exit may be front- or back-facing.
+    vec3 d = t1;
+    float chord = dt;
+    for (int k = 1; k < MAX_EXITS; ++k) {
+        vec3 r = reflect_direction(d, -exit_normal[k - 1]);
+        vec4 s;
+        found = correct_distance(NEAREST_LAYER, exit_point[k - 1], r, chord, s, left) && found;
+        exit_point[k] = exit_point[k - 1] + chord * r;
+        exit_normal[k] = found ? normalize(s.xyz) : r;
+        exit_length[k] = exit_length[k - 1] + chord;
+        exit_count = found ? k + 1 : exit_count;
+        d = r;
+    }
+#endif
+    // Per channel Snell and Fresnel at every interface (dispersion), or one IOR for all.
     vec3 result;
+#if DISPERSION
     for (int c = 0; c < 3; ++c) {
         float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
         vec3 t1c = refract_direction(v, n, 1.0 / ior_rgb[c]);
-        if (dot(t1c, t1c) == 0.0) { result[c] = reflected[c]; continue; }
-        vec3 t2 = refract_direction(t1c, -n2, ior_rgb[c]);
-        float f2 = fresnel_dielectric(dot(t1c, n2), ior_rgb[c], 1.0);
-        vec3 r2 = reflect_direction(t1c, -n2);
-        float inside;
-        if (bounce) {
-            // Transmitted at P2, plus reflected at P2 and transmitted at P3 (TIR at P3: dropped).
-            vec3 t3 = refract_direction(r2, -n3, ior_rgb[c]);
-            float f3 = fresnel_dielectric(dot(r2, n3), ior_rgb[c], 1.0);
-            vec3 p2 = p1 + dt * t1;
-            float second = dot(t3, t3) > 0.0 ? f2 * (1.0 - f3) * transmittance3[c] * nearby_cached(p2 + dt3 * reflect_direction(t1, -n2), t3)[c] : 0.0;
-            float first = dot(t2, t2) > 0.0 ? (1.0 - f2) * transmittance[c] * nearby_cached(p2, t2)[c] : 0.0;
-            inside = first + second;
-        } else {
-            // Exit TIR: one internal reflection, then out to the environment.
-            vec3 out_dir = dot(t2, t2) > 0.0 ? t2 : r2;
-            float through = dot(t2, t2) > 0.0 ? 1.0 - f2 : 1.0;
-            inside = through * transmittance[c] * nearby_cached(p1 + dt * t1, out_dir)[c];
-        }
-        result[c] = f1 * reflected[c] + (1.0 - f1) * inside;
+        float inside = inside_radiance(t1c, ior_rgb[c])[c];
+        result[c] = dot(t1c, t1c) == 0.0 ? reflected[c] : f1 * reflected[c] + (1.0 - f1) * inside;
     }
-    vec3 t2 = refract_direction(t1, -n2, ior);
-    exit_dir = nearby_output(vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -n2), 1.0));
+#else
+    float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior);
+    result = f1 * reflected + (1.0 - f1) * inside_radiance(t1, ior);
+#endif
+    vec3 t2 = refract_direction(t1, -exit_normal[0], ior);
+    exit_dir = nearby_output(vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -exit_normal[0]), 1.0));
     return result;
 }
 
