@@ -271,3 +271,41 @@ result.update(gl_error=report.gl_error, live=report.live_objects)
     # The env-map sphere really differs from the depth-search render.
     assert np.abs(reference - headless(tmp_path / "scene.pkl", "depth-search")).max() > 0.1
     assert result["gl_error"] == "GL_NO_ERROR" and result["live"] == {}
+
+
+UI_LAYER = """
+import numpy as np
+from caustica.viewer import ui_layer
+scene = caustica.load_scene("glass-sphere")
+viewer = Viewer(scene, "env-map", size=(160, 128), fixed_step=True, overlay=False)  # its fps text changes
+ui_layer.REFRESH_S = 1e9  # no timed refresh: ImGui runs only after input
+redraws = []
+draw = viewer.ui.redraw
+viewer.ui.redraw = lambda *args: (redraws.append(viewer.frame_index), draw(*args))
+viewer.run(frames=20)
+idle = viewer.grab_window()  # the panel copied from the retained layer
+viewer.ui.touch()
+viewer.run(frames=viewer.frame_index + 1)
+fresh = viewer.grab_window()  # ImGui ran this frame; the whole layer blended over the window
+result.update(redraws=redraws, panel_equal=bool(np.array_equal(idle[:, 160:], fresh[:, 160:])),
+              view_equal=bool(np.array_equal(idle[:, :160], fresh[:, :160])),
+              panel_drawn=float(idle[:, 160:].std()))
+viewer.apply(("panel", False))
+viewer.run(frames=viewer.frame_index + 2)
+result["hidden_width"] = int(viewer.grab_window().shape[1])
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+"""
+
+
+def test_retained_ui_layer_runs_imgui_only_after_input_and_composites_the_same_window(display, tmp_path):
+    """ImGui runs for a few frames after opening (and after input), then the cached layer is reused: the
+    window it gives equals the one a fresh ImGui frame gives."""
+    result = run_child(display, UI_LAYER, tmp_path)
+    idle = [frame for frame in result["redraws"] if frame < 20]
+    assert len(idle) <= 5 and max(idle) < 8  # the first frames only (SETTLE_FRAMES), none while idle
+    assert 21 in result["redraws"]  # the touch made ImGui run again (frame 20 was the idle grab)
+    assert result["panel_equal"] and result["view_equal"]
+    assert result["panel_drawn"] > 10.0  # the panel is there, not a flat colour
+    assert result["hidden_width"] == 160
+    assert result["gl_error"] == "GL_NO_ERROR" and not any(result["live"].values())

@@ -98,6 +98,8 @@ class Viewer:
         self.main = self.other = LiveImage(technique)
         self.state_version = 0  # bumped on every change: CPU techniques re-render on it
         self._drag = {"button": None, "pos": (0.0, 0.0), "shift": False}
+        self._cursor_over_panel = False
+        self.overlay_rect = None  # where ImGui last drew the overlay (x, y, w, h from the lower left)
         self._script: deque = deque()
         self._grab, self._grab_path, self.last_window = False, None, None
         self._last_time = time.perf_counter()
@@ -116,6 +118,7 @@ class Viewer:
 
         from ..gpu.device import GpuDevice
         from .display import Display
+        from .ui_layer import UiLayer
 
         if not glfw.init():
             raise ViewerError(NO_DISPLAY.replace("DISPLAY is not set", f"cannot open display {os.environ.get('DISPLAY')}"))
@@ -137,12 +140,13 @@ class Viewer:
         self.device = GpuDevice(self.ctx)
         self.live = LiveRenderer(self.device)
         self.display = Display(self.ctx)
+        self.ui = UiLayer(self.ctx)
         self.imgui = imgui
         imgui.create_context()
         imgui.get_io().set_ini_filename(None)  # no imgui.ini in the working directory
         self.gui = GlfwRenderer(self.window, attach_callbacks=False)
         glfw.set_key_callback(self.window, self._on_key)
-        glfw.set_char_callback(self.window, self.gui.char_callback)
+        glfw.set_char_callback(self.window, self._on_char)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_mouse_button_callback(self.window, self._on_button)
         glfw.set_scroll_callback(self.window, self._on_scroll)
@@ -181,7 +185,6 @@ class Viewer:
     def step(self) -> None:
         glfw, imgui = self.glfw, self.imgui
         glfw.poll_events()
-        self.gui.process_inputs()
         if self._script:
             self._next_event()
         self._advance_animation()
@@ -203,17 +206,16 @@ class Viewer:
         if uncovered > 0:
             self.ctx.clear(0.1, 0.1, 0.11, viewport=(covered, 0, uncovered, height))
         self._draw_views(rects)
-        # Draw the panel and the overlay on top.
+        # The panel and the overlay: ImGui redraws its layer after input or now and then; composited every frame.
         self._collect_gl_error("drawing the views")
-        imgui.new_frame()
-        from .panel import draw_overlay, draw_panel
-
-        if self.show_panel:
-            draw_panel(self)
-        if self.show_overlay:
-            draw_overlay(self)
-        imgui.render()
-        self.gui.render(imgui.get_draw_data())
+        if self.show_panel or self.show_overlay:
+            if self.ui.due((width, height)):
+                self.ui.redraw((width, height), self._draw_ui)
+                self.ctx.screen.use()
+                self.ctx.screen.viewport = (0, 0, width, height)
+            panel = (width - PANEL_WIDTH, 0, PANEL_WIDTH, height) if self.show_panel else None
+            self.ui.composite(self.display, (width, height), panel,
+                              [self.overlay_rect] if self.show_overlay and self.overlay_rect else [])
         if self._grab or self._grab_path:
             width, height = glfw.get_framebuffer_size(self.window)
             data = self.ctx.screen.read(viewport=(0, 0, width, height), components=3)
@@ -226,6 +228,20 @@ class Viewer:
         self.frame_ms.append((now - self._last_time) * 1000.0)
         self._last_time = now
         self.frame_index += 1
+
+    def _draw_ui(self) -> None:
+        """One ImGui frame of the panel and overlay, rendered into the bound target (the UI layer)."""
+        from .panel import draw_overlay, draw_panel
+
+        imgui = self.imgui
+        self.gui.process_inputs()
+        imgui.new_frame()
+        if self.show_panel:
+            draw_panel(self)
+        if self.show_overlay:
+            draw_overlay(self)
+        imgui.render()
+        self.gui.render(imgui.get_draw_data())
 
     def _render(self, slot: str, technique: str, params: dict, camera) -> LiveImage:
         try:
@@ -295,6 +311,7 @@ class Viewer:
         if action is None:
             raise CausticaError(f"unknown viewer event '{name}'; use one of {', '.join(sorted(EVENTS))}")
         action(self, *args)
+        self.ui.touch()
 
     def _next_event(self) -> None:
         event = self._script[0]
@@ -530,8 +547,13 @@ class Viewer:
         return str(path)
 
     # Input callbacks: ImGui first; the view gets what the panel does not want.
+    def _on_char(self, window, char) -> None:
+        self.gui.char_callback(window, char)
+        self.ui.touch()
+
     def _on_key(self, window, key, scancode, action, mods) -> None:
         self.gui.keyboard_callback(window, key, scancode, action, mods)
+        self.ui.touch()
         if action == self.glfw.RELEASE or self.imgui.get_io().want_capture_keyboard:
             return
         glfw = self.glfw
@@ -543,8 +565,16 @@ class Viewer:
         elif key in self._keys:
             self._keys[key](self)
 
+    def _touch_ui_under(self, x: float) -> None:
+        """Mouse input: ImGui runs while the cursor is over the panel, crosses its edge, or drags a widget."""
+        over = self.show_panel and x >= self.glfw.get_window_size(self.window)[0] - PANEL_WIDTH
+        if over or over != self._cursor_over_panel or self.imgui.get_io().want_capture_mouse:
+            self.ui.touch()
+        self._cursor_over_panel = over
+
     def _on_cursor(self, window, x, y) -> None:
         self.gui.mouse_callback(window, x, y)
+        self._touch_ui_under(x)
         button, (last_x, last_y) = self._drag["button"], self._drag["pos"]
         self._drag["pos"] = (x, y)
         if button is None:
@@ -559,6 +589,7 @@ class Viewer:
 
     def _on_button(self, window, button, action, mods) -> None:
         self.gui.mouse_button_callback(window, button, action, mods)
+        self._touch_ui_under(self.glfw.get_cursor_pos(window)[0])
         if action == self.glfw.PRESS and not self.imgui.get_io().want_capture_mouse:
             self._drag.update(button=button, pos=self.glfw.get_cursor_pos(window),
                               shift=bool(mods & self.glfw.MOD_SHIFT))
@@ -567,6 +598,7 @@ class Viewer:
 
     def _on_scroll(self, window, x_offset, y_offset) -> None:
         self.gui.scroll_callback(window, x_offset, y_offset)
+        self._touch_ui_under(self.glfw.get_cursor_pos(window)[0])
         if not self.imgui.get_io().want_capture_mouse:
             self.zoom_by(y_offset)
 
@@ -582,6 +614,7 @@ class Viewer:
         GL.glBindVertexArray(0)
         self.live.release()
         self.display.release()
+        self.ui.release()
         self.gui.shutdown()
         self.imgui.destroy_context()
         release_device(self.device)

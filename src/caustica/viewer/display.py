@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 MODES = ("color", "signed", "range", "difference")  # how a texture's values become colours
+_LAYER = len(MODES)  # internal mode: the premultiplied UI layer (ui_layer.py), blended over the window
 
 _VERTEX = """
 #version 430
@@ -22,7 +23,7 @@ void main() {
 # Compiled once per (MODE, FIT, K): a CPU rasterizer runs every side of a branch, even a uniform one.
 _FRAGMENT = """
 #version 430
-// MODE: 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain.
+// MODE: 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain, 4 UI layer.
 // FIT 1: the texture holds K x K samples per view pixel (box average); FIT 0: letterboxed lookup.
 uniform sampler2D image_a;
 uniform sampler2D image_b;
@@ -66,6 +67,13 @@ vec4 sample_pixel(sampler2D image, ivec2 pixel, out bool inside) {
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy) - origin;
+#if MODE == 4
+    // The UI layer (window-sized): ImGui blended over a cleared target, so colour is premultiplied, alpha a * a.
+    vec4 layer = texelFetch(image_a, ivec2(gl_FragCoord.xy), 0);
+    if (layer.a <= 0.0) discard;
+    frag_color = vec4(layer.rgb, sqrt(layer.a));
+    return;
+#endif
     bool inside;
     vec3 a = expand(sample_pixel(image_a, pixel, inside));
     if (!inside) { frag_color = vec4(0.08, 0.08, 0.09, 1.0); return; }
@@ -133,7 +141,8 @@ class Display:
             return
         k = int(supersampling)
         fit = tuple(texture.size) == (width * k, height * k)
-        program, vao = self.variant(MODES.index(mode), fit, k)
+        layer = mode == "layer"
+        program, vao = self.variant(_LAYER if layer else MODES.index(mode), fit, k)
         screen = self.ctx.screen
         screen.use()
         screen.viewport = (x, y, width, height)
@@ -149,7 +158,13 @@ class Display:
         for name, value in values_of.items():
             if name in program:
                 program[name].value = value
+        if layer:
+            self.ctx.enable(self.ctx.BLEND)
+            self.ctx.blend_func = self.ctx.ONE, self.ctx.ONE_MINUS_SRC_ALPHA
         vao.render(vertices=3)
+        if layer:
+            self.ctx.disable(self.ctx.BLEND)
+            self.ctx.blend_func = self.ctx.SRC_ALPHA, self.ctx.ONE_MINUS_SRC_ALPHA
         if compare is not None:
             texture.compare_func = compare
 

@@ -226,6 +226,12 @@ def _screenshot(viewer, imgui) -> None:
         viewer._grab_path = viewer.screenshot_path
 
 
+def _window_rect(imgui, window_height: int) -> tuple[int, int, int, int]:
+    """The current ImGui window as (x, y, w, h) from the window's lower left (GL convention)."""
+    (x, y), (w, h) = imgui.get_window_pos(), imgui.get_window_size()
+    return int(x), int(window_height - y - h), int(w) + 1, int(h) + 1
+
+
 def draw_overlay(viewer) -> None:
     """Frame time (ms, fps), the technique's render ms and, when profiling, per-pass ms, top left of the view."""
     imgui = viewer.imgui
@@ -235,6 +241,7 @@ def draw_overlay(viewer) -> None:
              | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_focus_on_appearing
              | imgui.WindowFlags_.no_nav)
     imgui.begin("overlay", None, flags)
+    viewer.overlay_rect = _window_rect(imgui, viewer.glfw.get_window_size(viewer.window)[1])
     frame = statistics.median(viewer.frame_ms) if viewer.frame_ms else 0.0
     imgui.text(f"{viewer.technique}: {frame:.1f} ms/frame, {1000.0 / frame if frame else 0.0:.1f} fps")
     imgui.text(f"{'passes' if viewer.profile else 'pass submission'} {viewer.main.render_ms:.1f} ms, {viewer.main.color.size[0] if viewer.main.color else 0}"
