@@ -45,6 +45,12 @@ class TargetPool:
         self._lent.add(texture.glo)
         return texture
 
+    def zeroed(self, size: tuple[int, int], fmt: str):
+        """A pooled colour texture cleared to zero on the GPU (accumulation targets of atomic splats)."""
+        texture = self.texture(size, fmt)
+        self.framebuffer([texture]).clear(0.0, 0.0, 0.0, 0.0)
+        return texture
+
     def is_lent(self, texture) -> bool:
         """Whether ``texture`` came from this pool and is still out."""
         return getattr(texture, "glo", None) in self._lent

@@ -270,9 +270,7 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
     group = [] if impostors is None or reflector is None else impostors.by_reflector.get(reflector, [])
     set_uniform(program, "impostor_count", len(group))
     set_uniform(program, "impostor_base", 0 if not group else int(impostors.base[reflector]))
-    set_uniform(program, "impostor_iterations", int(params.impostor_iterations))
     set_uniform(program, "impostor_tolerance", float(params.impostor_tolerance))
-    set_uniform(program, "impostor_initial_samples", int(params.initial_samples))
     set_uniform(program, "impostor_hit_tolerance", float(params.hit_tolerance))
     if not group:
         return
@@ -293,6 +291,13 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
     _write_array(program, "impostor_slab", slab)
     _write_array(program, "impostor_radius", radius)
     _write_array(program, "impostor_texture", units)
+
+
+def impostor_defines(frame: Frame) -> dict:
+    """MAX_IMPOSTORS for this frame's shaders: the most rectangles any reflector has (at least 1)."""
+    impostors = frame.channels.get("impostors")
+    groups = impostors.by_reflector.values() if impostors is not None else ()
+    return {"MAX_IMPOSTORS": max([1, *(len(group) for group in groups)])}
 
 
 def world_index(frame: Frame, obj) -> int | None:

@@ -471,7 +471,7 @@ class SplatPhotons(Pass):
             if view is None or photons is None:
                 out.append(None)
                 continue
-            targets = [frame.gpu.targets.texture(view.atlas_size, "r32f") for _ in range(3)]
+            targets = [frame.gpu.targets.zeroed(view.atlas_size, "r32f") for _ in range(3)]
             if mode == "compute":
                 self._compute(frame, view, photons, targets)
             else:
@@ -480,8 +480,6 @@ class SplatPhotons(Pass):
         frame.write("caustic_flux", out)
 
     def _compute(self, frame: Frame, view: LightView, photons: Photons, targets) -> None:
-        for tex in targets:
-            tex.write(np.zeros(view.atlas_size[0] * view.atlas_size[1], "f4").tobytes())
         program = frame.gpu.shaders.compute("passes/caustic_splat.comp")
         view.bind(program)
         set_uniform(program, "photon_count", int(photons.count))

@@ -86,7 +86,7 @@ class ShadeSurfaces(Pass):
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
-                 tag: str = "", vertex: str = "common/mesh_vertex.glsl"):
+                 tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None):
         """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
         sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
         stage (it writes world_position and world_normal as the shared one does).
@@ -94,7 +94,8 @@ class ShadeSurfaces(Pass):
         ``objects`` (a set of object names or a predicate ``f(obj) -> bool``; None: all) limits the
         objects drawn. ``background`` False draws over the ``color``, ``exit_direction`` and ``depth``
         an earlier ShadeSurfaces wrote, without clearing them: several runs, each with its own shader
-        and objects, then make one image (``per-object``). ``tag`` names the run in pass timings."""
+        and objects, then make one image (``per-object``). ``tag`` names the run in pass timings.
+        ``frame_defines(frame) -> dict``: defines that depend on the frame's channels (compiled per value)."""
         if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
             raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
         self.fragment, self.vertex = fragment, vertex
@@ -105,6 +106,7 @@ class ShadeSurfaces(Pass):
         self.objects = objects if objects is None or callable(objects) else frozenset(objects)
         self.background = bool(background)
         self.tag = tag
+        self.frame_defines = frame_defines
         targets = () if self.background else tuple(c.name for c in self.writes)
         self.reads = ("light_samples", "shadow_maps") + self.inputs + targets
 
@@ -158,6 +160,8 @@ class ShadeSurfaces(Pass):
         ctx.depth_func = "<"
         caustic_maps = frame.channels.get("caustic_maps")
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
+        if self.frame_defines is not None:
+            defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
         # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.

@@ -143,9 +143,7 @@ class CausticTextures(Pass):
         impostors = frame.read("impostors").all()[:MAX_TILES]
         size = self.params.caustic_size
         width = size * max(len(impostors), 1)
-        flux = [frame.gpu.targets.texture((width, size), "r32f") for _ in range(3)]
-        for tex in flux:
-            tex.write(np.zeros(width * size, "f4").tobytes())
+        flux = [frame.gpu.targets.zeroed((width, size), "r32f") for _ in range(3)]
         program = frame.gpu.shaders.compute("passes/impostor_caustic_splat.comp")
         set_uniform(program, "tile_size", size)
         set_uniform(program, "tile_count", len(impostors))
@@ -192,12 +190,11 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     """The 3.2 filter over three r32f flux atlases of ``size`` tiles: a pooled rgba32f atlas of irradiance."""
     width = flux[0].size[0]
     out = frame.gpu.targets.texture((width, size), "rgba32f")
-    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp")
+    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k)})
     for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
         tex.use(unit)
         set_uniform(program, name, unit)
     set_uniform(program, "tile_size", size)
-    set_uniform(program, "filter_k", int(k))
     set_uniform(program, "filter_s", float(s if s is not None else 1.0 / filter_weights(k).sum()))
     areas = np.ones(MAX_TILES, "f4")
     areas[: len(texel_areas)] = texel_areas
@@ -228,9 +225,9 @@ class ResolveImpostorCaustics(Pass):
             obj = world.objects[imp.index]
             codes[k] = diffuse.index(obj) + 1 if obj in diffuse else -10.0
             clips[k], axes[k] = imp.camera.clip_from_world().T, imp.axis
-        program = frame.gpu.shaders.compute("passes/impostor_caustic_resolve.comp", {"MAX_TILES": MAX_TILES})
+        program = frame.gpu.shaders.compute("passes/impostor_caustic_resolve.comp",
+                                            {"MAX_TILES": MAX_TILES, "TILE_COUNT": len(impostors)})
         set_uniform(program, "tile_size", self.params.caustic_size)
-        set_uniform(program, "tile_count", len(impostors))
         _write_array(program, "tile_clip_from_world", clips)
         _write_array(program, "tile_axis", axes)
         _write_array(program, "tile_code", codes)

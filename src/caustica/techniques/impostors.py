@@ -48,6 +48,7 @@ from ..passes.impostors import (
     ReleaseImpostors,
     bind_impostors,
     chain_uniforms,
+    impostor_defines,
     world_index,
 )
 from .base import check_integers
@@ -96,8 +97,9 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     ShadeSurfaces (NEARBY impostors), ReleaseImpostors. ``output``/``photon``: NEARBY_OUTPUT, PHOTON_BUFFER."""
     passes = DepthSearch().build_passes(params)
     shade = passes[-1]
-    shade.defines = {**shade.defines, "NEARBY": 1, "MAX_IMPOSTORS": MAX_IMPOSTORS, "NEARBY_OUTPUT": output,
-                     "PHOTON_BUFFER": int(photon)}
+    shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
+                     "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples}
+    shade.frame_defines = impostor_defines  # MAX_IMPOSTORS: the frame's largest group of rectangles
 
     def set_impostors(program, frame, obj):
         if obj is None:

@@ -13,7 +13,10 @@
 //     distance): linear steps; linear steps then binary refinement; linear steps then secant.
 // Include after common/surface_inputs.glsl (environment, lighting, camera uniforms).
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
-//   5 search-secant; 0), MAX_IMPOSTORS (8), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
+//   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
+//   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
+//   only) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
+//   every iteration a uniform bound allows), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
 //   direction, 1 the nearby hit point (xyz, w = 1 hit), 2 the photon record (u, v, k + 1, w = 1 hit).
@@ -22,6 +25,12 @@
 #endif
 #ifndef MAX_IMPOSTORS
 #define MAX_IMPOSTORS 8
+#endif
+#ifndef IMPOSTOR_ITERATIONS
+#define IMPOSTOR_ITERATIONS 4
+#endif
+#ifndef IMPOSTOR_SAMPLES
+#define IMPOSTOR_SAMPLES 8
 #endif
 #ifndef MAX_PLANES
 #define MAX_PLANES 8
@@ -63,9 +72,7 @@ uniform vec3 impostor_center[MAX_IMPOSTORS];              // rectangle centre (i
 uniform vec2 impostor_slab[MAX_IMPOSTORS];                // object's depth range from O along w
 uniform float impostor_radius[MAX_IMPOSTORS];             // object's bounding radius
 uniform sampler2D impostor_texture[MAX_IMPOSTORS];        // rgb radiance, a depth from O along w (0: empty)
-uniform int impostor_iterations;                          // fig. 16 steps (0: uncorrected, Prect's texel)
 uniform float impostor_tolerance;                         // stop once t moves less than this (scene units)
-uniform int impostor_initial_samples;                     // 2.2.2 seeds along the ray (0: Prect only)
 uniform float impostor_hit_tolerance;                     // final |depth - texel depth| < this * radius
 uniform int impostor_reflections;                         // 0: the entry reflection sees the environment only
 
@@ -114,13 +121,14 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
     if (t <= 0.0 || !impostor_pixel(k, o + t * d, pixel)) return false;
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.
-    if (impostor_initial_samples > 0 && impostor_iterations > 0) {
+#if IMPOSTOR_SAMPLES > 0 && IMPOSTOR_ITERATIONS > 0
+    {
         float t0 = (impostor_slab[k].x - o_depth) / dw, t1 = (impostor_slab[k].y - o_depth) / dw;
         float lo = max(min(t0, t1), 0.0), hi = max(t0, t1);
         vec4 s = impostor_texel(k, o + t * d);
         float best_gap = s.a > 0.0 ? abs(o_depth + t * dw - s.a) : 1e30;
-        for (int j = 0; j < impostor_initial_samples && hi > lo; ++j) {
-            float tj = mix(lo, hi, (float(j) + 0.5) / float(impostor_initial_samples));
+        for (int j = 0; j < IMPOSTOR_SAMPLES && hi > lo; ++j) {
+            float tj = mix(lo, hi, (float(j) + 0.5) / float(IMPOSTOR_SAMPLES));
             vec4 sj = impostor_texel(k, o + tj * d);
             if (sj.a <= 0.0) continue;
             float gap = o_depth + tj * dw - sj.a;
@@ -128,9 +136,10 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
             if (-gap < best_gap) { best_gap = -gap; t = tj; }
         }
     }
+#endif
     // Iterate: move along the ray to the depth the texel under the point holds.
     float last = -1.0;
-    for (int i = 0; i < impostor_iterations; ++i) {
+    for (int i = 0; i < IMPOSTOR_ITERATIONS; ++i) {
         vec4 s = impostor_texel(k, o + t * d);
         if (s.a <= 0.0) break;
         last = t;
@@ -143,7 +152,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
     vec4 s = impostor_texel(k, o + t * d);
     if (s.a <= 0.0 && last > 0.0) { t = last; s = impostor_texel(k, o + t * d); }
     if (s.a <= 0.0 || !impostor_pixel(k, o + t * d, pixel)) return false;
-    if (impostor_iterations > 0 && abs(o_depth + t * dw - s.a) > impostor_hit_tolerance * impostor_radius[k])
+    if (IMPOSTOR_ITERATIONS > 0 && abs(o_depth + t * dw - s.a) > impostor_hit_tolerance * impostor_radius[k])
         return false;
     t_hit = t;
     uv_hit = pixel;
@@ -155,7 +164,8 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     float best = 1e30;
     int hit = -1;
     vec2 hit_pixel = vec2(0.0);
-    for (int k = 0; k < impostor_count; ++k) {
+    for (int k = 0; k < MAX_IMPOSTORS; ++k) {  // a constant bound: unrolled, each sampler index fixed
+        if (k >= impostor_count) break;
         float t;
         vec2 pixel;
         if (impostor_intersect(k, o, d, t, pixel) && t < best) { best = t; hit = k; hit_pixel = pixel; }
@@ -163,7 +173,7 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     if (hit < 0) return nearby_miss(d);
     vec3 radiance = vec3(0.0);
     vec2 uv = vec2(0.0);
-    for (int k = 0; k < impostor_count; ++k)  // sampler arrays take dynamically uniform indices
+    for (int k = 0; k < MAX_IMPOSTORS; ++k)  // sampler arrays take dynamically uniform indices
         if (k == hit) {
             radiance = impostor_radiance(k, hit_pixel);
             uv = hit_pixel / vec2(textureSize(impostor_texture[k], 0));

@@ -1,14 +1,13 @@
 // TVCG 3.2: the caustic texture filter c(u, v) = s sum_{i,j=-k..k} p(u + i, v + j) sqrt(1 + 2k^2 - (i^2 + j^2)),
 // p the photons' flux per unit area of the rectangle (W/m^2, per tile's texel area); taps outside the
 // tile count 0. Output rgba32f: rgb = c, a = 1 where any photon fell within the kernel.
-// Host defines: none.
+// Host defines: FILTER_K (the kernel half-width k; a constant, so the taps unroll).
 #version 430 core
 layout(local_size_x = 8, local_size_y = 8) in;
 uniform sampler2D flux_r;
 uniform sampler2D flux_g;
 uniform sampler2D flux_b;
 uniform int tile_size;
-uniform int filter_k;
 uniform float filter_s;
 uniform float texel_area[16];    // per tile: area of one texel on its rectangle
 layout(rgba32f, binding = 0) writeonly uniform image2D caustic;
@@ -20,9 +19,9 @@ void main() {
     int tile = t.x / tile_size;
     int x0 = tile * tile_size;
     vec3 sum = vec3(0.0);
-    float k2 = float(filter_k * filter_k);
-    for (int j = -filter_k; j <= filter_k; ++j)
-        for (int i = -filter_k; i <= filter_k; ++i) {
+    const float k2 = float(FILTER_K * FILTER_K);
+    for (int j = -FILTER_K; j <= FILTER_K; ++j)
+        for (int i = -FILTER_K; i <= FILTER_K; ++i) {
             ivec2 q = t + ivec2(i, j);
             if (q.x < x0 || q.x >= x0 + tile_size || q.y < 0 || q.y >= size.y) continue;
             vec3 p = vec3(texelFetch(flux_r, q, 0).r, texelFetch(flux_g, q, 0).r, texelFetch(flux_b, q, 0).r);

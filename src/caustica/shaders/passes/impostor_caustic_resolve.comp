@@ -3,7 +3,8 @@
 // is that receiver is looked up by the rectangle's parallel projection (bilinear inside the tile) and
 // turned from irradiance across the axis into irradiance on the surface (|N . w|). Planar receivers are
 // their rectangles, so this is the paper's direct texture on a plane. Output: the caustic-map contract
-// (rgb irradiance, a = the receiver's distance to the light; 0 where empty). Host defines: MAX_TILES (16).
+// (rgb irradiance, a = the receiver's distance to the light; 0 where empty). Host defines: MAX_TILES (16),
+// TILE_COUNT (the tiles in use: a constant, so the loop over them unrolls).
 #version 430 core
 #ifndef MAX_TILES
 #define MAX_TILES 16
@@ -13,7 +14,6 @@ uniform sampler2D receiver_position;
 uniform sampler2D receiver_normal;
 uniform sampler2D caustic;        // tiles side by side
 uniform int tile_size;
-uniform int tile_count;
 uniform mat4 tile_clip_from_world[MAX_TILES];
 uniform vec3 tile_axis[MAX_TILES];
 uniform float tile_code[MAX_TILES];  // receiver code (diffuse index + 1) of the tile's object
@@ -40,7 +40,7 @@ void main() {
     vec4 normal = texelFetch(receiver_normal, t, 0);
     vec3 e = vec3(0.0);
     if (receiver.a > 0.0) {
-        for (int k = 0; k < tile_count; ++k) {
+        for (int k = 0; k < TILE_COUNT; ++k) {
             if (abs(normal.w - tile_code[k]) > 0.5) continue;
             vec4 clip = tile_clip_from_world[k] * vec4(receiver.xyz, 1.0);
             vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
