@@ -5,11 +5,16 @@ Stages (``caustica.scene.presets_impostors.FIG24_STAGES``) on the ``tvcg-fig24``
 buffer), (e) + 256^2 photon buffer, (f) + reflection of nearby geometry, (g) + recursion (depth 1).
 The paper's ratios to (a): 2.1, 2.6, 4.7, 5.3, 6.5, 9.0. Prints a markdown table.
 
-    .venv/bin/python bench/bench_impostors.py [--size 512] [--frames 3] [--reference-spp 256] [--no-reference]
+    .venv/bin/python bench/bench_impostors.py [--size 512] [--frames 3] [--rounds 3] [--reference-spp 256] [--no-reference]
+
+Each round times every stage in turn (a warm-up frame, then the median of ``--frames``); a stage's
+ratio is the median over rounds of its time over stage (a)'s in the same round, so that load on
+the shared cores, which drifts over seconds, hits numerator and denominator alike.
 """
 from __future__ import annotations
 
 import argparse
+import statistics
 
 from caustica.bench.compare import reference_image
 from caustica.bench.timing import timed_render
@@ -25,6 +30,7 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--frames", type=int, default=3)
+    parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--reference-spp", type=int, default=256)
     parser.add_argument("--no-reference", action="store_true", help="timings only")
     args = parser.parse_args(argv)
@@ -35,14 +41,20 @@ def main(argv=None) -> None:
         reference, description = reference_image(scene, size, args.reference_spp)
         print(f"reference: {description}")
     renderer = Renderer(size)
-    rows, base = [], None
+    times = {stage: [] for stage in FIG24_STAGES}
+    images = {}
+    for _ in range(max(1, args.rounds)):
+        for stage, (technique, params) in FIG24_STAGES.items():
+            images[stage], ms = timed_render(renderer, scene, technique, 1, args.frames, params)
+            times[stage].append(ms)
+    rows = []
     for stage, (technique, params) in FIG24_STAGES.items():
-        image, ms = timed_render(renderer, scene, technique, 1, args.frames, params)
-        base = base or ms
-        quality = ("-", "-") if reference is None else (f"{psnr_linear(image, reference):.2f}",
-                                                        f"{relmse(image, reference):.4f}")
-        rows.append((stage, technique, params, ms, ms / base, PAPER_RATIOS[stage], *quality))
-    print(f"GL renderer: {renderer.info()['renderer']}, {args.size}x{args.size}, 1 spp, median of {args.frames} frames")
+        ratio = statistics.median(t / a for t, a in zip(times[stage], times["a"]))
+        quality = ("-", "-") if reference is None else (f"{psnr_linear(images[stage], reference):.2f}",
+                                                        f"{relmse(images[stage], reference):.4f}")
+        rows.append((stage, technique, params, statistics.median(times[stage]), ratio, PAPER_RATIOS[stage], *quality))
+    print(f"GL renderer: {renderer.info()['renderer']}, {args.size}x{args.size}, 1 spp, {args.rounds} rounds of "
+          f"{args.frames} frames (ms: median over rounds; ratio: median of each round's ratio)")
     print("| stage | technique | parameters | ms/frame | ratio to (a) | paper's ratio | PSNR dB | relMSE |")
     print("|---|---|---|---|---|---|---|---|")
     for stage, technique, params, ms, ratio, paper, psnr, rel in rows:
