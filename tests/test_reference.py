@@ -224,3 +224,24 @@ def test_absorbing_glass_reference_agrees_with_exact(mi, tmp_path):
     exact = Renderer((48, 48)).render(scene, "exact", spp=4)
     assert np.all(np.isfinite(reference))
     assert relmse(exact, reference) < 0.05
+
+
+def test_ptracer_ignores_the_absorbing_medium_and_the_reference_says_so(mi, tmp_path):
+    """Mitsuba's ptracer renders the caustic of an absorbing ball exactly as that of a clear one (volpath
+    attenuates it), so caustics through absorbing glass are unattenuated in the composite: the harness
+    reports it as a caveat of the reference."""
+    scene = caustica.load_scene("caustic-sphere")
+    scene.environment = procedural_environment("black")
+    ball = next(o for o in scene.objects if o.material.kind == "glass")
+    camera = scene.camera.with_size(32, 32)
+    sums = {}
+    for label, material in (("clear", Glass(1.5)), ("absorbing", Glass(1.5, absorption_color=[0.2] * 3,
+                                                                        absorption_distance=0.2))):
+        ball.material = material
+        for integrator in ("ptracer", "volpath"):
+            image = reference_render._render_integrator(mi, scene, camera, 16, integrator, "lights", 16, tmp_path,
+                                                        None, True, None, 0)
+            sums[label, integrator] = float(image.sum())
+        assert bool(reference_render.reference_caveats(scene)) == (label == "absorbing")
+    assert sums["absorbing", "ptracer"] == pytest.approx(sums["clear", "ptracer"], rel=1e-6)
+    assert sums["absorbing", "volpath"] < 0.95 * sums["clear", "volpath"]

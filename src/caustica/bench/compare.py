@@ -68,10 +68,11 @@ def reference_image(scene, size, reference_spp: int, progress: bool = True):
     from ..errors import CausticaError
 
     try:
-        from ..reference.render import render_reference
+        from ..reference.render import reference_caveats, render_reference
 
         image = render_reference(scene, size=size, spp=reference_spp, progress=progress)
-        return image, f"mitsuba ({reference_spp} spp, composite of path and ptracer)"
+        caveats = "".join(f"; {c}" for c in reference_caveats(scene))
+        return image, f"mitsuba ({reference_spp} spp, composite of path and ptracer{caveats})"
     except ImportError:
         pass
     except CausticaError as exc:  # the reference extra is missing

@@ -47,8 +47,9 @@ glass or in a mirror (light -> specular -> diffuse -> specular -> camera).
 to the camera, so it is missing from the reference (environment-lit caustics
 are not affected: ``path`` finds those by sampling).
 
-Other limits: ``ptracer`` ignores participating media, so light caustics
-through absorbing glass are not attenuated on purely diffuse pixels; spot
+Other limits: ``ptracer`` ignores participating media (its image is the same
+with and without the glass's medium), so light caustics through absorbing glass
+are not attenuated on purely diffuse pixels (:func:`reference_caveats` says so); spot
 lights use Mitsuba's linear-in-angle falloff (see the export module);
 dispersive glass (per-channel IOR) costs three times as much, one composite
 per channel keeping that channel.
@@ -75,7 +76,7 @@ import numpy as np
 
 from ..cache import cache_dir, load_array, store_array
 from ..errors import ReferenceUnavailableError, first_line
-from .mitsuba_export import environment_hash, has_dispersion, mesh_file_hash, scene_to_mitsuba
+from .mitsuba_export import environment_hash, has_absorbing_glass, has_dispersion, mesh_file_hash, scene_to_mitsuba
 
 REFERENCE_VERSION = "1"
 PREFERRED_VARIANT = "llvm_ad_rgb"
@@ -172,6 +173,15 @@ def _passes(spp: int) -> list[int]:
     n = max(math.ceil(spp / 64), min(4, spp // 4), 1)
     base, extra = divmod(spp, n)
     return [base + (1 if i < extra else 0) for i in range(n)]
+
+
+def reference_caveats(scene) -> list[str]:
+    """What this scene's reference gets wrong by construction (printed beside comparisons)."""
+    caveats = []
+    if scene.lights and has_absorbing_glass(scene):
+        # Measured (tests/test_reference.py): ptracer's image is bit-identical with and without the medium.
+        caveats.append("caustics through absorbing glass are not attenuated (Mitsuba's ptracer ignores media)")
+    return caveats
 
 
 def planned_renders(scene, coverage: np.ndarray) -> list[tuple[str, str]]:
