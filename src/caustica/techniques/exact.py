@@ -30,9 +30,13 @@ from .base import Technique
 
 @dataclass
 class ExactParams:
-    """``max_depth``: most specular interactions per path; ``min_weight``: drop fainter branches."""
+    """``max_depth``: most specular interactions per path; ``min_weight``: drop fainter branches.
 
-    max_depth: int = 8
+    16, as deep as the Mitsuba reference goes: on the glass teapot 8 interactions
+    scored 26.8 dB against Mitsuba and 16 scored 28.9 dB, for the same time (the
+    branches below ``min_weight`` end first)."""
+
+    max_depth: int = 16
     min_weight: float = 1e-4
 
     def __post_init__(self):
