@@ -51,4 +51,5 @@ class Plain(RasterTechnique):
     Params = ShadowedParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest"), ShadeSurfaces(material_override=Diffuse())]
+        # Everything diffuse: no refractor buffer to draw or read.
+        return [ShadowMaps(params.shadow_map_size), ShadeSurfaces(material_override=Diffuse(), inputs=())]
