@@ -309,3 +309,24 @@ def test_retained_ui_layer_runs_imgui_only_after_input_and_composites_the_same_w
     assert result["panel_drawn"] > 10.0  # the panel is there, not a flat colour
     assert result["hidden_width"] == 160
     assert result["gl_error"] == "GL_NO_ERROR" and not any(result["live"].values())
+
+
+AFTER_HEADLESS = """
+from caustica.renderer import Renderer
+scene = caustica.load_scene("glass-sphere")
+result["headless_mean"] = float(Renderer((32, 32)).render(scene, "env-map").mean())  # the EGL context first
+viewer = Viewer(scene, "env-map", size=(96, 80))
+viewer.run(frames=3)
+result["window"] = list(viewer.grab_window().shape)
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+"""
+
+
+def test_viewer_opens_after_a_headless_render_in_the_same_process(display, tmp_path):
+    """A notebook renders headless, then opens the viewer: the window takes an EGL context too (a GLX one
+    aborts the process with an X BadAccess error), draws, and closes cleanly."""
+    result = run_child(display, AFTER_HEADLESS, tmp_path)
+    assert result["headless_mean"] > 0.0
+    assert result["window"][0] == 80 and result["window"][1] > 96
+    assert result["gl_error"] == "GL_NO_ERROR" and not any(result["live"].values())

@@ -58,6 +58,11 @@ def shared_context():
     return _shared_context
 
 
+def headless_context_exists() -> bool:
+    """Whether this process has made the shared headless (EGL) context."""
+    return _shared_context is not None
+
+
 def describe(ctx) -> dict:
     """Renderer, version and the extensions caustica cares about."""
     extensions = set(ctx.extensions)

@@ -108,6 +108,14 @@ class Viewer:
     # Open the window, the GL context over it, the renderer's device, and ImGui.
     def _open_window(self, size, title) -> None:
         check_display()
+        from ..gpu.context import headless_context_exists
+
+        # After a headless (EGL) render in this process a GLX window fails in X (BadAccess at
+        # glXMakeCurrent), so the window's context is EGL then; otherwise GLX, whose swaps through
+        # Xvfb measured faster. PyOpenGL (ImGui's renderer) must then look for contexts through EGL.
+        egl = headless_context_exists()
+        if egl:
+            os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
         try:
             import glfw
             from imgui_bundle import imgui
@@ -126,6 +134,8 @@ class Viewer:
         glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
         glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        if egl:
+            glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
         self.view_size = (int(size[0]), int(size[1]))
         width, height = self._window_size()
         self.window = glfw.create_window(width, height, title, None, None)
@@ -135,7 +145,14 @@ class Viewer:
         glfw.make_context_current(self.window)
         glfw.swap_interval(0)  # frame times measure the renderer, not the monitor
         self.glfw, self._keys = glfw, _key_table()
-        self.ctx = moderngl.create_context(require=430)
+        if egl:
+            moderngl.init_context()  # moderngl's default loader finds the current EGL context
+            self.ctx = moderngl.get_context()
+        else:
+            self.ctx = moderngl.create_context(require=430)
+        if self.ctx.version_code < 430:
+            version = f"{self.ctx.version_code // 100}.{self.ctx.version_code % 100 // 10}"
+            raise ViewerError(f"the window's OpenGL is {version}, 4.3 core is required; use 'caustica render' instead")
         self.ctx.gc_mode = "auto"  # release GL objects the passes drop without release() (one VAO a frame otherwise)
         self.device = GpuDevice(self.ctx)
         self.live = LiveRenderer(self.device)
