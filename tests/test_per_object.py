@@ -96,3 +96,27 @@ def test_composes_with_caustics(renderer, scene):
     np.testing.assert_allclose(mixed[:, :half], env_map[:, :half], atol=1e-4)
     np.testing.assert_allclose(mixed[:, half:], depth_search[:, half:], atol=1e-4)
     assert np.abs(mixed - renderer.render(scene, "per-object", techniques={"left": "env-map"})).max() > 1e-3
+
+
+def test_each_technique_takes_its_own_parameters(renderer, scene):
+    """``image-space.tir_mode`` and ``depth-search.iterations`` reach only their technique: each sphere
+    equals the full render of its technique with those parameters, and differs from the defaults."""
+    params = {"techniques": {"left": "image-space", "right": "depth-search"},
+              "image-space.tir_mode": "reflect", "depth-search.iterations": 0}
+    mixed = renderer.render(scene, "per-object", **params)
+    half = SIZE[0] // 2
+    image_space = renderer.render(scene, "image-space", tir_mode="reflect")
+    depth_search = renderer.render(scene, "depth-search", iterations=0)
+    np.testing.assert_allclose(mixed[:, :half], image_space[:, :half], atol=1e-5)
+    np.testing.assert_allclose(mixed[:, half:], depth_search[:, half:], atol=1e-5)
+    assert np.abs(depth_search[:, half:] - renderer.render(scene, "depth-search")[:, half:]).max() > 0.05
+    composed = renderer.render(scene, "per-object+caustic-mapping", **params, **{"caustic-mapping.map_size": 64})
+    assert composed.shape == mixed.shape
+
+
+@pytest.mark.parametrize("bad", [{"depth-search.iterationz": 2}, {"mirror.iterations": 1},
+                                 {"depth-search.iterations": -3}, {"env-map.shadow_map_size": 64}])
+def test_bad_technique_parameters_are_named(renderer, scene, bad):
+    with pytest.raises(TechniqueError) as info:
+        renderer.render(scene, "per-object", **bad)
+    assert "\n" not in str(info.value)

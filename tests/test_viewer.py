@@ -330,3 +330,31 @@ def test_viewer_opens_after_a_headless_render_in_the_same_process(display, tmp_p
     assert result["headless_mean"] > 0.0
     assert result["window"][0] == 80 and result["window"][1] > 96
     assert result["gl_error"] == "GL_NO_ERROR" and not any(result["live"].values())
+
+
+def test_per_object_techniques_take_their_own_parameters_in_the_viewer(display, tmp_path):
+    """With objects on per-object, a technique's parameter (``depth-search.iterations``) is set from the
+    panel's per-technique section and survives adding caustics; the view is the headless render."""
+    result = run_child(display, """
+scene = caustica.load_scene("tvcg-fig11")
+viewer = Viewer(scene, "depth-search", size=(160, 96), fixed_step=True)
+viewer.run(frames=2, script=[("object_technique", "sphere-0", "env-map"), ("param", "depth-search.iterations", 0),
+                             ("param", "depth-search.iterationz", 1), ("wait", 1)])
+result.update(error=viewer.error, params=viewer.params)
+viewer.screenshot("shot.exr")
+open("scene.pkl", "wb").write(pickle.dumps(viewer.scene_view()))
+viewer.apply(("technique", "per-object+caustic-mapping"))
+viewer.run(frames=viewer.frame_index + 1)
+result.update(composed=viewer.params, composed_error=viewer.error)
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+""", tmp_path)
+    assert "iterationz" in result["error"]  # the bad name is refused and reported, the good one kept
+    assert result["params"]["depth-search.iterations"] == 0
+    reference = headless(tmp_path / "scene.pkl", "per-object", **result["params"])
+    assert np.abs(read_image(tmp_path / "shot.exr") - reference).max() < 1e-3
+    assert np.abs(reference - headless(tmp_path / "scene.pkl", "per-object",
+                                       techniques=result["params"]["techniques"])).max() > 0.05
+    assert result["composed"]["depth-search.iterations"] == 0 and result["composed_error"] is None
+    # Not checked here: after caustic-mapping one program outlives close (a known leak, see the notes).
+    assert result["gl_error"] == "GL_NO_ERROR"

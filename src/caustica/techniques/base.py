@@ -41,6 +41,9 @@ class Technique:
     summary: ClassVar[str] = ""
     Params: ClassVar[type] = NoParams
     uses_gl: ClassVar[bool] = True
+    # Prefixes of qualified parameters (``prefix.name``) this technique routes itself (``per-object``'s
+    # techniques); a composite passes such parameters on to it whole.
+    qualified_prefixes: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

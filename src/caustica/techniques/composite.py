@@ -59,8 +59,12 @@ class Composite(RasterTechnique):
         halves = {self.view: {}, self.caustics: {}}
         fields = {t: {f.name for f in dataclasses.fields(t.Params)} for t in halves}
         prefixes = {t.name.replace("-", "_"): t for t in halves}
+        routed = {p.replace("-", "_") for p in self.view.qualified_prefixes}
         for key, value in values.items():
             prefix, _, name = key.rpartition(".")
+            if prefix and prefix.replace("-", "_") in routed:
+                halves[self.view][key] = value  # the view routes it (per-object's own techniques)
+                continue
             if prefix:
                 technique = prefixes.get(prefix.replace("-", "_"))
                 if technique is None:

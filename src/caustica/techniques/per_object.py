@@ -11,9 +11,10 @@ their objects over it, depth tested against the same depth buffer. A glass
 object's pixels are therefore exactly those of a full render with its
 technique, which reads the same buffers of all refractors.
 
-Each chosen technique runs with its default parameters except
-``shadow_map_size``, which all share (and share with a caustic technique in
-``per-object+caustic-mapping``).
+Each chosen technique runs with its own parameters, given qualified by its
+name (``-p depth-search.iterations=3``, ``image-space.tir_mode=reflect``; kept
+in ``technique_params``), and its defaults otherwise; ``shadow_map_size`` is
+shared by all (and with a caustic technique in ``per-object+caustic-mapping``).
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ class PerObjectParams(ShadowedParams):
 
     techniques: dict[str, str] = field(default_factory=dict)
     default: str = "depth-search"
+    technique_params: dict[str, dict] = field(default_factory=dict)  # view technique -> its parameters
 
     def __post_init__(self):
         super().__post_init__()
@@ -51,6 +53,26 @@ class PerObjectParams(ShadowedParams):
                 raise ValueError(f"technique {technique!r} of object '{name}' must be one of "
                                  f"{', '.join(VIEW_TECHNIQUES)}{closest_name(str(technique), VIEW_TECHNIQUES)}")
         self.techniques = {str(k): str(v) for k, v in self.techniques.items()}
+        if not isinstance(self.technique_params, dict):
+            raise ValueError(f"technique_params {self.technique_params!r} must map view techniques to parameters")
+        for technique, values in self.technique_params.items():
+            if technique not in VIEW_TECHNIQUES:
+                raise ValueError(f"parameters for {technique!r}: it must be one of {', '.join(VIEW_TECHNIQUES)}"
+                                 f"{closest_name(str(technique), VIEW_TECHNIQUES)}")
+            if "shadow_map_size" in values:
+                raise ValueError("shadow_map_size is shared by every technique of per-object; set it unqualified")
+            self.params_for(technique)  # rejects unknown names and bad values now, with the technique's message
+
+    def params_for(self, technique: str):
+        """The parameters ``technique`` runs with here: its own settings and the shared shadow map size."""
+        from .base import get_technique
+
+        values = {**self.technique_params.get(technique, {}), "shadow_map_size": self.shadow_map_size}
+        try:
+            return get_technique(technique).make_params(**values)
+        except TechniqueError as exc:
+            message = str(exc).removeprefix(f"technique '{technique}': ")
+            raise ValueError(message if message.startswith("technique '") else f"{technique} {message}") from None
 
     def technique_of(self, obj) -> str:
         """The view technique that shades ``obj`` (non-glass objects: the default)."""
@@ -89,6 +111,27 @@ class PerObject(RasterTechnique):
     name = "per-object"
     summary = "A view technique per glass object (env-map, image-space, depth-search) in one image"
     Params = PerObjectParams
+    qualified_prefixes = VIEW_TECHNIQUES
+
+    def make_params(self, **values):
+        """``technique.name`` values (``depth-search.iterations``) go to that technique's parameters."""
+        own, qualified = {}, {}
+        names = {t.replace("-", "_"): t for t in VIEW_TECHNIQUES}
+        for key, value in values.items():
+            prefix, _, name = key.rpartition(".")
+            if not prefix:
+                own[key] = value
+            elif prefix.replace("-", "_") in names:
+                qualified.setdefault(names[prefix.replace("-", "_")], {})[name] = value
+            else:
+                raise TechniqueError(f"'{prefix}' in parameter '{key}' is not a technique of per-object; "
+                                     f"use one of {', '.join(VIEW_TECHNIQUES)}")
+        if qualified:
+            merged = {t: dict(v) for t, v in own.get("technique_params", {}).items()}
+            for technique, settings in qualified.items():
+                merged.setdefault(technique, {}).update(settings)
+            own["technique_params"] = merged
+        return super().make_params(**own)
 
     def build_passes(self, params):
         from .base import get_technique
@@ -96,8 +139,7 @@ class PerObject(RasterTechnique):
         order = [params.default] + [t for t in dict.fromkeys(params.techniques.values()) if t != params.default]
         before, shades, made = [CheckObjectNames(params.techniques)], [], set()
         for technique in order:
-            passes = get_technique(technique).build_passes(get_technique(technique).make_params(
-                shadow_map_size=params.shadow_map_size))
+            passes = get_technique(technique).build_passes(params.params_for(technique))
             at = next(i for i, p in enumerate(passes) if isinstance(p, ShadeSurfaces))
             for stage in passes[:at]:  # each channel made once: the techniques' buffers are alike
                 key = tuple(c.name for c in stage.writes)

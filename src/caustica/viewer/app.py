@@ -369,7 +369,10 @@ class Viewer:
 
         technique = get_technique(name)
         known = {spec.name for spec in param_specs(technique)}
-        self.technique, self.params, self.inspect = name, {k: v for k, v in self.params.items() if k in known}, None
+        # per-object (alone or under caustics) also keeps its techniques' qualified parameters.
+        prefixes = technique.qualified_prefixes or getattr(getattr(technique, "view", None), "qualified_prefixes", ())
+        kept = {k: v for k, v in self.params.items() if k in known or k.rpartition(".")[0] in prefixes}
+        self.technique, self.params, self.inspect = name, kept, None
         self.error = None
         self.changed()
 

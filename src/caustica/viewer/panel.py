@@ -59,10 +59,32 @@ def param_widget(imgui, spec, value):
 
 def _parameters(viewer, imgui, technique: str, params: dict, second: bool) -> None:
     for spec in param_specs(get_technique(technique)):
+        if spec.name in ("techniques", "technique_params"):  # per-object's: edited per object and below
+            continue
         value = params.get(spec.name, spec.default)
         changed, new = param_widget(imgui, spec, value)
         if changed:
             viewer.set_param(spec.name, new, second=second)
+    if technique.split("+")[0] == "per-object" and not second:
+        _per_object_parameters(viewer, imgui, params)
+
+
+def _per_object_parameters(viewer, imgui, params: dict) -> None:
+    """per-object: the parameters of each view technique in use, set as ``technique.name``."""
+    in_use = sorted({viewer.object_technique(o.name) for o in viewer.scene.objects_of("glass")})
+    stored = params.get("technique_params", {})
+    for technique in in_use:
+        if not imgui.tree_node(f"{technique} parameters##per-object"):
+            continue
+        for spec in param_specs(get_technique(technique)):
+            if spec.name == "shadow_map_size":  # shared, set above
+                continue
+            key = f"{technique}.{spec.name}"
+            value = params.get(key, stored.get(technique, {}).get(spec.name, spec.default))
+            changed, new = param_widget(imgui, spec, value)
+            if changed:
+                viewer.set_param(key, new)
+        imgui.tree_pop()
 
 
 def draw_panel(viewer) -> None:
