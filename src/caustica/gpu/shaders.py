@@ -130,3 +130,39 @@ def _translate_log(log: str, tables: dict) -> str:
     if not messages:
         return "shader compile error: " + " ".join(log.split())[:400]
     return "shader compile error at " + messages[0]
+
+
+def run_compute(program, group_x: int, group_y: int = 1, group_z: int = 1) -> None:
+    """Dispatch a compute shader, then make no program current.
+
+    Mesa (llvmpipe, 23.x) keeps a reference to the first render program made current after
+    a compute dispatch, so that program outlives glDeleteProgram (found as a GL object left
+    after the viewer closes); glUseProgram(0) after the dispatch avoids it.
+    """
+    program.run(group_x=int(group_x), group_y=int(group_y), group_z=int(group_z))
+    _use_program(0)
+
+
+_GL_USE_PROGRAM = []
+
+
+def _use_program(name: int) -> None:
+    """glUseProgram through EGL's loader (glvnd dispatches it to whichever context is current)."""
+    if not _GL_USE_PROGRAM:
+        import ctypes
+        import ctypes.util
+
+        function = None
+        try:
+            egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+            egl.eglGetProcAddress.restype = ctypes.c_void_p
+            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+            address = egl.eglGetProcAddress(b"glUseProgram")
+            if address:
+                function = ctypes.CFUNCTYPE(None, ctypes.c_uint)(address)
+        except OSError:
+            pass
+        _GL_USE_PROGRAM.append(function)
+    if _GL_USE_PROGRAM[0] is not None:
+        _GL_USE_PROGRAM[0](name)
+

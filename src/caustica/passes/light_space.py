@@ -42,6 +42,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..gpu.shaders import run_compute
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .base import Channel, Frame, Pass, run_passes
 from .caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE, CausticMap
@@ -294,7 +295,7 @@ def dispatch_photons(frame: Frame, program, size: tuple[int, int], count: int, i
     buffer.bind_to_storage_buffer(0)
     set_uniform(program, "has_initial", int(initial is not None))
     (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
-    program.run(group_x=(size[0] + 7) // 8, group_y=(size[1] + 7) // 8)
+    run_compute(program, (size[0] + 7) // 8, (size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
     return Photons(buffer, count, stats)
 
@@ -487,7 +488,7 @@ class SplatPhotons(Pass):
         photons.buffer.bind_to_storage_buffer(0)
         for unit, tex in enumerate(targets):
             tex.bind_to_image(unit, read=True, write=True)
-        program.run(group_x=(photons.count + 63) // 64)
+        run_compute(program, (photons.count + 63) // 64)
         frame.gpu.ctx.memory_barrier()
 
     def _points(self, frame: Frame, view: LightView, photons: Photons, targets) -> None:
@@ -540,7 +541,7 @@ class ResolveCausticMaps(Pass):
                 tex.use(unit)
                 set_uniform(program, name, unit)
             texture.bind_to_image(0, read=False, write=True)
-            program.run(group_x=(view.atlas_size[0] + 7) // 8, group_y=(view.atlas_size[1] + 7) // 8)
+            run_compute(program, (view.atlas_size[0] + 7) // 8, (view.atlas_size[1] + 7) // 8)
             ctx.memory_barrier()
             maps.append(view.caustic_map(texture))
         frame.write("caustic_maps", maps)

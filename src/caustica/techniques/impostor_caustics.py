@@ -47,6 +47,7 @@ import numpy as np
 
 from ..errors import TechniqueError
 from ..gpu.meshes import set_uniform
+from ..gpu.shaders import run_compute
 from ..passes.base import Channel, Frame, Pass
 from ..passes.impostors import BuildImpostors, ReleaseImpostors, _write_array
 from ..passes.light_space import FitCoarseViews, LightSurfaces, float_atomics
@@ -182,7 +183,7 @@ def splat_photons(frame: Frame, program, throughput, record, camera, sample, flu
     set_uniform(program, "record", 1)
     for unit, tex in enumerate(flux):
         tex.bind_to_image(unit, read=True, write=True)
-    program.run(group_x=(n + 7) // 8, group_y=(camera.size[1] + 7) // 8)
+    run_compute(program, (n + 7) // 8, (camera.size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
 
 
@@ -200,7 +201,7 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     areas[: len(texel_areas)] = texel_areas
     _write_array(program, "texel_area", areas)
     out.bind_to_image(0, read=False, write=True)
-    program.run(group_x=(width + 7) // 8, group_y=(size + 7) // 8)
+    run_compute(program, (width + 7) // 8, (size + 7) // 8)
     frame.gpu.ctx.memory_barrier()
     return out
 
@@ -244,7 +245,7 @@ class ResolveImpostorCaustics(Pass):
             set_uniform(program, "receiver_position", 0)
             set_uniform(program, "receiver_normal", 1)
             out.bind_to_image(0, read=False, write=True)
-            program.run(group_x=(view.atlas_size[0] + 7) // 8, group_y=(view.atlas_size[1] + 7) // 8)
+            run_compute(program, (view.atlas_size[0] + 7) // 8, (view.atlas_size[1] + 7) // 8)
             frame.gpu.ctx.memory_barrier()
             maps.append(view.caustic_map(out))
         # The surface pass reads the maps after this chain: keep them until the next frame's resolve.
