@@ -326,14 +326,19 @@ def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVer
     """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map of ``size`` (bilinear, clamped)."""
     view = volume.view_from_world
     camera = OffscreenCamera(volume.position, size, view[1, :3].copy(), view, volume.clip_from_world(reverse))
-    # The back faces only give absorbing glass its thickness (as in env-map).
-    passes = [RefractorSurfaces("back", "farthest", absorbing_only=True), ShadeSurfaces()]
-    if depth > 0:
-        passes.append(PerVertexReflectors(params, depth))
-    color = render_offscreen(frame, subscene, camera, passes, params=params)["color"]
+    color = render_offscreen(frame, subscene, camera, view_passes(params, depth), params=params)["color"]
     color.filter = (moderngl.LINEAR, moderngl.LINEAR)
     color.repeat_x = color.repeat_y = False
     return color
+
+
+def view_passes(params: PerVertexParams, depth: int) -> list:
+    """The eye view or a reflection map with reflectors ``depth`` levels deep: back faces (they only
+    give absorbing glass its thickness, as in env-map), the shading of everything that is not drawn
+    per vertex (reflectors are, while ``depth`` > 0), then the reflectors per vertex."""
+    shaded = None if depth == 0 else (lambda obj: reflector_kind(obj, params) is None)
+    return [RefractorSurfaces("back", "farthest", absorbing_only=True), ShadeSurfaces(objects=shaded),
+            PerVertexReflectors(params, depth)]
 
 
 def scene_without(scene: Scene, index: int) -> Scene:
@@ -397,8 +402,4 @@ class PerVertex(RasterTechnique):
     Params = PerVertexParams
 
     def build_passes(self, params):
-        # Reflectors drawn per vertex are left out of the eye view's shading (PerVertexReflectors
-        # draws them); the back faces only give absorbing glass its thickness (as in env-map).
-        shaded = None if params.depth == 0 else (lambda obj: reflector_kind(obj, params) is None)
-        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
-                ShadeSurfaces(objects=shaded), PerVertexReflectors(params, params.depth)]
+        return [ShadowMaps(params.shadow_map_size), *view_passes(params, params.depth)]
