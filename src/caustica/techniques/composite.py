@@ -50,6 +50,7 @@ class Composite(RasterTechnique):
 
     def __init__(self, view: RasterTechnique, caustics: CausticTechnique):
         self.view, self.caustics = view, caustics
+        self.qualified_prefixes = view.qualified_prefixes  # the view routes these itself (per-object)
         self.name = f"{view.name}+{caustics.name}"
         self.summary = f"{view.name} for what the camera sees, {caustics.name} for caustics"
 
@@ -59,7 +60,7 @@ class Composite(RasterTechnique):
         halves = {self.view: {}, self.caustics: {}}
         fields = {t: {f.name for f in dataclasses.fields(t.Params)} for t in halves}
         prefixes = {t.name.replace("-", "_"): t for t in halves}
-        routed = {p.replace("-", "_") for p in self.view.qualified_prefixes}
+        routed = {p.replace("-", "_") for p in self.qualified_prefixes}
         for key, value in values.items():
             prefix, _, name = key.rpartition(".")
             if prefix and prefix.replace("-", "_") in routed:

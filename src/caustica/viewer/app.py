@@ -234,7 +234,6 @@ class Viewer:
             self.ui.composite(self.display, (width, height), panel,
                               [self.overlay_rect] if self.show_overlay and self.overlay_rect else [])
         if self._grab or self._grab_path:
-            width, height = glfw.get_framebuffer_size(self.window)
             data = self.ctx.screen.read(viewport=(0, 0, width, height), components=3)
             self.last_window = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)[::-1].copy()
             if self._grab_path:
@@ -370,8 +369,8 @@ class Viewer:
         technique = get_technique(name)
         known = {spec.name for spec in param_specs(technique)}
         # per-object (alone or under caustics) also keeps its techniques' qualified parameters.
-        prefixes = technique.qualified_prefixes or getattr(getattr(technique, "view", None), "qualified_prefixes", ())
-        kept = {k: v for k, v in self.params.items() if k in known or k.rpartition(".")[0] in prefixes}
+        kept = {k: v for k, v in self.params.items()
+                if k in known or k.rpartition(".")[0] in technique.qualified_prefixes}
         self.technique, self.params, self.inspect = name, kept, None
         self.error = None
         self.changed()

@@ -140,8 +140,8 @@ class Display:
         if width <= 0 or height <= 0:
             return
         k = int(supersampling)
-        fit = tuple(texture.size) == (width * k, height * k)
-        layer = mode == "layer"
+        layer = mode == "layer"  # reads the window-sized layer at each pixel: neither fit nor k applies
+        fit = not layer and tuple(texture.size) == (width * k, height * k)
         program, vao = self.variant(_LAYER if layer else MODES.index(mode), fit, k)
         screen = self.ctx.screen
         screen.use()
