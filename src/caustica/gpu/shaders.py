@@ -10,6 +10,7 @@ translated back to ``file:line``. The host injects
 """
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 
@@ -140,29 +141,23 @@ def run_compute(program, group_x: int, group_y: int = 1, group_z: int = 1) -> No
     after the viewer closes); glUseProgram(0) after the dispatch avoids it.
     """
     program.run(group_x=int(group_x), group_y=int(group_y), group_z=int(group_z))
-    _use_program(0)
+    use_program = _gl_use_program()
+    if use_program is not None:
+        use_program(0)
 
 
-_GL_USE_PROGRAM = []
+@functools.cache
+def _gl_use_program():
+    """glUseProgram through EGL's loader (glvnd dispatches it to whichever context is current), or None."""
+    import ctypes
+    import ctypes.util
 
-
-def _use_program(name: int) -> None:
-    """glUseProgram through EGL's loader (glvnd dispatches it to whichever context is current)."""
-    if not _GL_USE_PROGRAM:
-        import ctypes
-        import ctypes.util
-
-        function = None
-        try:
-            egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-            egl.eglGetProcAddress.restype = ctypes.c_void_p
-            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-            address = egl.eglGetProcAddress(b"glUseProgram")
-            if address:
-                function = ctypes.CFUNCTYPE(None, ctypes.c_uint)(address)
-        except OSError:
-            pass
-        _GL_USE_PROGRAM.append(function)
-    if _GL_USE_PROGRAM[0] is not None:
-        _GL_USE_PROGRAM[0](name)
+    try:
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    except OSError:
+        return None
+    egl.eglGetProcAddress.restype = ctypes.c_void_p
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+    address = egl.eglGetProcAddress(b"glUseProgram")
+    return ctypes.CFUNCTYPE(None, ctypes.c_uint)(address) if address else None
 

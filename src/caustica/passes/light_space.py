@@ -495,8 +495,7 @@ class SplatPhotons(Pass):
         ctx = frame.gpu.ctx
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
-        fbo.viewport = (0, 0, *view.atlas_size)
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
         program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag")
         view.bind(program)
         set_uniform(program, "splat_radius", self.radius)
