@@ -4,6 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import caustica
+from caustica.passes.surfaces import culls_back_faces
+from caustica.scene.mesh import Mesh
 from caustica.scene import Camera, Glass, Mirror, Scene, SceneObject, Transform, procedural_environment
 from caustica.scene.shapes import sphere
 
@@ -96,3 +99,28 @@ def test_dispersive_glass_uses_one_ior_per_channel(renderer):
     assert np.abs(dispersive[ball] - plain[ball]).max() > 0.05
     outside = (slice(0, 8), slice(0, 8))
     np.testing.assert_allclose(dispersive[outside], plain[outside], atol=1e-6)
+
+
+@pytest.mark.parametrize("preset, technique", [("glass-sphere", "depth-search"), ("caustic-sphere", "env-map"),
+                                               ("glass-sphere", "image-space")])
+def test_culling_solids_back_faces_leaves_the_image_unchanged(renderer, monkeypatch, preset, technique):
+    """ShadeSurfaces culls the back faces of solids seen from outside (they lie behind front faces):
+    the image equals the one drawn with every face, pixel for pixel."""
+    scene = caustica.load_scene(preset)
+    scene.camera = scene.camera.with_size(96, 96)
+    solids = [o for o in scene.objects if o.mesh.is_solid()]
+    assert solids and all(culls_back_faces(o, scene.camera.clip_from_world()) for o in solids)
+    culled = renderer.render(scene, technique)
+    monkeypatch.setattr(Mesh, "is_solid", lambda self: False)
+    every_face = renderer.render(scene, technique)
+    assert np.array_equal(culled, every_face)
+
+
+def test_no_culling_with_the_eye_inside_a_solid(renderer):
+    """From inside a glass ball only its back faces face the eye: they are drawn, not culled."""
+    scene = sphere_scene(Glass(ior=1.5))
+    scene.camera = Camera(position=[0.0, 0.0, 0.5], look_at=[0.0, 0.0, -1.0], fov_y=40.0, size=(48, 48))
+    assert not culls_back_faces(scene.objects[0], scene.camera.clip_from_world())
+    inside = renderer.render(scene, "env-map")
+    empty = renderer.render(Scene(camera=scene.camera, objects=[], environment=scene.environment), "env-map")
+    assert np.abs(inside - empty).mean() > 0.01  # seen through the ball's far side, the sky is bent

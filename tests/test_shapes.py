@@ -6,6 +6,7 @@ import pytest
 import trimesh
 
 from caustica.scene import shapes
+from caustica.scene.mesh import Mesh
 
 CLOSED = {
     "sphere": lambda: shapes.sphere(1.0, subdivisions=3),
@@ -42,6 +43,22 @@ def test_closed_shapes_are_watertight_and_outward(name):
     tm = merged(mesh)
     assert tm.is_watertight and tm.is_winding_consistent
     assert tm.volume > 0  # counter-clockwise from outside encloses positive volume
+
+
+@pytest.mark.parametrize("name", {**CLOSED, **OPEN})
+def test_is_solid_means_closed_and_outward(name):
+    mesh = {**CLOSED, **OPEN}[name]()
+    assert mesh.is_solid() == (name in CLOSED) == (not mesh.is_open())
+
+
+def test_is_solid_rejects_flipped_holed_and_inward_meshes():
+    sphere = shapes.sphere(1.0, subdivisions=2)
+    one_flipped = sphere.faces.copy()
+    one_flipped[0] = one_flipped[0, ::-1]
+    variants = {"one face flipped": one_flipped, "one face missing": sphere.faces[1:],
+                "inward": sphere.faces[:, ::-1], "a face twice": np.vstack([sphere.faces, sphere.faces[:1]])}
+    for what, faces in variants.items():
+        assert not Mesh(sphere.vertices, None, faces).is_solid(), what
 
 
 @pytest.mark.parametrize("name", {**CLOSED, **OPEN})

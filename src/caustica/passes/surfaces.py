@@ -1,6 +1,8 @@
 """Camera-view passes shared by techniques: refractor surface buffers, background, surface shading."""
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import moderngl
 import numpy as np
 
@@ -183,7 +185,8 @@ class ShadeSurfaces(Pass):
                     set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
                 if self.set_uniforms is not None:
                     self.set_uniforms(program, frame, obj)
-                draw_objects(frame, program, [obj], clip_from_world)
+                with _culled_back_faces(ctx, obj, clip_from_world):
+                    draw_objects(frame, program, [obj], clip_from_world)
 
     def _set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
@@ -201,6 +204,37 @@ class ShadeSurfaces(Pass):
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
+
+
+@contextmanager
+def _culled_back_faces(ctx, obj, clip_from_world: np.ndarray):
+    """Cull back faces while drawing a solid (Mesh.is_solid) wholly in front of the near plane:
+    each back face then lies behind a front face of the same solid, but a rasterizer still shades
+    those it draws before the front face covering them. Same image, about half the fragments of a
+    closed refractor (a CPU rasterizer pays for each). Skipped for mirroring transforms."""
+    cull = culls_back_faces(obj, clip_from_world)
+    if cull:
+        ctx.front_face = "ccw"
+        ctx.cull_face = "back"
+        ctx.enable(moderngl.CULL_FACE)
+    try:
+        yield
+    finally:
+        if cull:
+            ctx.disable(moderngl.CULL_FACE)
+
+
+def culls_back_faces(obj, clip_from_world: np.ndarray) -> bool:
+    """Whether ShadeSurfaces culls ``obj``'s back faces seen through ``clip_from_world``."""
+    return (obj.mesh.is_solid() and _in_front_of_near_plane(obj.world_mesh().bounds, clip_from_world)
+            and np.linalg.det(clip_from_world @ obj.world_from_object()) < 0.0)  # GL's perspective/ortho sign
+
+
+def _in_front_of_near_plane(bounds: np.ndarray, clip_from_world: np.ndarray) -> bool:
+    """Whether the box ``bounds`` (2, 3) lies wholly beyond the near plane (the eye then lies outside it)."""
+    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
+    clip = corners @ np.asarray(clip_from_world, np.float64).T
+    return bool(np.all(clip[:, 3] > 0.0) and np.all(clip[:, 2] > -clip[:, 3]))
 
 
 def _distance_to_bounds(point, bounds: np.ndarray) -> float:

@@ -33,6 +33,7 @@ class Mesh:
     _hash: str | None = field(default=None, repr=False, compare=False)
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
     _open: bool | None = field(default=None, repr=False, compare=False)
+    _solid: bool | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float32)
@@ -80,12 +81,38 @@ class Mesh:
         repeat vertices along seams.
         """
         if self._open is None:
-            edges = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-            _, weld = np.unique(np.round(self.vertices, 6), axis=0, return_inverse=True)
-            edges = np.sort(weld.reshape(-1)[edges], axis=1)
-            _, counts = np.unique(edges, axis=0, return_counts=True)
+            edges, count = self._welded_edges()
+            edges = np.sort(edges, axis=1)
+            _, counts = np.unique(edges[:, 0] * count + edges[:, 1], return_counts=True)
             self._open = bool(np.any(counts == 1))
         return self._open
+
+    def _welded_edges(self) -> tuple[np.ndarray, int]:
+        """Directed edges (a, b) of every face, counter-clockwise, with vertices welded by position
+        (icospheres and revolved shapes may repeat vertices along seams; + 0.0 welds -0 to 0):
+        (3M, 2) int64 and the welded vertex count."""
+        _, first, weld = np.unique((np.round(self.vertices, 6) + 0.0).view(np.dtype((np.void, 12))).reshape(-1),
+                                   return_index=True, return_inverse=True)
+        return weld.reshape(-1)[self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)].astype(np.int64), len(first)
+
+    def is_solid(self) -> bool:
+        """Whether the mesh bounds a volume with its front faces outside: every welded edge is shared
+        by exactly two faces that run along it in opposite directions, and the signed volume is positive.
+
+        From outside a solid's bounds every back face lies behind a front face of the same mesh, so
+        a rasterizer may cull back faces (ShadeSurfaces does).
+        """
+        if self._solid is None:
+            edges, count = self._welded_edges()
+            forward = np.sort(edges[:, 0] * count + edges[:, 1])
+            backward = np.sort(edges[:, 1] * count + edges[:, 0])
+            solid = (not np.any(edges[:, 0] == edges[:, 1]) and np.array_equal(forward, backward)
+                     and not np.any(forward[1:] == forward[:-1]))
+            if solid:
+                v = self.vertices.astype(np.float64)[self.faces]
+                solid = float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum()) > 0.0
+            self._solid = bool(solid)
+        return self._solid
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""
