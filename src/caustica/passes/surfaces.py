@@ -12,6 +12,8 @@ from .caustics import bind_caustic_maps
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
+DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
+MAX_DEFERRED = 255  # G-buffer ids 1..255 keyed as depth id / 256
 
 
 class RefractorSurfaces(Pass):
@@ -88,7 +90,8 @@ class ShadeSurfaces(Pass):
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
-                 tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None):
+                 tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None,
+                 deferred: tuple[str, ...] = ()):
         """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
         sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
         stage (it writes world_position and world_normal as the shared one does).
@@ -97,7 +100,11 @@ class ShadeSurfaces(Pass):
         objects drawn. ``background`` False draws over the ``color``, ``exit_direction`` and ``depth``
         an earlier ShadeSurfaces wrote, without clearing them: several runs, each with its own shader
         and objects, then make one image (``per-object``). ``tag`` names the run in pass timings.
-        ``frame_defines(frame) -> dict``: defines that depend on the frame's channels (compiled per value)."""
+        ``frame_defines(frame) -> dict``: defines that depend on the frame's channels (compiled per value).
+        ``deferred``: material kinds shaded after every object is drawn, once per visible pixel from a
+        G-buffer (common/surface_inputs.glsl), instead of per fragment of small triangles: for costly
+        shaders on a CPU rasterizer, which shades each triangle's partly covered pixel blocks whole.
+        Needs the shared vertex stage and a free input unit."""
         if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
             raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
         self.fragment, self.vertex = fragment, vertex
@@ -109,6 +116,10 @@ class ShadeSurfaces(Pass):
         self.background = bool(background)
         self.tag = tag
         self.frame_defines = frame_defines
+        self.deferred = tuple(deferred)
+        if self.deferred and (vertex != "common/mesh_vertex.glsl"
+                              or len(inputs) + 1 > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT):
+            raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
         targets = () if self.background else tuple(c.name for c in self.writes)
         self.reads = ("light_samples", "shadow_maps") + self.inputs + targets
 
@@ -130,6 +141,10 @@ class ShadeSurfaces(Pass):
             depth = gpu.targets.texture(camera.size, "depth")
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
+        if self.deferred:
+            # Cleared before the background is drawn: on llvmpipe (Mesa 22.3.6) clearing it right
+            # after the background draw lost part of the background (test_deferred_* guards this).
+            g_buffer = gpu.targets.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
         fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
         environment = gpu.environment_texture(scene.environment)
@@ -137,7 +152,15 @@ class ShadeSurfaces(Pass):
         if self.background:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self._draw_background(frame)
-        self._draw_objects(frame)
+        if self.deferred:
+            targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
+                       DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
+            deferred = self._draw_objects(frame, targets)
+            if deferred:
+                self._resolve_deferred(frame, deferred, color, exit_direction, g_buffer)
+            gpu.targets.give_back(g_buffer)
+        else:
+            self._draw_objects(frame)
         frame.write("color", color)
         frame.write("exit_direction", exit_direction)
         frame.write("depth", depth)
@@ -150,13 +173,13 @@ class ShadeSurfaces(Pass):
         set_uniform(background, "environment", 0)
         set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
         set_uniform(background, "intensity_scale", float(scene.intensity_scale))
-        fullscreen = gpu.cache.get(("fullscreen", background.glo))
-        if fullscreen is None:
-            fullscreen = gpu.cache[("fullscreen", background.glo)] = ctx.vertex_array(background, [])
-        fullscreen.render(moderngl.TRIANGLES, vertices=3)
+        _fullscreen(gpu, background).render(moderngl.TRIANGLES, vertices=3)
 
-    def _draw_objects(self, frame: Frame) -> None:
-        """This run's objects over the background, depth tested against what earlier runs drew."""
+    def _draw_objects(self, frame: Frame, deferring_targets: dict | None = None) -> list:
+        """This run's objects over the background, depth tested against what earlier runs drew.
+
+        Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``;
+        returns the deferred (object, material, defines), in G-buffer id order."""
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
@@ -171,22 +194,73 @@ class ShadeSurfaces(Pass):
         # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
         # rasterizers pay for every side of a branch, even one on a uniform.
         variants = sorted({_variant(material) for _, material in drawn})
+        deferred = []  # (object, material, variant defines) in G-buffer id order
         for kind, dispersion in variants:
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion)}
+            if deferring_targets:
+                mode = DEFER_GBUFFER if kind in self.deferred else DEFER_SHADE_NOW
+                variant_defines["DEFERRED_SHADING"] = mode
+                deferring_targets[mode].use()
             program = gpu.shaders.program(self.vertex, self.fragment, variant_defines)
             self._set_frame_uniforms(frame, program, caustic_maps)
+            if deferring_targets:
+                _set_deferred_ray_uniforms(program, camera)
             for obj, material in drawn:
                 if _variant(material) != (kind, dispersion):
                     continue
-                set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
-                set_uniform(program, "material_color", _material_color(material))
-                if material.kind == "glass":
-                    set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
-                    set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
-                if self.set_uniforms is not None:
-                    self.set_uniforms(program, frame, obj)
+                if kind in self.deferred:
+                    deferred.append((obj, material, variant_defines))
+                    set_uniform(program, "deferred_id", float(len(deferred)))
+                else:
+                    self._set_object_uniforms(frame, program, obj, material)
                 with _culled_back_faces(ctx, obj, clip_from_world):
                     draw_objects(frame, program, [obj], clip_from_world)
+        return deferred
+
+    def _set_object_uniforms(self, frame: Frame, program, obj, material) -> None:
+        set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
+        set_uniform(program, "material_color", _material_color(material))
+        if material.kind == "glass":
+            set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
+            set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+        if self.set_uniforms is not None:
+            self.set_uniforms(program, frame, obj)
+
+    def _resolve_deferred(self, frame: Frame, deferred: list, color, exit_direction, g_buffer) -> None:
+        """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
+        ids (deferred_key.frag), then one viewport triangle per object at its key, depth test EQUAL."""
+        gpu, ctx = frame.gpu, frame.gpu.ctx
+        if len(deferred) > MAX_DEFERRED:
+            raise ValueError(f"deferred shading takes at most {MAX_DEFERRED} objects per run, not {len(deferred)}")
+        key_depth = gpu.targets.texture(frame.camera.size, "depth")
+        g_units = (self.FIRST_INPUT_UNIT + len(self.inputs),)
+        key_fbo = gpu.targets.framebuffer([], key_depth)
+        key_fbo.use()
+        key_fbo.clear(depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "1"
+        g_buffer.use(g_units[0])
+        keys = gpu.shaders.program("passes/fullscreen.vert", "passes/deferred_key.frag")
+        set_uniform(keys, "deferred_surface", g_units[0])
+        _fullscreen(gpu, keys).render(moderngl.TRIANGLES, vertices=3)
+
+        resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
+        resolve_fbo.use()
+        resolve_fbo.depth_mask = False
+        ctx.depth_func = "=="
+        caustic_maps = frame.channels.get("caustic_maps")
+        for index, (obj, material, variant_defines) in enumerate(deferred, start=1):
+            program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
+                                          {**variant_defines, "DEFERRED_SHADING": DEFER_RESOLVE})
+            self._set_frame_uniforms(frame, program, caustic_maps)
+            set_uniform(program, "deferred_surface", g_units[0])
+            _set_deferred_ray_uniforms(program, frame.camera)
+            set_uniform(program, "deferred_key", index / 256.0)
+            self._set_object_uniforms(frame, program, obj, material)
+            _fullscreen(gpu, program).render(moderngl.TRIANGLES, vertices=3)
+        resolve_fbo.depth_mask = True
+        ctx.depth_func = "<"
+        gpu.targets.give_back(key_depth)
 
     def _set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
@@ -204,6 +278,20 @@ class ShadeSurfaces(Pass):
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
+
+
+def _set_deferred_ray_uniforms(program, camera) -> None:
+    """What deferred_pixel_ray (common/surface_inputs.glsl) needs to rebuild a pixel's ray."""
+    set_uniform(program, "deferred_world_from_clip", np.linalg.inv(camera.clip_from_world()))
+    set_uniform(program, "deferred_viewport", np.array(camera.size, "f4"))
+
+
+def _fullscreen(gpu, program):
+    """The attribute-less vertex array of ``program`` (its vertex stage makes the triangle)."""
+    vao = gpu.cache.get(("fullscreen", program.glo))
+    if vao is None:
+        vao = gpu.cache[("fullscreen", program.glo)] = gpu.ctx.vertex_array(program, [])
+    return vao
 
 
 @contextmanager

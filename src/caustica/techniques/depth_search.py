@@ -45,7 +45,9 @@ Entry TIR (IOR < 1) reflects only; exit TIR (not treated by the paper) reflects
 once at the last exit and leaves to the environment. The exit direction T2 (at
 P2) is written to output location 1. ``internal_bounces`` and
 ``assume_back_first`` are compile-time switches (shader variants): llvmpipe
-runs both sides of every branch.
+runs both sides of every branch. Glass is shaded deferred (ShadeSurfaces'
+``deferred``), once per visible pixel rather than per fragment of the mesh's
+small triangles.
 
 Limits: two interfaces (more with ``internal_bounces``); P2 found in screen
 space, so it is only as exact as the buffers' resolution and it must lie inside
@@ -129,5 +131,5 @@ class DepthSearch(RasterTechnique):
             *nearby.passes,
             ShadeSurfaces("passes/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
-                          set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms)),
+                          set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",)),
         ]

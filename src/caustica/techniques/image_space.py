@@ -19,6 +19,8 @@ precomputation is impossible. Added as the chapter invites: exact Fresnel at
 both interfaces (F1 reflects the environment, (1 - F2) transmits at the exit;
 a TIR fallback transmits all), Beer-Lambert absorption over d~, one IOR per RGB
 channel (dispersion). Diffuse receivers and mirrors are shaded as in ``env-map``.
+Glass is shaded deferred (ShadeSurfaces' ``deferred``): once per visible pixel,
+not per fragment of the mesh's small triangles.
 
 Limits: exactly two interfaces (rays that meet the refractor again, or another
 refractor, are not followed); the environment is at infinity (nothing nearby is
@@ -86,5 +88,5 @@ class ImageSpace(RasterTechnique):
             passes.append(FrontDistanceAlongNormal())
         passes += nearby.passes
         passes.append(ShadeSurfaces("passes/image_space.frag", defines, inputs=inputs + nearby.inputs,
-                                    set_uniforms=nearby.set_uniforms))
+                                    set_uniforms=nearby.set_uniforms, deferred=("glass",)))
         return passes

@@ -155,4 +155,5 @@ class PerObject(RasterTechnique):
 def _restricted(shade: ShadeSurfaces, technique: str, params: PerObjectParams, first: bool) -> ShadeSurfaces:
     """``shade`` limited to the objects ``technique`` shades; only the first run clears and draws the background."""
     return ShadeSurfaces(shade.fragment, shade.defines, shade.material_override, shade.inputs, shade.set_uniforms,
-                         objects=lambda obj: params.technique_of(obj) == technique, background=first, tag=technique)
+                         objects=lambda obj: params.technique_of(obj) == technique, background=first, tag=technique,
+                         vertex=shade.vertex, frame_defines=shade.frame_defines, deferred=shade.deferred)

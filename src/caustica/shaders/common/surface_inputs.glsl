@@ -25,7 +25,50 @@ uniform vec3 ior_rgb;                  // glass: one IOR per channel (dispersion
 uniform vec3 absorption_coefficient;   // glass: Beer-Lambert sigma_a per channel
 uniform float intensity_scale;
 
+// Deferred shading (ShadeSurfaces' ``deferred``): small triangles make a rasterizer shade many
+// partly covered pixel blocks, which a costly shader pays for on a CPU. A deferring run draws
+// every object with DEFER_SHADE_NOW (shaded as usual, G-buffer cleared) or, for the deferred
+// kinds, DEFER_GBUFFER (G-buffer only: the eye-facing normal times the object's id, and the
+// distance along the pixel's ray from the near plane); then each deferred object is shaded
+// over the whole screen with DEFER_RESOLVE, where the depth test passes only its pixels.
+#define DEFER_NONE 0
+#define DEFER_SHADE_NOW 1
+#define DEFER_GBUFFER 2
+#define DEFER_RESOLVE 3
+#ifndef DEFERRED_SHADING
+#define DEFERRED_SHADING DEFER_NONE
+#endif
+
+#if DEFERRED_SHADING == DEFER_GBUFFER || DEFERRED_SHADING == DEFER_RESOLVE
+uniform mat4 deferred_world_from_clip;
+uniform vec2 deferred_viewport;  // pixels
+
+// The ray of this pixel: its point on the near plane and unit direction.
+void deferred_pixel_ray(out vec3 origin, out vec3 direction) {
+    vec2 ndc = gl_FragCoord.xy / deferred_viewport * 2.0 - 1.0;
+    vec4 near = deferred_world_from_clip * vec4(ndc, -1.0, 1.0);
+    vec4 far = deferred_world_from_clip * vec4(ndc, 1.0, 1.0);
+    origin = near.xyz / near.w;
+    direction = normalize(far.xyz / far.w - origin);
+}
+#endif
+#if DEFERRED_SHADING == DEFER_RESOLVE
+uniform sampler2D deferred_surface;  // eye-facing unit normal times the object id xyz, distance along the ray w
+vec3 world_position;
+vec3 world_normal;
+#else
 in vec3 world_position;
 in vec3 world_normal;
+#endif
+#if DEFERRED_SHADING == DEFER_GBUFFER
+layout(location = 0) out vec4 deferred_surface_out;
+uniform float deferred_id;  // this object's id in the G-buffer (1, 2, ...)
+vec4 color;
+vec4 exit_direction;
+#else
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 exit_direction;  // debug: world direction leaving the refractor, w = 1 where defined
+#endif
+#if DEFERRED_SHADING == DEFER_SHADE_NOW
+layout(location = 2) out vec4 deferred_surface_out;
+#endif

@@ -9,11 +9,29 @@
 #endif
 
 void main() {
+#if DEFERRED_SHADING == DEFER_RESOLVE
+    vec4 surface = texelFetch(deferred_surface, ivec2(gl_FragCoord.xy), 0);
+    vec3 ray_origin, ray_direction;
+    deferred_pixel_ray(ray_origin, ray_direction);
+    world_position = ray_origin + surface.w * ray_direction;
+    world_normal = surface.xyz;  // facing the eye
+    vec3 v = normalize(world_position - camera_position);
+    vec3 n = normalize(world_normal);
+#else
     vec3 v = normalize(world_position - camera_position);
     vec3 n = normalize(world_normal);
     if (!gl_FrontFacing) n = -n;
+#endif
     vec3 radiance = vec3(0.0);
     exit_direction = vec4(0.0);
+#if DEFERRED_SHADING == DEFER_SHADE_NOW
+    deferred_surface_out = vec4(0.0);
+#elif DEFERRED_SHADING == DEFER_GBUFFER
+    vec3 ray_origin, ray_direction;
+    deferred_pixel_ray(ray_origin, ray_direction);
+    deferred_surface_out = vec4(n * deferred_id, length(world_position - ray_origin));
+    return;
+#endif
     int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
     if (kind == MATERIAL_DIFFUSE) {

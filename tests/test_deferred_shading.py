@@ -1,0 +1,84 @@
+"""Deferred shading of glass (ShadeSurfaces' ``deferred``): the same image as shading per fragment."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from caustica.passes import surfaces
+from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
+                            procedural_environment)
+from caustica.scene.shapes import box, sphere, torus
+
+SIZE = (96, 72)
+
+
+def crowded_scene(camera=None) -> Scene:
+    """Two glass objects of different IOR overlapping on screen, a diffuse box hiding part of one,
+    a mirror and a floor: ids, keys and occlusion all matter."""
+    objects = [
+        SceneObject("ball", sphere(0.5, subdivisions=4), Glass(ior=1.5), Transform(position=[-0.3, 0.5, 0.0])),
+        SceneObject("ring", torus(0.45, 0.15), Glass(ior=1.33, absorption_color=[0.8, 0.9, 1.0]),
+                    Transform(position=[0.35, 0.55, -0.6], rotation=[60.0, 0.0, 0.0])),
+        SceneObject("box", box((0.3, 0.3, 0.3)), Diffuse(color=[0.8, 0.3, 0.2]), Transform(position=[-0.1, 0.35, 0.8])),
+        SceneObject("mirror", sphere(0.25, subdivisions=3), Mirror(), Transform(position=[0.9, 0.3, 0.3])),
+    ]
+    camera = camera or Camera(position=[0.0, 0.9, 3.0], look_at=[0.0, 0.45, 0.0], fov_y=45.0, size=SIZE)
+    return Scene(camera=camera, objects=objects, lights=[PointLight(position=[1.0, 4.0, 2.0], intensity=[15.0] * 3)],
+                 environment=procedural_environment("sky-checker"), name="crowded")
+
+
+@pytest.fixture()
+def per_fragment(monkeypatch):
+    """Render with every ShadeSurfaces shading per fragment (deferral off)."""
+    def render(renderer, scene, technique):
+        with monkeypatch.context() as patch:
+            original = surfaces.ShadeSurfaces.__init__
+
+            def forward(self, *args, **kwargs):
+                original(self, *args, **kwargs)
+                self.deferred = ()
+
+            patch.setattr(surfaces.ShadeSurfaces, "__init__", forward)
+            return renderer.render(scene, technique)
+    return render
+
+
+def close_everywhere(deferred, forward, tolerance=2e-3, outliers=0.001):
+    """Equal up to float rounding: the G-buffer rebuilds the position from the ray instead of
+    interpolating it, so at most a few pixels on knife edges (TIR, silhouettes) may differ more."""
+    difference = np.abs(deferred - forward).max(axis=-1)
+    return float(np.mean(difference > tolerance)) <= outliers and float(np.mean(difference)) < 1e-4
+
+
+@pytest.mark.parametrize("technique", ["depth-search", "image-space", "impostors"])
+def test_deferred_glass_matches_per_fragment_shading(renderer, per_fragment, technique):
+    scene = crowded_scene()
+    deferred = renderer.render(scene, technique)
+    forward = per_fragment(renderer, scene, technique)
+    assert close_everywhere(deferred, forward)
+    assert np.abs(deferred - forward).max(axis=-1).mean() < 1e-4
+
+
+def test_deferred_glass_seen_from_inside(renderer, per_fragment):
+    """From inside a glass ball only back faces face the eye: the G-buffer keeps the normal facing the eye."""
+    scene = crowded_scene(Camera(position=[-0.3, 0.5, 0.1], look_at=[-0.3, 0.5, -1.0], fov_y=60.0, size=SIZE))
+    deferred = renderer.render(scene, "depth-search")
+    assert close_everywhere(deferred, per_fragment(renderer, scene, "depth-search"))
+
+
+def test_background_after_a_deferred_frame_is_whole(renderer):
+    """A frame without objects right after a deferred one shows the whole environment (a clear of
+    the G-buffer between the background and the objects once lost part of it on llvmpipe)."""
+    scene = crowded_scene()
+    renderer.render(scene, "depth-search")
+    scene.objects = []
+    image = renderer.render(scene, "depth-search")
+    assert np.all(image.sum(axis=-1) > 0.0)
+    np.testing.assert_array_equal(image, renderer.render(scene, "env-map"))
+
+
+def test_deferred_runs_only_where_it_is_asked_for():
+    assert surfaces.ShadeSurfaces("passes/depth_search.frag", deferred=("glass",)).deferred == ("glass",)
+    assert surfaces.ShadeSurfaces().deferred == ()
+    with pytest.raises(ValueError, match="shared vertex stage"):
+        surfaces.ShadeSurfaces("passes/depth_search.frag", vertex="passes/image_space.vert", deferred=("glass",))
