@@ -87,3 +87,10 @@ def set_uniform(program, name: str, value) -> None:
         member.write(np.ascontiguousarray((value.T if matrix else value).astype(dtype)).tobytes())
     else:
         member.value = value
+
+
+def write_uniform_array(program, name: str, values: np.ndarray) -> None:
+    """Write the leading entries of a uniform array if the program uses it (drivers may shorten
+    arrays to what a shader reads)."""
+    if name in program:
+        program[name].write(np.ascontiguousarray(values[: max(program[name].array_length, 1)]).tobytes())

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import set_uniform, write_uniform_array
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
 from .surfaces import ShadeSurfaces
@@ -258,13 +258,6 @@ def _impostor_state_key(scene) -> tuple:
             scene.intensity_scale)
 
 
-def _write_array(program, name: str, values: np.ndarray) -> None:
-    """Write the leading entries of a uniform array (drivers may shorten arrays to what a shader uses)."""
-    if name in program:
-        member = program[name]
-        program[name].write(np.ascontiguousarray(values[: max(member.array_length, 1)]).tobytes())
-
-
 def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None, params) -> None:
     """Set impostors.glsl's uniforms for one reflector (world index) and bind its textures from unit 24."""
     group = [] if impostors is None or reflector is None else impostors.by_reflector.get(reflector, [])
@@ -285,12 +278,12 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
         slab[k], radius[k] = imp.slab, imp.radius
         imp.texture.use(FIRST_IMPOSTOR_UNIT + k)
         units[k] = FIRST_IMPOSTOR_UNIT + k
-    _write_array(program, "impostor_clip_from_world", clips)
+    write_uniform_array(program, "impostor_clip_from_world", clips)
     for name, values in vec.items():
-        _write_array(program, f"impostor_{name}", values)
-    _write_array(program, "impostor_slab", slab)
-    _write_array(program, "impostor_radius", radius)
-    _write_array(program, "impostor_texture", units)
+        write_uniform_array(program, f"impostor_{name}", values)
+    write_uniform_array(program, "impostor_slab", slab)
+    write_uniform_array(program, "impostor_radius", radius)
+    write_uniform_array(program, "impostor_texture", units)
 
 
 def impostor_defines(frame: Frame) -> dict:
@@ -327,7 +320,7 @@ def bind_planes(program, scene) -> None:
     for k, name in enumerate(("center", "normal", "u", "v", "color")):
         values = np.zeros((MAX_PLANES, 3), "f4")
         values[: len(planes)] = [p[k] for p in planes]
-        _write_array(program, f"plane_{name}", values)
+        write_uniform_array(program, f"plane_{name}", values)
 
 
 class NearbyView(Pass):

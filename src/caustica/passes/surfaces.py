@@ -8,7 +8,7 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from .base import Channel, Frame, Pass
-from .caustics import bind_caustic_maps
+from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
@@ -86,7 +86,7 @@ class ShadeSurfaces(Pass):
     FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
     FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
-    optional_reads = ("caustic_maps",)  # added to diffuse receivers when a caustic technique wrote them
+    optional_reads = ("caustic_maps", "caustic_tiles")  # added to diffuse receivers when a caustic technique wrote them
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
@@ -184,7 +184,9 @@ class ShadeSurfaces(Pass):
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         caustic_maps = frame.channels.get("caustic_maps")
-        defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None)}
+        defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None),
+                   "CAUSTIC_TILES": int(frame.channels.get("caustic_tiles") is not None),
+                   "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()
@@ -223,6 +225,9 @@ class ShadeSurfaces(Pass):
         if material.kind == "glass":
             set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
             set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+        tiles = frame.channels.get("caustic_tiles")
+        if tiles is not None and material.kind == "diffuse":
+            bind_receiver_tiles(program, tiles, obj)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, obj)
 
@@ -276,6 +281,8 @@ class ShadeSurfaces(Pass):
         bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
+        elif frame.channels.get("caustic_tiles") is not None:
+            bind_caustic_tiles(program, frame.channels["caustic_tiles"], unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
 

@@ -1,6 +1,7 @@
 """Composition of a view technique and a caustic technique: ``depth-search+caustic-mapping``.
 
-The caustic technique's passes (which write ``caustic_maps``) run after the
+The caustic technique's passes (which write ``caustic_maps`` or ``caustic_tiles``,
+``passes/caustics.py``) run after the
 view technique's shadow maps and refractor buffers and before its surface
 shading, which then adds the caustic irradiance on diffuse receivers. A
 caustic technique named alone is composed with :data:`DEFAULT_VIEW`.
@@ -35,7 +36,7 @@ class CausticTechnique(RasterTechnique):
     """A technique that builds caustic maps; subclasses implement :meth:`caustic_passes`."""
 
     def caustic_passes(self, params) -> list:
-        """Passes that read ``light_samples`` (and shadow maps) and write ``caustic_maps``."""
+        """Passes that read ``light_samples`` (and shadow maps) and write ``caustic_maps`` or ``caustic_tiles``."""
         raise NotImplementedError
 
     def build_passes(self, params):

@@ -20,12 +20,15 @@ Per light sample, each frame, no readback:
    the default) sets s = 1 / sum sqrt(...), so the filtered irradiance
    integrates to the photons' flux (energy conserved) and compares with
    Mitsuba in W/m^2.
-3. Caustics on receivers (3.3, fig. 21-23): receivers are rendered from the
-   light (``passes/light_space.py``'s coarse view, ``receiver_size``); each
-   receiver texel looks up the tiles of its own object by the rectangle's
-   parallel projection (a planar receiver is its rectangle: the paper's
-   direct texture) and scales by |N . axis|, giving the light-space caustic
-   maps of the ``caustic_maps`` contract.
+3. Caustics on receivers (3.3, fig. 21-23), as the paper does it: while the
+   camera view shades a diffuse object, each fragment looks up the tiles of
+   that object by the rectangles' parallel projections (a planar receiver is
+   its rectangle: the paper's direct texture) and scales by |N . axis| on the
+   side facing the caster (the ``caustic_tiles`` contract of
+   ``passes/caustics.py``; ``shaders/common/caustics.glsl``). Until
+   2026-11-23 this went through light-space receiver maps (the
+   ``caustic_maps`` contract): 6 x 512^2 texels per point light, three times
+   the cost of the rest of the caustics on llvmpipe, and a resampling.
 
 Composes with any view technique (``impostors+impostor-caustics`` shows nearby
 objects and caustics; alone it uses depth-search). Reflective and refractive
@@ -35,8 +38,10 @@ interface (depth-search's back buffer is empty there, so T2 = T1).
 Limits: the impostors' (a caustic lands where the ray meets the object's
 rectangle-and-depth stand-in); one layer of casters (light through two glass
 objects is followed only as far as the first one's impostors); the photon
-buffer's resolution (the paper: 128^2 acceptable); receivers must be visible
-from the light (shadowed parts of a receiver get no caustic); point lights
+buffer's resolution (the paper: 128^2 acceptable); no visibility test from the
+rectangle to the receiver (as in the paper: a part of a receiver facing the
+caster but hidden from it by the receiver itself takes its tile's caustic);
+Wyman's nearby planes seen through glass show no caustic; point lights
 inside the casters' bounding sphere make none; needs GL_NV_shader_atomic_float.
 """
 from __future__ import annotations
@@ -46,11 +51,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import TechniqueError
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
 from ..passes.base import Channel, Frame, Pass
-from ..passes.impostors import BuildImpostors, ReleaseImpostors, _write_array
-from ..passes.light_space import FitCoarseViews, LightSurfaces, float_atomics
+from ..passes.impostors import BuildImpostors, ReleaseImpostors
+from ..passes.caustics import CausticTiles
+from ..passes.light_space import float_atomics
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
 from .base import check_integers
@@ -58,6 +64,7 @@ from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes
 
 MAX_TILES = 16
+CELL = 4  # occupancy block size of the flux atlases (texels a side)
 
 
 @dataclass
@@ -68,12 +75,10 @@ class ImpostorCausticsParams(ImpostorParams):
     caustic_size: int = 256  # caustic texture texels a side per rectangle
     filter_k: int = 2  # filter half width (3.2)
     filter_s: float | None = None  # filter scale; None: 1 / sum of the weights (energy conserving)
-    receiver_size: int = 512  # light-space receiver map texels a side (per cube face)
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, {"photon_buffer": (8, 4096), "caustic_size": (8, 4096), "filter_k": (0, 16),
-                              "receiver_size": (16, 4096)})
+        check_integers(self, {"photon_buffer": (8, 4096), "caustic_size": (8, 4096), "filter_k": (0, 16)})
         if self.filter_s is not None:
             if not (np.isfinite(float(self.filter_s)) and float(self.filter_s) > 0):
                 raise ValueError(f"filter_s {self.filter_s} must be a positive number, or None (energy conserving)")
@@ -190,27 +195,46 @@ def splat_photons(frame: Frame, program, throughput, record, camera, sample, flu
 def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | None):
     """The 3.2 filter over three r32f flux atlases of ``size`` tiles: a pooled rgba32f atlas of irradiance."""
     width = flux[0].size[0]
+    occupancy = flux_occupancy(frame, flux)
     out = frame.gpu.targets.texture((width, size), "rgba32f")
-    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k)})
-    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
+    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
+    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b", "occupancy"), (*flux, occupancy))):
         tex.use(unit)
         set_uniform(program, name, unit)
     set_uniform(program, "tile_size", size)
     set_uniform(program, "filter_s", float(s if s is not None else 1.0 / filter_weights(k).sum()))
     areas = np.ones(MAX_TILES, "f4")
     areas[: len(texel_areas)] = texel_areas
-    _write_array(program, "texel_area", areas)
+    write_uniform_array(program, "texel_area", areas)
     out.bind_to_image(0, read=False, write=True)
     run_compute(program, (width + 7) // 8, (size + 7) // 8)
     frame.gpu.ctx.memory_barrier()
+    frame.gpu.targets.give_back(occupancy)
     return out
 
 
-class ResolveImpostorCaustics(Pass):
-    """3.3: receivers from each light look up their objects' caustic tiles (the ``caustic_maps`` contract)."""
+def flux_occupancy(frame: Frame, flux):
+    """The summed flux of each CELL x CELL block of the atlases (a pooled r32f texture): the filter
+    skips texels with no photon within reach."""
+    width, height = flux[0].size
+    occupancy = frame.gpu.targets.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
+    program = frame.gpu.shaders.compute("passes/impostor_caustic_occupancy.comp", {"CELL": CELL})
+    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
+        tex.use(unit)
+        set_uniform(program, name, unit)
+    occupancy.bind_to_image(0, read=False, write=True)
+    run_compute(program, (occupancy.size[0] + 7) // 8, (occupancy.size[1] + 7) // 8)
+    frame.gpu.ctx.memory_barrier()
+    return occupancy
 
-    reads = ("impostors", "caustic_textures", "coarse_views", "impostor_receivers")
-    writes = (Channel("caustic_maps", "list", "per light: CausticMap (light-space irradiance, receiver distance)"),)
+
+class CausticTilesOnReceivers(Pass):
+    """3.3: hand the caustic textures to the surface shading, where each receiver fragment looks up its
+    objects' tiles by the rectangles' parallel projections (fig. 21-23; a planar receiver is its
+    rectangle: the paper's direct texture). No light-space pass: the paper projects in the eye view."""
+
+    reads = ("impostors", "caustic_textures")
+    writes = (Channel("caustic_tiles", "CausticTiles", "caustic textures with their rectangles and receivers"),)
 
     def __init__(self, params: ImpostorCausticsParams):
         self.params = params
@@ -218,52 +242,28 @@ class ResolveImpostorCaustics(Pass):
     def run(self, frame: Frame) -> None:
         impostors = frame.read("impostors").all()[:MAX_TILES]
         world = frame.read("impostors").world or frame.scene
-        diffuse = [o for o in frame.scene.objects if o.material.kind == "diffuse"]
-        codes = np.zeros(MAX_TILES, "f4")
-        clips = np.tile(np.eye(4, dtype="f4"), (MAX_TILES, 1, 1))
-        axes = np.zeros((MAX_TILES, 3), "f4")
-        for k, imp in enumerate(impostors):
-            obj = world.objects[imp.index]
-            codes[k] = diffuse.index(obj) + 1 if obj in diffuse else -10.0
-            clips[k], axes[k] = imp.camera.clip_from_world().T, imp.axis
-        program = frame.gpu.shaders.compute("passes/impostor_caustic_resolve.comp",
-                                            {"MAX_TILES": MAX_TILES, "TILE_COUNT": len(impostors)})
-        set_uniform(program, "tile_size", self.params.caustic_size)
-        _write_array(program, "tile_clip_from_world", clips)
-        _write_array(program, "tile_axis", axes)
-        _write_array(program, "tile_code", codes)
-        frame.read("caustic_textures").use(2)
-        set_uniform(program, "caustic", 2)
-        maps = []
-        for view, receivers in zip(frame.read("coarse_views"), frame.read("impostor_receivers")):
-            if view is None or receivers is None:
-                maps.append(None)
-                continue
-            out = frame.gpu.targets.texture(view.atlas_size, "rgba32f")
-            receivers[0].use(0)
-            receivers[1].use(1)
-            set_uniform(program, "receiver_position", 0)
-            set_uniform(program, "receiver_normal", 1)
-            out.bind_to_image(0, read=False, write=True)
-            run_compute(program, (view.atlas_size[0] + 7) // 8, (view.atlas_size[1] + 7) // 8)
-            frame.gpu.ctx.memory_barrier()
-            maps.append(view.caustic_map(out))
-        # The surface pass reads the maps after this chain: keep them until the next frame's resolve.
-        key = ("impostor-caustic-maps",)
-        give_back_pooled(frame.gpu.targets, [m.texture for m in frame.gpu.cache.pop(key, []) if m is not None])
-        frame.gpu.cache[key] = maps
-        frame.write("caustic_maps", maps)
+        atlas = frame.read("caustic_textures")
+        tiles = CausticTiles(atlas, self.params.caustic_size,
+                             np.array([imp.camera.clip_from_world() for imp in impostors]).reshape(-1, 4, 4),
+                             np.array([imp.axis for imp in impostors], np.float64).reshape(-1, 3),
+                             [world.objects[imp.index] for imp in impostors],
+                             np.array([imp.texel_area(self.params.caustic_size) for imp in impostors]))
+        # The surface pass reads the atlas after this chain: keep it until the next frame's.
+        key = ("impostor-caustic-tiles",)
+        give_back_pooled(frame.gpu.targets, frame.gpu.cache.pop(key, []))
+        frame.gpu.cache[key] = [atlas]
+        frame.write("caustic_tiles", tiles)
 
 
 class ReleaseCausticInputs(Pass):
-    """Give the photon buffers, caustic tiles and receiver maps back to the pool (the caustic maps stay)."""
+    """Give the photon buffers back to the pool (the caustic textures stay for the surface pass)."""
 
-    reads = ("impostor_photons", "caustic_textures", "impostor_receivers")
+    reads = ("impostor_photons",)
 
     def run(self, frame: Frame) -> None:
-        for name in self.reads:
-            give_back_pooled(frame.gpu.targets, [v for v in _flat(frame.read(name)) if not hasattr(v, "view_from_world")])
-            frame.channels[name] = []
+        give_back_pooled(frame.gpu.targets, [v for v in _flat(frame.read("impostor_photons"))
+                                             if not hasattr(v, "view_from_world")])
+        frame.channels["impostor_photons"] = []
 
 
 def _flat(value):
@@ -282,6 +282,5 @@ class ImpostorCaustics(CausticTechnique):
     def caustic_passes(self, params):
         build = BuildImpostors(lambda d: texture_passes(params, d), params.impostor_size, params.depth,
                                params.rect_offset, params.distance_factor, params.max_impostors)
-        return [build, ImpostorPhotons(params), CausticTextures(params), FitCoarseViews(params.receiver_size),
-                LightSurfaces("coarse_views", "impostor_receivers", coded=("diffuse",)),
-                ResolveImpostorCaustics(params), ReleaseCausticInputs(), ReleaseImpostors(owner=build)]
+        return [build, ImpostorPhotons(params), CausticTextures(params), CausticTilesOnReceivers(params),
+                ReleaseCausticInputs(), ReleaseImpostors(owner=build)]

@@ -35,7 +35,7 @@ void main() {
     int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
     if (kind == MATERIAL_DIFFUSE) {
-        vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n) + caustic_irradiance(world_position);
+        vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n) + caustic_irradiance(world_position, n);
         radiance = material_color / PI * e;
     }
 #endif
