@@ -195,10 +195,10 @@ def splat_photons(frame: Frame, program, throughput, record, camera, sample, flu
 def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | None):
     """The 3.2 filter over three r32f flux atlases of ``size`` tiles: a pooled rgba32f atlas of irradiance."""
     width = flux[0].size[0]
-    occupancy = flux_occupancy(frame, flux)
-    out = frame.gpu.targets.texture((width, size), "rgba32f")
+    occupancy, flux_rgb = flux_occupancy(frame, flux)
+    out = frame.gpu.targets.zeroed((width, size), "rgba32f")  # blocks with no photon near stay 0
     program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
-    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b", "occupancy"), (*flux, occupancy))):
+    for unit, (name, tex) in enumerate(zip(("flux_rgb", "occupancy"), (flux_rgb, occupancy))):
         tex.use(unit)
         set_uniform(program, name, unit)
     set_uniform(program, "tile_size", size)
@@ -207,25 +207,28 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     areas[: len(texel_areas)] = texel_areas
     write_uniform_array(program, "texel_area", areas)
     out.bind_to_image(0, read=False, write=True)
-    run_compute(program, (width + 7) // 8, (size + 7) // 8)
+    run_compute(program, (occupancy.size[0] + 7) // 8, (occupancy.size[1] + 7) // 8)  # a block per invocation
     frame.gpu.ctx.memory_barrier()
     frame.gpu.targets.give_back(occupancy)
+    frame.gpu.targets.give_back(flux_rgb)
     return out
 
 
 def flux_occupancy(frame: Frame, flux):
-    """The summed flux of each CELL x CELL block of the atlases (a pooled r32f texture): the filter
-    skips texels with no photon within reach."""
+    """Pooled textures: the summed flux of each CELL x CELL block of the atlases (r32f; the filter skips
+    texels with no photon within reach) and the three atlases packed into one (rgba32f)."""
     width, height = flux[0].size
     occupancy = frame.gpu.targets.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
+    flux_rgb = frame.gpu.targets.texture((width, height), "rgba32f")
     program = frame.gpu.shaders.compute("passes/impostor_caustic_occupancy.comp", {"CELL": CELL})
     for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
         tex.use(unit)
         set_uniform(program, name, unit)
     occupancy.bind_to_image(0, read=False, write=True)
+    flux_rgb.bind_to_image(1, read=False, write=True)
     run_compute(program, (occupancy.size[0] + 7) // 8, (occupancy.size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
-    return occupancy
+    return occupancy, flux_rgb
 
 
 class CausticTilesOnReceivers(Pass):
