@@ -32,13 +32,13 @@ def per_fragment(monkeypatch):
     """Render with every ShadeSurfaces shading per fragment (deferral off)."""
     def render(renderer, scene, technique):
         with monkeypatch.context() as patch:
-            original = surfaces.ShadeSurfaces.__init__
+            original = surfaces.ShadeSurfaces.run
 
-            def forward(self, *args, **kwargs):
-                original(self, *args, **kwargs)
+            def forward(self, frame):
                 self.deferred = ()
+                original(self, frame)
 
-            patch.setattr(surfaces.ShadeSurfaces, "__init__", forward)
+            patch.setattr(surfaces.ShadeSurfaces, "run", forward)
             return renderer.render(scene, technique)
     return render
 

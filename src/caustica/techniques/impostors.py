@@ -21,7 +21,8 @@ For each reflector/refractor R (glass or mirror) and each other object k
    holds; stop once t moves less than ``impostor_tolerance``); the nearest
    rectangle hit wins; a final depth mismatch above ``hit_tolerance`` bounding
    radii, or no rectangle, sees the environment. ``impostor_iterations`` 0 is
-   the uncorrected lookup of fig. 18c (Prect's texel).
+   the uncorrected lookup of fig. 18c (Prect's texel). Glass and mirrors are
+   shaded deferred (ShadeSurfaces' ``deferred``): once per visible pixel.
 
 A glass object behind another stays visible: it is one of the front object's
 impostors, and is refracted by it like any other object.
@@ -100,6 +101,7 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
                      "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples}
     shade.frame_defines = impostor_defines  # MAX_IMPOSTORS: the frame's largest group of rectangles
+    shade.deferred = ("glass", "mirror")  # mirrors search the rectangles too: shade them once per pixel
 
     def set_impostors(program, frame, obj):
         if obj is None:
