@@ -113,6 +113,18 @@ def test_parameters_are_validated(renderer):
             renderer.render(_scene([_ball(), _floor()], size=16), "impostors", **bad)
 
 
+def test_reflections_switch_only_changes_the_glass_entry_reflection(renderer):
+    """``reflections`` (fig. 24f): the Fresnel reflection at the glass entry sees the nearby box, or
+    the environment only; nothing but glass pixels changes."""
+    scene = _scene([_ball(1.5), _box(), _floor()])
+    mask = _glass_mask(renderer, scene)
+    seen = renderer.render(scene, "impostors", reflections=True)
+    environment_only = renderer.render(scene, "impostors", reflections=False)
+    difference = np.abs(seen - environment_only).max(axis=-1)
+    assert difference[~mask].max() == 0.0
+    assert difference[mask].max() > 0.01  # the box's reflection on the ball
+
+
 # impostor-caustics ------------------------------------------------------------------------------
 
 

@@ -99,13 +99,13 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     passes = DepthSearch().build_passes(params)
     shade = passes[-1]
     shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
-                     "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples}
+                     "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples,
+                     "IMPOSTOR_REFLECTIONS": int(params.reflections)}
     shade.frame_defines = impostor_defines  # MAX_IMPOSTORS: the frame's largest group of rectangles
     shade.deferred = ("glass", "mirror")  # mirrors search the rectangles too: shade them once per pixel
 
     def set_impostors(program, frame, obj):
         if obj is None:
-            set_uniform(program, "impostor_reflections", int(params.reflections))
             return
         bind_impostors(program, frame.channels.get("impostors"), world_index(frame, obj), params)
 

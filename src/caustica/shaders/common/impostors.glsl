@@ -15,7 +15,7 @@
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
-//   only) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
+//   only), IMPOSTOR_REFLECTIONS (1; 0: entry reflections see the environment) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
@@ -31,6 +31,9 @@
 #endif
 #ifndef IMPOSTOR_SAMPLES
 #define IMPOSTOR_SAMPLES 8
+#endif
+#ifndef IMPOSTOR_REFLECTIONS
+#define IMPOSTOR_REFLECTIONS 1  // 0: a refractor's entry reflection sees the environment only
 #endif
 #ifndef MAX_PLANES
 #define MAX_PLANES 8
@@ -74,7 +77,6 @@ uniform float impostor_radius[MAX_IMPOSTORS];             // object's bounding r
 uniform sampler2D impostor_texture[MAX_IMPOSTORS];        // rgb radiance, a depth from O along w (0: empty)
 uniform float impostor_tolerance;                         // stop once t moves less than this (scene units)
 uniform float impostor_hit_tolerance;                     // final |depth - texel depth| < this * radius
-uniform int impostor_reflections;                         // 0: the entry reflection sees the environment only
 
 float impostor_depth(int k, vec3 p) { return dot(p - impostor_origin[k], impostor_axis[k]); }
 
@@ -302,10 +304,9 @@ vec3 nearby_cached(vec3 o, vec3 d) {
 vec3 nearby_reflection(vec3 o, vec3 d) {
 #if PHOTON_BUFFER
     return vec3(0.0);
+#elif NEARBY == NEARBY_IMPOSTORS && !IMPOSTOR_REFLECTIONS
+    return environment_radiance(environment, d);  // the entry reflection sees the environment only
 #else
-#if NEARBY == NEARBY_IMPOSTORS
-    if (impostor_reflections == 0) return environment_radiance(environment, d);
-#endif
     vec3 radiance = nearby_radiance(o, d);
     nearby_hit = vec4(0.0);
     nearby_uvk = vec3(0.0);
