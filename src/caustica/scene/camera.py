@@ -61,13 +61,28 @@ class Camera:
         return Camera(self.position, self.look_at, self.up, self.fov_y, self.near, self.far, (width, height))
 
     def view_from_world(self) -> np.ndarray:
-        return look_at_view_from_world(self.position, self.look_at, self.up)
+        return self._matrices()[0]
 
     def clip_from_view(self) -> np.ndarray:
-        return perspective_clip_from_view(self.fov_y, self.aspect, self.near, self.far)
+        return self._matrices()[1]
 
     def clip_from_world(self) -> np.ndarray:
-        return self.clip_from_view() @ self.view_from_world()
+        return self._matrices()[2]
+
+    def _matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(view_from_world, clip_from_view, clip_from_world), read-only, recomputed only when a field
+        changed: the passes of one frame ask for them dozens of times."""
+        key = (self.position.tobytes(), self.look_at.tobytes(), self.up.tobytes(), self.fov_y, self.near,
+               self.far, self.size)
+        cached = self.__dict__.get("_cached_matrices")
+        if cached is None or cached[0] != key:
+            view = look_at_view_from_world(self.position, self.look_at, self.up)
+            clip = perspective_clip_from_view(self.fov_y, self.aspect, self.near, self.far)
+            matrices = (view, clip, clip @ view)
+            for m in matrices:
+                m.flags.writeable = False
+            cached = self.__dict__["_cached_matrices"] = (key, matrices)
+        return cached[1]
 
     def primary_rays(self, spp: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """World-space ray origins and unit directions, (H, W, spp, 3) each, row 0 at the top.
