@@ -1,0 +1,48 @@
+"""Frame time of techniques against env-map, timed in turns in one run.
+
+Each round renders every technique once (after one warm-up frame each); a technique's ratio is
+the median over rounds of its time over env-map's in the same round, so that load on shared
+cores, which drifts over seconds, hits numerator and denominator alike. Prints a markdown table
+with the GL renderer.
+
+    .venv/bin/python bench/bench_frame_ratio.py [--scene glass-sphere] [--size 512] [--spp 1]
+        [--rounds 15] [--techniques image-space,depth-search]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+
+import caustica
+from caustica.renderer import Renderer
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="glass-sphere")
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--spp", type=int, default=1)
+    parser.add_argument("--rounds", type=int, default=15)
+    parser.add_argument("--techniques", default="image-space,depth-search")
+    args = parser.parse_args(argv)
+    scene = caustica.load_scene(args.scene)
+    renderer = Renderer((args.size, args.size))
+    techniques = ["env-map"] + [t.strip() for t in args.techniques.split(",") if t.strip() and t.strip() != "env-map"]
+    for name in techniques:
+        renderer.render(scene, name, args.spp)
+    times = {name: [] for name in techniques}
+    for round_index in range(args.rounds):
+        for name in techniques:
+            times[name].append(renderer.render_timed(scene, name, args.spp)[1])
+        print(f"round {round_index + 1}/{args.rounds}", end="\r", flush=True)
+    print(f"GL renderer: {renderer.info()['renderer']}; {args.scene} at {args.size}x{args.size}, {args.spp} spp, "
+          f"{args.rounds} rounds")
+    print("| technique | ms (median) | ms (fastest) | ratio to env-map (median of rounds) |")
+    print("|---|---|---|---|")
+    for name in techniques:
+        ratio = statistics.median(t / e for t, e in zip(times[name], times["env-map"]))
+        print(f"| {name} | {statistics.median(times[name]):.1f} | {min(times[name]):.1f} | {ratio:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
