@@ -132,3 +132,20 @@ def test_glsl_fresnel_matches_closed_form(renderer, tmp_path):
     assert got[4] == pytest.approx(0.04, abs=1e-6)
     assert got[6] == 1.0  # 45 degrees inside glass is past the critical angle (41.8)
     np.testing.assert_allclose(got, expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("spp", [4, 9])
+def test_supersampled_frames_are_box_filtered_on_the_gpu(spp):
+    """k x k samples per pixel are averaged on the GPU: the same image as the block mean of the
+    full-resolution colour channel."""
+    import caustica
+    from caustica.renderer import Renderer
+    from caustica.techniques.raster import box_downsample, read_rgb
+
+    scene = caustica.load_scene("glass-sphere")
+    keeper = Renderer((40, 30), keep_channels=True)
+    image = keeper.render(scene, "depth-search", spp=spp)
+    full = read_rgb(keeper.channels["color"])
+    k = int(round(spp ** 0.5))
+    assert full.shape == (30 * k, 40 * k, 3)
+    np.testing.assert_allclose(image, box_downsample(full, k), rtol=1e-5, atol=1e-6)

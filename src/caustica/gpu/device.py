@@ -1,6 +1,7 @@
 """GpuDevice: the context and the pools every pass uses (shaders, targets, meshes)."""
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from .context import describe, shared_context
@@ -33,12 +34,19 @@ class GpuDevice:
             h, w = environment.image.shape[:2]
             tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(environment.image, dtype="f4").tobytes(), dtype="f4")
             tex.repeat_x, tex.repeat_y = True, False
-            import moderngl
-
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             entry = (environment.image, tex)
             self._environments[key] = entry
         return entry[1]
+
+    def draw_fullscreen(self, program) -> None:
+        """One triangle over the viewport with ``program``, whose vertex stage makes it from
+        gl_VertexID (passes/fullscreen.vert); its attribute-less vertex array is kept."""
+        key = ("fullscreen", program.glo)
+        vao = self.cache.get(key)
+        if vao is None:
+            vao = self.cache[key] = self.ctx.vertex_array(program, [])
+        vao.render(moderngl.TRIANGLES, vertices=3)
 
     def finish(self) -> None:
         self.ctx.finish()

@@ -153,10 +153,7 @@ def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool 
     set_uniform(program, "axis", np.asarray(axis, "f4"))
     set_uniform(program, "radial", int(radial))
     ctx.disable(moderngl.DEPTH_TEST)
-    vao = gpu.cache.get(("fullscreen", program.glo))
-    if vao is None:
-        vao = gpu.cache[("fullscreen", program.glo)] = ctx.vertex_array(program, [])
-    vao.render(moderngl.TRIANGLES, vertices=3)
+    gpu.draw_fullscreen(program)
     ctx.enable(moderngl.DEPTH_TEST)
     out.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return out

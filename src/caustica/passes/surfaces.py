@@ -173,7 +173,7 @@ class ShadeSurfaces(Pass):
         set_uniform(background, "environment", 0)
         set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
         set_uniform(background, "intensity_scale", float(scene.intensity_scale))
-        _fullscreen(gpu, background).render(moderngl.TRIANGLES, vertices=3)
+        gpu.draw_fullscreen(background)
 
     def _draw_objects(self, frame: Frame, deferring_targets: dict | None = None) -> list:
         """This run's objects over the background, depth tested against what earlier runs drew.
@@ -247,7 +247,7 @@ class ShadeSurfaces(Pass):
         g_buffer.use(g_units[0])
         keys = gpu.shaders.program("passes/fullscreen.vert", "passes/deferred_key.frag")
         set_uniform(keys, "deferred_surface", g_units[0])
-        _fullscreen(gpu, keys).render(moderngl.TRIANGLES, vertices=3)
+        gpu.draw_fullscreen(keys)
 
         resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
         resolve_fbo.use()
@@ -262,7 +262,7 @@ class ShadeSurfaces(Pass):
             _set_deferred_ray_uniforms(program, frame.camera)
             set_uniform(program, "deferred_key", index / 256.0)
             self._set_object_uniforms(frame, program, obj, material)
-            _fullscreen(gpu, program).render(moderngl.TRIANGLES, vertices=3)
+            gpu.draw_fullscreen(program)
         resolve_fbo.depth_mask = True
         ctx.depth_func = "<"
         gpu.targets.give_back(key_depth)
@@ -291,14 +291,6 @@ def _set_deferred_ray_uniforms(program, camera) -> None:
     """What deferred_pixel_ray (common/surface_inputs.glsl) needs to rebuild a pixel's ray."""
     set_uniform(program, "deferred_world_from_clip", np.linalg.inv(camera.clip_from_world()))
     set_uniform(program, "deferred_viewport", np.array(camera.size, "f4"))
-
-
-def _fullscreen(gpu, program):
-    """The attribute-less vertex array of ``program`` (its vertex stage makes the triangle)."""
-    vao = gpu.cache.get(("fullscreen", program.glo))
-    if vao is None:
-        vao = gpu.cache[("fullscreen", program.glo)] = gpu.ctx.vertex_array(program, [])
-    return vao
 
 
 @contextmanager
