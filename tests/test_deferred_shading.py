@@ -82,3 +82,11 @@ def test_deferred_runs_only_where_it_is_asked_for():
     assert surfaces.ShadeSurfaces().deferred == ()
     with pytest.raises(ValueError, match="shared vertex stage"):
         surfaces.ShadeSurfaces("passes/depth_search.frag", vertex="passes/image_space.vert", deferred=("glass",))
+
+
+def test_too_many_glass_objects_are_shaded_per_fragment(renderer, per_fragment, monkeypatch):
+    """Past MAX_DEFERRED glass objects (G-buffer ids) a run shades every object per fragment: the image
+    is the per-fragment one, bit for bit."""
+    monkeypatch.setattr(surfaces, "MAX_DEFERRED", 1)  # the crowded scene has two glass objects
+    scene = crowded_scene()
+    np.testing.assert_array_equal(renderer.render(scene, "depth-search"), per_fragment(renderer, scene, "depth-search"))

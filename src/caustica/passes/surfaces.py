@@ -141,7 +141,10 @@ class ShadeSurfaces(Pass):
             depth = gpu.targets.texture(camera.size, "depth")
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
-        if self.deferred:
+        deferring = bool(self.deferred) and 0 < sum(
+            1 for obj in scene.objects if self.draws(obj) and (self.material_override or obj.material).kind in self.deferred
+        ) <= MAX_DEFERRED  # beyond that many ids, every object is shaded per fragment
+        if deferring:
             # Cleared before the background is drawn: on llvmpipe (Mesa 22.3.6) clearing it right
             # after the background draw lost part of the background (test_deferred_* guards this).
             g_buffer = gpu.targets.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
@@ -152,7 +155,7 @@ class ShadeSurfaces(Pass):
         if self.background:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self._draw_background(frame)
-        if self.deferred:
+        if deferring:
             targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
                        DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
             deferred = self._draw_objects(frame, targets)
@@ -210,7 +213,7 @@ class ShadeSurfaces(Pass):
             for obj, material in drawn:
                 if _variant(material) != (kind, dispersion):
                     continue
-                if kind in self.deferred:
+                if deferring_targets and kind in self.deferred:
                     deferred.append((obj, material, variant_defines))
                     set_uniform(program, "deferred_id", float(len(deferred)))
                 else:
@@ -235,18 +238,16 @@ class ShadeSurfaces(Pass):
         """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
         ids (deferred_key.frag), then one viewport triangle per object at its key, depth test EQUAL."""
         gpu, ctx = frame.gpu, frame.gpu.ctx
-        if len(deferred) > MAX_DEFERRED:
-            raise ValueError(f"deferred shading takes at most {MAX_DEFERRED} objects per run, not {len(deferred)}")
         key_depth = gpu.targets.texture(frame.camera.size, "depth")
-        g_units = (self.FIRST_INPUT_UNIT + len(self.inputs),)
+        g_unit = self.FIRST_INPUT_UNIT + len(self.inputs)  # the free unit after the inputs
         key_fbo = gpu.targets.framebuffer([], key_depth)
         key_fbo.use()
         key_fbo.clear(depth=1.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "1"
-        g_buffer.use(g_units[0])
+        g_buffer.use(g_unit)
         keys = gpu.shaders.program("passes/fullscreen.vert", "passes/deferred_key.frag")
-        set_uniform(keys, "deferred_surface", g_units[0])
+        set_uniform(keys, "deferred_surface", g_unit)
         gpu.draw_fullscreen(keys)
 
         resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
@@ -258,7 +259,7 @@ class ShadeSurfaces(Pass):
             program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
                                           {**variant_defines, "DEFERRED_SHADING": DEFER_RESOLVE})
             self._set_frame_uniforms(frame, program, caustic_maps)
-            set_uniform(program, "deferred_surface", g_units[0])
+            set_uniform(program, "deferred_surface", g_unit)
             _set_deferred_ray_uniforms(program, frame.camera)
             set_uniform(program, "deferred_key", index / 256.0)
             self._set_object_uniforms(frame, program, obj, material)
