@@ -10,7 +10,7 @@ class GpuMesh:
     def __init__(self, ctx, mesh):
         data = np.hstack([mesh.vertices, mesh.normals]).astype("f4")
         self.vbo = ctx.buffer(data.tobytes())
-        self.ibo = ctx.buffer(mesh.faces.astype("i4").tobytes())
+        self.ibo = ctx.buffer(local_face_order(mesh.vertices, mesh.faces).astype("i4").tobytes())
         self.ctx = ctx
         self._arrays: dict[tuple, object] = {}
         self.attributes: dict[str, tuple[object, int]] = {}  # shader input name -> (buffer, components)
@@ -49,6 +49,25 @@ class GpuMesh:
             buffer.release()
         self.vbo.release()
         self.ibo.release()
+
+
+def local_face_order(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces`` sorted along a Morton curve through their centroids, so that consecutive triangles
+    share vertices: a CPU rasterizer shades a vertex once per batch of consecutive indices that uses
+    it (an icosphere's subdivision order made llvmpipe shade each vertex about six times; this order
+    1.5 to 2). The image does not depend on the order of a depth-tested draw."""
+    centroids = vertices[faces].mean(axis=1)
+    low, span = centroids.min(axis=0), np.ptp(centroids, axis=0)
+    cells = ((centroids - low) / np.where(span > 0, span, 1.0) * 1023).astype(np.int64)
+
+    def spread(x):  # the 10 bits of x to every third bit
+        x = (x | x << 16) & 0x030000FF
+        x = (x | x << 8) & 0x0300F00F
+        x = (x | x << 4) & 0x030C30C3
+        return (x | x << 2) & 0x09249249
+
+    codes = spread(cells[:, 0]) | spread(cells[:, 1]) << 1 | spread(cells[:, 2]) << 2
+    return faces[np.argsort(codes, kind="stable")]
 
 
 class MeshCache:
