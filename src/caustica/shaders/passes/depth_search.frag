@@ -12,7 +12,8 @@
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
 // Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
-// INTERNAL_BOUNCES (0: the paper's two interfaces), ASSUME_BACK_FIRST (0/1; compile-time, since
+// INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1),
+// ASSUME_BACK_FIRST (0/1; compile-time, since
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
@@ -20,6 +21,9 @@
 #version 430 core
 #ifndef INTERNAL_BOUNCES
 #define INTERNAL_BOUNCES 0  // our extension: internal reflections followed to further exits (0: the paper)
+#endif
+#ifndef BACK_SECANT
+#define BACK_SECANT 1  // ours: back-face dT starts at d_V and takes secant steps (0: 2.1.3's small start, depth steps)
 #endif
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
@@ -117,9 +121,10 @@ vec4 layer_surface(int layer, vec2 pixel, float depth) {
 }
 
 // 2.1.3: correct dT against a buffer. S (normal N_S) is the surface the buffer holds where
-// P1 + dT T1 projects. Back faces: dT += (|S - E| - |P1 + dT T1 - E|) / (T1 . ray), the depth
-// difference along the pixel ray turned into a step along T1 (|S - P1| where that rate is
-// small). Front faces (steep near the silhouette, where front exits happen), and the nearer
+// P1 + dT T1 projects. Back faces: the gap |S - E| - |P1 + dT T1 - E| along the pixel ray is
+// driven to 0 by dT += gap / slope, the slope T1 . ray (as if the back face were flat; with
+// BACK_SECANT, ours, only the first step, then the secant through the last two steps, which also
+// follows the face's tilt); |S - P1| where the slope is small. Front faces (steep near the silhouette, where front exits happen), and the nearer
 // layer: dT = the distance along T1 to the tangent plane at S. A point that leaves the
 // silhouette steps back halfway to the last point inside and sets `left`. Returns false if
 // no point was inside.
@@ -129,6 +134,7 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
     s2 = vec4(0.0);
     float inside_dt = 0.0;
     bool done = false;
+    float last_dt = 0.0, last_gap = 0.0;  // the previous back-face step (secant)
     for (int i = 0; ; ++i) {
         vec3 q = p1 + dt * t1;
         vec2 pixel;
@@ -147,8 +153,16 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
         float rate = dot(t1, ray);
         vec3 n_s = normalize(s.xyz);
         float next;
+        float gap = s.w - length(q - camera_position);  // back faces: depth gap along the pixel ray
+        // Its rate of change along T1: first the ray's alone (a flat back face), then the secant
+        // through the last two steps, which also follows the surface's slope.
+        float slope = BACK_SECANT != 0 && i > 0 && abs(dt - last_dt) > 1e-9 ? (last_gap - gap) / (dt - last_dt) : rate;
+        if (!(abs(slope) > 0.05)) slope = rate;
+        slope = max(slope, 0.5 * rate);  // steps at most twice the flat-face step: no overshoot off the rim
+        last_dt = dt;
+        last_gap = gap;
         if (tangent_plane && abs(dot(t1, n_s)) > 1e-3) next = dot(sp - p1, n_s) / dot(t1, n_s);
-        else if (!tangent_plane && abs(rate) > 0.05) next = dt + (s.w - length(q - camera_position)) / rate;
+        else if (!tangent_plane && abs(slope) > 0.05) next = dt + gap / slope;
         else next = length(sp - p1);
         if (!(next > 0.0)) next = length(sp - p1);  // also catches NaN
         done = abs(next - dt) < tolerance;
@@ -202,11 +216,17 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     vec2 pix1;
     buffer_pixel(p1, pix1);
     float start = 1e-3 * length(p1 - camera_position);  // the paper's small positive initial dT
+#if BACK_SECANT
+    // Ours: the refractor's thickness along the view ray at P1 (Wyman's d_V, from the back buffer).
+    float first_back = max(surface_at(back_surface, pix1).w - length(p1 - camera_position), start);
+#else
+    float first_back = start;
+#endif
 
     // Decide the exit face: with the section-4 shortcut, iterate on the back faces first and
     // search only where P2 left the silhouette; otherwise search first (2.1.2).
     bool front_exit = false;
-    float dt = start;
+    float dt = first_back;
     vec4 s2;
     bool left = true;
 #if ASSUME_BACK_FIRST
@@ -237,7 +257,7 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         }
 #if !ASSUME_BACK_FIRST
         else {
-            dt = start;
+            dt = first_back;
             found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
         }
 #endif
