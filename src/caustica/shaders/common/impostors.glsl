@@ -113,7 +113,7 @@ vec3 impostor_radiance(int k, vec2 pixel) {
 }
 
 // One rectangle: Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
-bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit) {
+bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit, out vec3 texel_hit) {
     float dw = dot(d, impostor_axis[k]);
     if (abs(dw) < 1e-6) return false;
     float o_depth = impostor_depth(k, o);
@@ -158,6 +158,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
         return false;
     t_hit = t;
     uv_hit = pixel;
+    texel_hit = s.rgb;
     return true;
 }
 
@@ -166,20 +167,25 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     float best = 1e30;
     int hit = -1;
     vec2 hit_pixel = vec2(0.0);
+    vec3 hit_texel = vec3(0.0);
     for (int k = 0; k < MAX_IMPOSTORS; ++k) {  // a constant bound: unrolled, each sampler index fixed
         if (k >= impostor_count) break;
         float t;
         vec2 pixel;
-        if (impostor_intersect(k, o, d, t, pixel) && t < best) { best = t; hit = k; hit_pixel = pixel; }
+        vec3 texel;
+        if (impostor_intersect(k, o, d, t, pixel, texel) && t < best) {
+            best = t; hit = k; hit_pixel = pixel; hit_texel = texel;
+        }
     }
     if (hit < 0) return nearby_miss(d);
+    vec2 uv = hit_pixel / vec2(textureSize(impostor_texture[0], 0));  // every texture is impostor_size square
+#if IMPOSTOR_ITERATIONS == 0
+    vec3 radiance = hit_texel;  // fig. 18c, uncorrected: Prect's texel
+#else
     vec3 radiance = vec3(0.0);
-    vec2 uv = vec2(0.0);
     for (int k = 0; k < MAX_IMPOSTORS; ++k)  // sampler arrays take dynamically uniform indices
-        if (k == hit) {
-            radiance = impostor_radiance(k, hit_pixel);
-            uv = hit_pixel / vec2(textureSize(impostor_texture[k], 0));
-        }
+        if (k == hit) radiance = impostor_radiance(k, hit_pixel);
+#endif
     nearby_hit = vec4(o + best * d, 1.0);
     nearby_uvk = vec3(uv, float(impostor_base + hit + 1));
 #if PHOTON_BUFFER
