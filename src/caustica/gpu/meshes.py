@@ -94,11 +94,19 @@ def mat4_bytes(m: np.ndarray) -> bytes:
     return np.asarray(m, dtype="f4").T.tobytes()
 
 
+def _member(program, name: str):
+    """The program's uniform ``name``, or None (moderngl's ``in`` walks every member)."""
+    try:
+        return program[name]
+    except KeyError:
+        return None
+
+
 def set_uniform(program, name: str, value) -> None:
     """Write a uniform if the program uses it (drivers drop unused ones)."""
-    if name not in program:
+    member = _member(program, name)
+    if member is None:
         return
-    member = program[name]
     if isinstance(value, np.ndarray):
         matrix = value.ndim == 2 and value.shape[0] == value.shape[1] and member.array_length == 1
         dtype = "f4" if value.dtype.kind == "f" else "i4"
@@ -111,5 +119,6 @@ def set_uniform(program, name: str, value) -> None:
 def write_uniform_array(program, name: str, values: np.ndarray) -> None:
     """Write the leading entries of a uniform array if the program uses it (drivers may shorten
     arrays to what a shader reads)."""
-    if name in program:
-        program[name].write(np.ascontiguousarray(values[: max(program[name].array_length, 1)]).tobytes())
+    member = _member(program, name)
+    if member is not None:
+        member.write(np.ascontiguousarray(values[: max(member.array_length, 1)]).tobytes())
