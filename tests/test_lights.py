@@ -50,3 +50,18 @@ def test_point_light_irradiance_is_inverse_square():
     for technique in ("env-map", "exact"):
         centre = Renderer().render(scene, technique)[16, 16]
         assert centre == pytest.approx(np.full(3, 1.0 / np.pi), rel=2e-3), technique
+
+
+def test_state_keys_tell_lights_and_materials_apart():
+    """Per-frame caches (shadow maps, impostor textures, caustic maps) key on state_key: equal for
+    equal values, different when any number changes, hashable."""
+    from caustica.cache import state_key
+    from caustica.scene import Glass, PointLight
+
+    light = PointLight(position=[1.0, 2.0, 3.0], intensity=[5.0, 5.0, 5.0])
+    same = PointLight(position=[1.0, 2.0, 3.0], intensity=[5.0, 5.0, 5.0])
+    moved = PointLight(position=[1.0, 2.0, 3.0 + 1e-12], intensity=[5.0, 5.0, 5.0])
+    assert state_key(light) == state_key(same) and hash(state_key(light)) == hash(state_key(same))
+    assert state_key(light) != state_key(moved)
+    assert state_key(Glass(ior=1.5)) != state_key(Glass(ior=1.5, abbe=40.0))
+    assert {state_key(Glass(ior=1.5)): 1}[state_key(Glass(ior=1.5))] == 1

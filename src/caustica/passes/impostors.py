@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from ..cache import state_key
 from ..gpu.meshes import set_uniform, write_uniform_array
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
@@ -251,7 +252,7 @@ def _impostor_state_key(scene) -> tuple:
     """What impostor textures depend on: geometry, placement, materials, lights, environment."""
     from .lights import _scene_state_key
 
-    return (_scene_state_key(scene), tuple(repr(o.material) for o in scene.objects), id(scene.environment.image),
+    return (_scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), id(scene.environment.image),
             scene.intensity_scale)
 
 

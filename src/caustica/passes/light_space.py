@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from ..cache import state_key
 from ..gpu.meshes import set_uniform
 from ..gpu.shaders import run_compute
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
@@ -548,7 +549,7 @@ class ResolveCausticMaps(Pass):
 
 def material_state_key(scene) -> tuple:
     """What caustic maps depend on beyond shadow maps: every object's material."""
-    return tuple(repr(o.material) for o in scene.objects)
+    return tuple(state_key(o.material) for o in scene.objects)
 
 
 class CachedPasses(Pass):

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from ..cache import state_key
 from ..errors import TechniqueError
 from ..gpu.meshes import set_uniform
 from ..scene.lights import DirectionalLight, SpotLight
@@ -171,7 +172,7 @@ def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int
 
 def _scene_state_key(scene) -> tuple:
     """What shadow maps depend on: lights and object geometry and placement."""
-    parts = [repr(light) for light in scene.lights]
+    parts = [state_key(light) for light in scene.lights]
     for obj in scene.objects:
         parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
     return tuple(parts)
