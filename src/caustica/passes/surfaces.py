@@ -154,7 +154,6 @@ class ShadeSurfaces(Pass):
         environment.use(0)
         if self.background:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            self._draw_background(frame)
         if deferring:
             targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
                        DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
@@ -164,19 +163,27 @@ class ShadeSurfaces(Pass):
             gpu.targets.give_back(g_buffer)
         else:
             self._draw_objects(frame)
+        if self.background:  # after the objects: only where none was drawn
+            fbo.use()
+            self._draw_background(frame)
         frame.write("color", color)
         frame.write("exit_direction", exit_direction)
         frame.write("depth", depth)
 
     def _draw_background(self, frame: Frame) -> None:
-        """The environment through every pixel."""
+        """The environment through every pixel no object covers: a triangle on the far plane, depth
+        tested (not written) after the objects, so that the early depth test skips covered pixels."""
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
-        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<="
+        ctx.fbo.depth_mask = False
         background = gpu.shaders.program("passes/fullscreen.vert", "passes/background.frag")
         set_uniform(background, "environment", 0)
         set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
         set_uniform(background, "intensity_scale", float(scene.intensity_scale))
         gpu.draw_fullscreen(background)
+        ctx.fbo.depth_mask = True
+        ctx.depth_func = "<"
 
     def _draw_objects(self, frame: Frame, deferring_targets: dict | None = None) -> list:
         """This run's objects over the background, depth tested against what earlier runs drew.
