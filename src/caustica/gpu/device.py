@@ -39,14 +39,14 @@ class GpuDevice:
             self._environments[key] = entry
         return entry[1]
 
-    def draw_fullscreen(self, program) -> None:
-        """One triangle over the viewport with ``program``, whose vertex stage makes it from
-        gl_VertexID (passes/fullscreen.vert); its attribute-less vertex array is kept."""
+    def draw_fullscreen(self, program, vertices: int = 3) -> None:
+        """Triangles whose vertex stage makes them from gl_VertexID (passes/fullscreen.vert: one
+        triangle over the viewport) with ``program``; its attribute-less vertex array is kept."""
         key = ("fullscreen", program.glo)
         vao = self.cache.get(key)
         if vao is None:
             vao = self.cache[key] = self.ctx.vertex_array(program, [])
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        vao.render(moderngl.TRIANGLES, vertices=vertices)
 
     def finish(self) -> None:
         self.ctx.finish()

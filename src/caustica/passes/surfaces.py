@@ -269,8 +269,9 @@ class ShadeSurfaces(Pass):
             set_uniform(program, "deferred_surface", g_unit)
             _set_deferred_ray_uniforms(program, frame.camera)
             set_uniform(program, "deferred_key", index / 256.0)
+            set_uniform(program, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
             self._set_object_uniforms(frame, program, obj, material)
-            gpu.draw_fullscreen(program)
+            gpu.draw_fullscreen(program, vertices=6)
         resolve_fbo.depth_mask = True
         ctx.depth_func = "<"
         gpu.targets.give_back(key_depth)
@@ -323,6 +324,18 @@ def culls_back_faces(obj, clip_from_world: np.ndarray) -> bool:
     """Whether ShadeSurfaces culls ``obj``'s back faces seen through ``clip_from_world``."""
     return (obj.mesh.is_solid() and _in_front_of_near_plane(obj.world_mesh().bounds, clip_from_world)
             and np.linalg.det(clip_from_world @ obj.world_from_object()) < 0.0)  # GL's perspective/ortho sign
+
+
+def _screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
+    """The NDC rectangle (x0, y0, x1, y1) covering the box ``bounds`` (2, 3) with a pixel to spare,
+    clamped to the viewport (all of it when the box reaches behind the eye)."""
+    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
+    clip = corners @ np.asarray(camera.clip_from_world(), np.float64).T
+    if np.any(clip[:, 3] <= 1e-9):
+        return np.array([-1.0, -1.0, 1.0, 1.0], "f4")
+    ndc = clip[:, :2] / clip[:, 3:]
+    pixel = 2.0 / np.asarray(camera.size, np.float64)
+    return np.clip(np.concatenate([ndc.min(axis=0) - pixel, ndc.max(axis=0) + pixel]), -1.0, 1.0).astype("f4")
 
 
 def _in_front_of_near_plane(bounds: np.ndarray, clip_from_world: np.ndarray) -> bool:
