@@ -122,3 +122,11 @@ def write_uniform_array(program, name: str, values: np.ndarray) -> None:
     member = _member(program, name)
     if member is not None:
         member.write(np.ascontiguousarray(values[: max(member.array_length, 1)]).tobytes())
+
+
+def bind_samplers(program, names, textures, first_unit: int = 0) -> None:
+    """Bind ``textures`` to consecutive units from ``first_unit`` and point the sampler uniforms
+    ``names`` (in the same order) at them."""
+    for unit, (name, texture) in enumerate(zip(names, textures), start=first_unit):
+        texture.use(unit)
+        set_uniform(program, name, unit)

@@ -42,7 +42,7 @@ import moderngl
 import numpy as np
 
 from ..cache import state_key
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import bind_samplers, set_uniform
 from ..gpu.shaders import run_compute
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .base import Channel, Frame, Pass, run_passes
@@ -536,10 +536,8 @@ class ResolveCausticMaps(Pass):
             texture = ctx.texture(view.atlas_size, 4, dtype="f4")
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             view.bind(program)
-            for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b", "receiver_position", "receiver_normal"),
-                                                   (*flux, *receivers))):
-                tex.use(unit)
-                set_uniform(program, name, unit)
+            bind_samplers(program, ("flux_r", "flux_g", "flux_b", "receiver_position", "receiver_normal"),
+                          (*flux, *receivers))
             texture.bind_to_image(0, read=False, write=True)
             run_compute(program, (view.atlas_size[0] + 7) // 8, (view.atlas_size[1] + 7) // 8)
             ctx.memory_barrier()

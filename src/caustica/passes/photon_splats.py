@@ -22,7 +22,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import bind_samplers, set_uniform
 from .base import Channel, Frame, Pass
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import LightView, bind_views, dispatch_photons
@@ -85,9 +85,7 @@ class RefractFromLight(Pass):
         defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
         program = gpu.shaders.program("passes/image_space.vert", "passes/photon_refract.frag", defines)
         view.bind(program)
-        for unit, (name, tex) in enumerate(zip(("back_position", "back_normal"), back)):
-            tex.use(unit)
-            set_uniform(program, name, unit)
+        bind_samplers(program, ("back_position", "back_normal"), back)
         # Nearest surface per texel: refractors and mirrors make photons, everything else occludes.
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE)  # open meshes (water) are seen from either side
@@ -156,9 +154,7 @@ class LandPhotons(Pass):
             set_uniform(program, "fallback_distance", float(0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0))))
             bind_views(program, [view])
             names = ["photon_flux"] + [f"photon_{kind}{c}" for c in range(channels) for kind in ("origin", "direction")]
-            for unit, (name, tex) in enumerate(zip(names + ["receiver_position"], (*exits, receivers[0]))):
-                tex.use(unit)
-                set_uniform(program, name, unit)
+            bind_samplers(program, names + ["receiver_position"], (*exits, receivers[0]))
             width, height = exits[0].size
             out.append(dispatch_photons(frame, program, (width, height), width * height * channels, initial,
                                         {"channels": channels}))

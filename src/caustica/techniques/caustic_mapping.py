@@ -65,7 +65,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.light_space import (
     CachedPasses,
@@ -173,10 +173,8 @@ class TracePhotons(Pass):
             width, height = caster_view.atlas_size
             bind_views(program, [caster_view, receiver_view])
             textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
-            for unit, (name, tex) in enumerate(zip(("front_position", "front_normal", "back_position", "back_normal",
-                                                    "receiver_position"), textures)):
-                tex.use(unit)
-                set_uniform(program, name, unit)
+            bind_samplers(program, ("front_position", "front_normal", "back_position", "back_normal",
+                                    "receiver_position"), textures)
             out.append(dispatch_photons(frame, program, (width, height), width * height * channels, initial,
                                         {"channels": channels}))
         frame.write(self.channel, out)
