@@ -6,7 +6,7 @@ from contextlib import contextmanager
 import moderngl
 import numpy as np
 
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import bind_samplers, set_uniform
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
@@ -141,12 +141,12 @@ class ShadeSurfaces(Pass):
             depth = gpu.targets.texture(camera.size, "depth")
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
-        deferring = bool(self.deferred) and 0 < sum(
-            1 for obj in scene.objects if self.draws(obj) and (self.material_override or obj.material).kind in self.deferred
-        ) <= MAX_DEFERRED  # beyond that many ids, every object is shaded per fragment
+        drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
+        # Beyond MAX_DEFERRED ids, every object is shaded per fragment.
+        deferring = 0 < sum(1 for _, material in drawn if material.kind in self.deferred) <= MAX_DEFERRED
         if deferring:
-            # Cleared before the background is drawn: on llvmpipe (Mesa 22.3.6) clearing it right
-            # after the background draw lost part of the background (test_deferred_* guards this).
+            # Cleared before anything is drawn: on llvmpipe (Mesa 22.3.6) clearing it right after a
+            # draw into the colour target lost part of that draw (test_deferred_* guards this).
             g_buffer = gpu.targets.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
         fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
@@ -157,12 +157,12 @@ class ShadeSurfaces(Pass):
         if deferring:
             targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
                        DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
-            deferred = self._draw_objects(frame, targets)
+            deferred = self._draw_objects(frame, drawn, targets)
             if deferred:
                 self._resolve_deferred(frame, deferred, color, exit_direction, g_buffer)
             gpu.targets.give_back(g_buffer)
         else:
-            self._draw_objects(frame)
+            self._draw_objects(frame, drawn)
         if self.background:  # after the objects: only where none was drawn
             fbo.use()
             self._draw_background(frame)
@@ -185,8 +185,9 @@ class ShadeSurfaces(Pass):
         ctx.fbo.depth_mask = True
         ctx.depth_func = "<"
 
-    def _draw_objects(self, frame: Frame, deferring_targets: dict | None = None) -> list:
-        """This run's objects over the background, depth tested against what earlier runs drew.
+    def _draw_objects(self, frame: Frame, drawn: list, deferring_targets: dict | None = None) -> list:
+        """This run's objects (``drawn``: (object, material) pairs), depth tested against what earlier
+        runs drew (the background comes after).
 
         Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``;
         returns the deferred (object, material, defines), in G-buffer id order."""
@@ -200,7 +201,6 @@ class ShadeSurfaces(Pass):
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()
-        drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
         # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.
         drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
         # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
@@ -243,7 +243,7 @@ class ShadeSurfaces(Pass):
 
     def _resolve_deferred(self, frame: Frame, deferred: list, color, exit_direction, g_buffer) -> None:
         """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
-        ids (deferred_key.frag), then one viewport triangle per object at its key, depth test EQUAL."""
+        ids (deferred_key.frag), then one screen rectangle per object at its key, depth test EQUAL."""
         gpu, ctx = frame.gpu, frame.gpu.ctx
         key_depth = gpu.targets.texture(frame.camera.size, "depth")
         g_unit = self.FIRST_INPUT_UNIT + len(self.inputs)  # the free unit after the inputs
@@ -280,9 +280,7 @@ class ShadeSurfaces(Pass):
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
         camera, scene = frame.camera, frame.scene
         set_uniform(program, "environment", 0)
-        for unit, name in enumerate(self.inputs, start=self.FIRST_INPUT_UNIT):
-            frame.read(name).use(unit)
-            set_uniform(program, name, unit)
+        bind_samplers(program, self.inputs, [frame.read(name) for name in self.inputs], self.FIRST_INPUT_UNIT)
         set_uniform(program, "camera_position", camera.position.astype("f4"))
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
@@ -326,11 +324,16 @@ def culls_back_faces(obj, clip_from_world: np.ndarray) -> bool:
             and np.linalg.det(clip_from_world @ obj.world_from_object()) < 0.0)  # GL's perspective/ortho sign
 
 
+def _clip_corners(bounds: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
+    """The eight corners of the box ``bounds`` (2, 3) in clip coordinates, (8, 4)."""
+    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
+    return corners @ np.asarray(clip_from_world, np.float64).T
+
+
 def _screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
     """The NDC rectangle (x0, y0, x1, y1) covering the box ``bounds`` (2, 3) with a pixel to spare,
     clamped to the viewport (all of it when the box reaches behind the eye)."""
-    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
-    clip = corners @ np.asarray(camera.clip_from_world(), np.float64).T
+    clip = _clip_corners(bounds, camera.clip_from_world())
     if np.any(clip[:, 3] <= 1e-9):
         return np.array([-1.0, -1.0, 1.0, 1.0], "f4")
     ndc = clip[:, :2] / clip[:, 3:]
@@ -340,8 +343,7 @@ def _screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
 
 def _in_front_of_near_plane(bounds: np.ndarray, clip_from_world: np.ndarray) -> bool:
     """Whether the box ``bounds`` (2, 3) lies wholly beyond the near plane (the eye then lies outside it)."""
-    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
-    clip = corners @ np.asarray(clip_from_world, np.float64).T
+    clip = _clip_corners(bounds, clip_from_world)
     return bool(np.all(clip[:, 3] > 0.0) and np.all(clip[:, 2] > -clip[:, 3]))
 
 

@@ -1,5 +1,5 @@
 // Deferred shading's depth key: each pixel a deferred object holds gets depth id / 256 (exact in
-// float), so that drawing the object's resolve triangle at that depth with an EQUAL test
+// float), so that drawing the object's resolve rectangle at that depth with an EQUAL test
 // passes only its pixels (and a CPU rasterizer skips the rest before shading).
 // Reads deferred_surface (the id is the length of xyz); writes depth only.
 #version 430 core
