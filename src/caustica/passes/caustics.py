@@ -55,7 +55,7 @@ def bind_caustic_maps(program, maps: list, first_unit: int, distance_tolerance: 
     set_uniform(program, "caustic_distance_tolerance", float(distance_tolerance))
 
 
-MAX_CAUSTIC_TILES = 16  # rectangles whose caustic textures one frame can carry
+MAX_CAUSTIC_TILES = 16  # rectangles whose caustic textures one frame can carry (impostor_caustic_filter.comp's texel_area[16])
 
 
 @dataclass

@@ -51,11 +51,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import TechniqueError
-from ..gpu.meshes import set_uniform, write_uniform_array
+from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
 from ..passes.base import Channel, Frame, Pass
 from ..passes.impostors import BuildImpostors, ReleaseImpostors
-from ..passes.caustics import CausticTiles
+from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
 from ..passes.light_space import float_atomics
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
@@ -63,7 +63,6 @@ from .base import check_integers
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes
 
-MAX_TILES = 16
 CELL = 4  # occupancy block size of the flux atlases (texels a side)
 
 
@@ -146,7 +145,7 @@ class CausticTextures(Pass):
     def run(self, frame: Frame) -> None:
         if not float_atomics(frame):
             raise TechniqueError("impostor-caustics needs GL_NV_shader_atomic_float (float image atomics)")
-        impostors = frame.read("impostors").all()[:MAX_TILES]
+        impostors = frame.read("impostors").all()[:MAX_CAUSTIC_TILES]
         size = self.params.caustic_size
         width = size * max(len(impostors), 1)
         flux = [frame.gpu.targets.zeroed((width, size), "r32f") for _ in range(3)]
@@ -198,12 +197,10 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     occupancy, flux_rgb = flux_occupancy(frame, flux)
     out = frame.gpu.targets.zeroed((width, size), "rgba32f")  # blocks with no photon near stay 0
     program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
-    for unit, (name, tex) in enumerate(zip(("flux_rgb", "occupancy"), (flux_rgb, occupancy))):
-        tex.use(unit)
-        set_uniform(program, name, unit)
+    bind_samplers(program, ("flux_rgb", "occupancy"), (flux_rgb, occupancy))
     set_uniform(program, "tile_size", size)
     set_uniform(program, "filter_s", float(s if s is not None else 1.0 / filter_weights(k).sum()))
-    areas = np.ones(MAX_TILES, "f4")
+    areas = np.ones(MAX_CAUSTIC_TILES, "f4")
     areas[: len(texel_areas)] = texel_areas
     write_uniform_array(program, "texel_area", areas)
     out.bind_to_image(0, read=False, write=True)
@@ -221,9 +218,7 @@ def flux_occupancy(frame: Frame, flux):
     occupancy = frame.gpu.targets.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
     flux_rgb = frame.gpu.targets.texture((width, height), "rgba32f")
     program = frame.gpu.shaders.compute("passes/impostor_caustic_occupancy.comp", {"CELL": CELL})
-    for unit, (name, tex) in enumerate(zip(("flux_r", "flux_g", "flux_b"), flux)):
-        tex.use(unit)
-        set_uniform(program, name, unit)
+    bind_samplers(program, ("flux_r", "flux_g", "flux_b"), flux)
     occupancy.bind_to_image(0, read=False, write=True)
     flux_rgb.bind_to_image(1, read=False, write=True)
     run_compute(program, (occupancy.size[0] + 7) // 8, (occupancy.size[1] + 7) // 8)
@@ -243,7 +238,7 @@ class CausticTilesOnReceivers(Pass):
         self.params = params
 
     def run(self, frame: Frame) -> None:
-        impostors = frame.read("impostors").all()[:MAX_TILES]
+        impostors = frame.read("impostors").all()[:MAX_CAUSTIC_TILES]
         world = frame.read("impostors").world or frame.scene
         atlas = frame.read("caustic_textures")
         tiles = CausticTiles(atlas, self.params.caustic_size,
@@ -264,17 +259,8 @@ class ReleaseCausticInputs(Pass):
     reads = ("impostor_photons",)
 
     def run(self, frame: Frame) -> None:
-        give_back_pooled(frame.gpu.targets, [v for v in _flat(frame.read("impostor_photons"))
-                                             if not hasattr(v, "view_from_world")])
+        give_back_pooled(frame.gpu.targets, frame.read("impostor_photons"))  # pooled textures only
         frame.channels["impostor_photons"] = []
-
-
-def _flat(value):
-    if isinstance(value, (list, tuple)):
-        for item in value:
-            yield from _flat(item)
-    elif value is not None:
-        yield value
 
 
 class ImpostorCaustics(CausticTechnique):
