@@ -113,16 +113,27 @@ def test_parameters_are_validated(renderer):
             renderer.render(_scene([_ball(), _floor()], size=16), "impostors", **bad)
 
 
-def test_reflections_switch_only_changes_the_glass_entry_reflection(renderer):
-    """``reflections`` (fig. 24f): the Fresnel reflection at the glass entry sees the nearby box, or
-    the environment only; nothing but glass pixels changes."""
-    scene = _scene([_ball(1.5), _box(), _floor()])
-    mask = _glass_mask(renderer, scene)
+def test_reflections_switch_only_changes_reflected_rays(renderer):
+    """``reflections`` (fig. 24f): the Fresnel reflection at the glass entry and the mirror's reflected
+    rays see the nearby box, or the environment only, as in depth-search (stage (a)); nothing but glass
+    and mirror pixels changes."""
+    def scene_with(material):
+        mirror = SceneObject("mirror", sphere(0.35, 5), material, Transform(position=[-0.9, 0.4, 0.2]))
+        return _scene([_ball(1.5), _box(), mirror, _floor()])
+
+    scene = scene_with(Mirror(color=[0.9, 0.9, 0.9]))
+    glass = _glass_mask(renderer, scene)
+    reflectors = _glass_mask(renderer, scene_with(Glass(ior=1.5)))  # the mirror ball made glass: its pixels too
+    mirror_pixels = reflectors & ~glass
+    assert mirror_pixels.sum() > 200
     seen = renderer.render(scene, "impostors", reflections=True)
     environment_only = renderer.render(scene, "impostors", reflections=False)
     difference = np.abs(seen - environment_only).max(axis=-1)
-    assert difference[~mask].max() == 0.0
-    assert difference[mask].max() > 0.01  # the box's reflection on the ball
+    assert difference[~reflectors].max() == 0.0
+    assert difference[glass].max() > 0.01  # the box's reflection on the ball
+    assert difference[mirror_pixels].max() > 0.01  # the ball and the box in the mirror
+    plain = renderer.render(scene, "depth-search")
+    assert np.abs(environment_only - plain).max(axis=-1)[mirror_pixels].max() < 1e-5
 
 
 # impostor-caustics ------------------------------------------------------------------------------

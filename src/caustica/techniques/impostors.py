@@ -11,9 +11,9 @@ For each reflector/refractor R (glass or mirror) and each other object k
 2. Recursion (2.2.1, fig. 1b, 24g): when k is itself a reflector, TEX_k is
    rendered with this technique, its own impostors seen from its centre,
    ``depth`` levels down; at the last level it reflects and refracts the environment.
-3. The camera view (depth-search, 2.1): T2 leaving a refractor, a mirror's
-   reflected ray and the Fresnel reflection at a refractor's entry
-   (``reflections``) meet every rectangle (``shaders/common/impostors.glsl``):
+3. The camera view (depth-search, 2.1): T2 leaving a refractor and, with
+   ``reflections`` (fig. 24f), a mirror's reflected ray and the Fresnel
+   reflection at a refractor's entry meet every rectangle (``shaders/common/impostors.glsl``):
    Prect; the initial-point rule of 2.2.2 over ``initial_samples`` points of
    the ray inside the object's depth slab (the first whose depth lies beyond
    its selected point's, else the one closest to it); ``impostor_iterations``
@@ -33,8 +33,9 @@ parts of each other, go wrong); a ray that misses a rectangle misses its object
 (fig. 17, ``rect_offset`` moves rectangles towards R); recursive images are
 distorted; two interfaces per refractor (depth-search's limits). Ours: the
 parallel projection is a pinhole ``distance_factor`` radii away (<= 1.1 degrees
-from parallel at 50); textures are rebuilt every frame (no caching of static scenes,
-as in the paper's timings); impostor textures do not show caustics.
+from parallel at 50); the textures are kept across frames until an object, material,
+light or the environment changes (2.2.1: they need updating only when objects move);
+impostor textures do not show caustics.
 """
 from __future__ import annotations
 
@@ -70,7 +71,7 @@ class ImpostorParams(DepthSearchParams):
     rect_offset: float = 0.0  # rectangles moved towards the reflector by this many radii (fig. 17 RECT'_k)
     distance_factor: float = 50.0  # the parallel projection's pinhole, in bounding radii behind the rectangle
     max_impostors: int = MAX_IMPOSTORS  # nearest objects per reflector
-    reflections: bool = True  # the refractor's Fresnel reflection sees the impostors too (fig. 24f)
+    reflections: bool = True  # reflected rays (mirrors, glass entry) see the impostors (fig. 24f); False: the environment
     write_hits: bool = False  # exit_direction holds the nearby hit point (xyz, w = 1) instead (tests)
 
     def __post_init__(self):
@@ -102,7 +103,9 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
                      "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples,
                      "IMPOSTOR_REFLECTIONS": int(params.reflections)}
     shade.frame_defines = impostor_defines  # MAX_IMPOSTORS: the frame's largest group of rectangles
-    shade.deferred = ("glass", "mirror")  # mirrors search the rectangles too: shade them once per pixel
+    # Mirrors that search the rectangles are shaded once per pixel too; without reflections they
+    # see the environment, as in depth-search, and stay per-fragment.
+    shade.deferred = ("glass", "mirror") if params.reflections else ("glass",)
 
     def set_impostors(program, frame, obj):
         if obj is None:

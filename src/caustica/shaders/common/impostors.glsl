@@ -15,7 +15,7 @@
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
-//   only), IMPOSTOR_REFLECTIONS (1; 0: entry reflections see the environment) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
+//   only), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
@@ -33,7 +33,7 @@
 #define IMPOSTOR_SAMPLES 8
 #endif
 #ifndef IMPOSTOR_REFLECTIONS
-#define IMPOSTOR_REFLECTIONS 1  // 0: a refractor's entry reflection sees the environment only
+#define IMPOSTOR_REFLECTIONS 1  // 0: reflected rays (mirrors, refractors' entry) see the environment only
 #endif
 #ifndef MAX_PLANES
 #define MAX_PLANES 8
@@ -50,6 +50,9 @@
 #define NEARBY_SEARCH_LINEAR 3
 #define NEARBY_SEARCH_BINARY 4
 #define NEARBY_SEARCH_SECANT 5
+// Whether mirrors look up nearby geometry (the shading shaders then redirect their environment
+// lookup to nearby_mirror_radiance): with any nearby option, except impostors without reflections.
+#define NEARBY_MIRRORS (NEARBY != NEARBY_NONE && !(NEARBY == NEARBY_IMPOSTORS && !IMPOSTOR_REFLECTIONS))
 
 // The last hit of nearby_radiance: world point (w = 1; 0: none) and, for impostors, (u, v, global index + 1).
 vec4 nearby_hit = vec4(0.0);
@@ -89,9 +92,9 @@ bool impostor_pixel(int k, vec3 p, out vec2 pixel) {
     return all(greaterThanEqual(uv, vec2(0.0))) && all(lessThan(uv, vec2(1.0)));
 }
 
-// The texel (nearest) under p: radiance and depth, vec4(0) where empty or outside.
-vec4 impostor_texel(int k, vec3 p) {
-    vec2 pixel;
+// The texel (nearest) under p, radiance and depth (vec4(0) where empty or outside), and p's
+// continuous texel position: one projection per point.
+vec4 impostor_texel(int k, vec3 p, out vec2 pixel) {
     if (!impostor_pixel(k, p, pixel)) return vec4(0.0);
     return texelFetch(impostor_texture[k], ivec2(pixel), 0);
 }
@@ -113,6 +116,7 @@ vec3 impostor_radiance(int k, vec2 pixel) {
 }
 
 // One rectangle: Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
+// (t, pixel, s) is always the current point along the ray, its texel position and its texel.
 bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit, out vec3 texel_hit) {
     float dw = dot(d, impostor_axis[k]);
     if (abs(dw) < 1e-6) return false;
@@ -121,39 +125,42 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit,
     float t = (impostor_depth(k, impostor_center[k]) - o_depth) / dw;
     vec2 pixel;
     if (t <= 0.0 || !impostor_pixel(k, o + t * d, pixel)) return false;
+    vec4 s = texelFetch(impostor_texture[k], ivec2(pixel), 0);
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.
 #if IMPOSTOR_SAMPLES > 0 && IMPOSTOR_ITERATIONS > 0
     {
         float t0 = (impostor_slab[k].x - o_depth) / dw, t1 = (impostor_slab[k].y - o_depth) / dw;
         float lo = max(min(t0, t1), 0.0), hi = max(t0, t1);
-        vec4 s = impostor_texel(k, o + t * d);
         float best_gap = s.a > 0.0 ? abs(o_depth + t * dw - s.a) : 1e30;
         for (int j = 0; j < IMPOSTOR_SAMPLES && hi > lo; ++j) {
             float tj = mix(lo, hi, (float(j) + 0.5) / float(IMPOSTOR_SAMPLES));
-            vec4 sj = impostor_texel(k, o + tj * d);
+            vec2 pj;
+            vec4 sj = impostor_texel(k, o + tj * d, pj);
             if (sj.a <= 0.0) continue;
             float gap = o_depth + tj * dw - sj.a;
-            if (gap > 0.0) { t = tj; break; }
-            if (-gap < best_gap) { best_gap = -gap; t = tj; }
+            if (gap > 0.0) { t = tj; pixel = pj; s = sj; break; }
+            if (-gap < best_gap) { best_gap = -gap; t = tj; pixel = pj; s = sj; }
         }
     }
 #endif
-    // Iterate: move along the ray to the depth the texel under the point holds.
+    // Iterate: move along the ray to the depth the texel under the point holds; a point that
+    // lands off the object goes back to the last one on it.
     float last = -1.0;
+    vec2 last_pixel = pixel;
+    vec4 last_s = s;
     for (int i = 0; i < IMPOSTOR_ITERATIONS; ++i) {
-        vec4 s = impostor_texel(k, o + t * d);
         if (s.a <= 0.0) break;
-        last = t;
+        last = t; last_pixel = pixel; last_s = s;
         float next = (s.a - o_depth) / dw;
         if (!(next > 0.0)) break;
         bool done = abs(next - t) < impostor_tolerance;
         t = next;
+        s = impostor_texel(k, o + t * d, pixel);
         if (done) break;
     }
-    vec4 s = impostor_texel(k, o + t * d);
-    if (s.a <= 0.0 && last > 0.0) { t = last; s = impostor_texel(k, o + t * d); }
-    if (s.a <= 0.0 || !impostor_pixel(k, o + t * d, pixel)) return false;
+    if (s.a <= 0.0 && last > 0.0) { t = last; pixel = last_pixel; s = last_s; }
+    if (s.a <= 0.0) return false;
     if (IMPOSTOR_ITERATIONS > 0 && abs(o_depth + t * dw - s.a) > impostor_hit_tolerance * impostor_radius[k])
         return false;
     t_hit = t;

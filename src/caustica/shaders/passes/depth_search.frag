@@ -304,7 +304,7 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     return result;
 }
 
-#if NEARBY
+#if NEARBY_MIRRORS
 #define environment_radiance(env, dir) nearby_mirror_radiance(dir)  // mirrors see nearby geometry too
 #endif
 
