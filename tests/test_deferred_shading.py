@@ -89,3 +89,29 @@ def test_too_many_glass_objects_are_shaded_per_fragment(renderer, per_fragment, 
     monkeypatch.setattr(surfaces, "MAX_DEFERRED", 1)  # the crowded scene has two glass objects
     scene = crowded_scene()
     np.testing.assert_array_equal(renderer.render(scene, "depth-search"), per_fragment(renderer, scene, "depth-search"))
+
+
+@pytest.mark.parametrize("inside", [False, True])
+def test_front_surface_from_the_gbuffer_equals_its_own_pass(monkeypatch, inside):
+    """depth-search's front-surface buffer comes from the glass G-buffer draw (glass drawn first, a
+    box in front of a ball): it equals RefractorSurfaces' separate front pass (per-object draws that
+    one), and the image is unchanged. From inside the ball (back faces not culled) the run draws the
+    separate pass itself."""
+    from caustica.renderer import Renderer
+    from caustica.techniques.raster import read_rgba
+
+    camera = Camera(position=[-0.3, 0.5, 0.1], look_at=[-0.3, 0.5, -1.0], fov_y=60.0, size=SIZE) if inside else None
+    scene = crowded_scene(camera)
+    drawn_apart = []
+    original = surfaces.refractor_surfaces
+    monkeypatch.setattr(surfaces, "refractor_surfaces",
+                        lambda frame, face, *rest: drawn_apart.append(face) or original(frame, face, *rest))
+    renderer = Renderer(keep_channels=True)
+    fused = renderer.render(scene, "depth-search")
+    fused_front = read_rgba(renderer.channels["front_surface"])
+    assert drawn_apart == (["back", "front"] if inside else ["back"])
+    separate = renderer.render(scene, "per-object")  # depth-search for every object, its own front pass
+    separate_front = read_rgba(renderer.channels["front_surface"])
+    assert (fused_front[..., 3] > 0).sum() > 500
+    np.testing.assert_array_equal(fused_front, separate_front)
+    np.testing.assert_array_equal(fused, separate)

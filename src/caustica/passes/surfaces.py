@@ -37,12 +37,17 @@ class RefractorSurfaces(Pass):
                                f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)"),)
 
     def run(self, frame: Frame) -> None:
-        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
-        set_uniform(program, "origin", frame.camera.position.astype("f4"))
         objects = frame.scene.objects_of("glass")
         if self.absorbing_only:
             objects = [o for o in objects if np.any(o.material.absorption_coefficient > 0)]
-        frame.write(self.channel, draw_refractor_buffer(frame, program, "rgba32f", self.face, self.order, objects))
+        frame.write(self.channel, refractor_surfaces(frame, self.face, self.order, objects))
+
+
+def refractor_surfaces(frame: Frame, face: str, order: str, objects) -> object:
+    """RefractorSurfaces' buffer of ``objects``: outward world normal and eye distance per pixel."""
+    program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/surface_normal_distance.frag")
+    set_uniform(program, "origin", frame.camera.position.astype("f4"))
+    return draw_refractor_buffer(frame, program, "rgba32f", face, order, objects)
 
 
 def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest",
@@ -91,7 +96,7 @@ class ShadeSurfaces(Pass):
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
                  tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None,
-                 deferred: tuple[str, ...] = ()):
+                 deferred: tuple[str, ...] = (), captures_front_surface: bool = False):
         """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
         sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
         stage (it writes world_position and world_normal as the shared one does).
@@ -104,7 +109,10 @@ class ShadeSurfaces(Pass):
         ``deferred``: material kinds shaded after every object is drawn, once per visible pixel from a
         G-buffer (common/surface_inputs.glsl), instead of per fragment of small triangles: for costly
         shaders on a CPU rasterizer, which shades each triangle's partly covered pixel blocks whole.
-        Needs the shared vertex stage and a free input unit."""
+        Needs the shared vertex stage and a free input unit. ``captures_front_surface``: this run
+        writes the ``front_surface`` input itself (RefractorSurfaces' nearest front faces), from the
+        glass draw of the G-buffer when it can (glass deferred and drawn first, every refractor a
+        culled solid drawn by this run: one draw of each refractor fewer), else by drawing that buffer first."""
         if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
             raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
         self.fragment, self.vertex = fragment, vertex
@@ -120,8 +128,15 @@ class ShadeSurfaces(Pass):
         if self.deferred and (vertex != "common/mesh_vertex.glsl"
                               or len(inputs) + 1 > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT):
             raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
-        targets = () if self.background else tuple(c.name for c in self.writes)
-        self.reads = ("light_samples", "shadow_maps") + self.inputs + targets
+        self.captures_front_surface = bool(captures_front_surface)
+        if self.captures_front_surface and ("front_surface" not in self.inputs or "glass" not in self.deferred):
+            raise ValueError("captures_front_surface needs 'front_surface' among the inputs and glass deferred")
+        targets = () if self.background else tuple(c.name for c in ShadeSurfaces.writes)
+        own = ("front_surface",) if self.captures_front_surface else ()
+        self.reads = ("light_samples", "shadow_maps") + tuple(i for i in self.inputs if i not in own) + targets
+        if own:
+            self.writes = ShadeSurfaces.writes + (Channel("front_surface", "rgba32f", "nearest front-facing refractor "
+                                                          "surface: outward world normal xyz, eye distance w (0: none)"),)
 
     @property
     def label(self) -> str:
@@ -144,6 +159,16 @@ class ShadeSurfaces(Pass):
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
         # Beyond MAX_DEFERRED ids, every object is shaded per fragment.
         deferring = 0 < sum(1 for _, material in drawn if material.kind in self.deferred) <= MAX_DEFERRED
+        front = None  # the front-surface buffer the glass G-buffer draw fills (captures_front_surface)
+        if self.captures_front_surface:
+            glass = scene.objects_of("glass")
+            clip_from_world = camera.clip_from_world()
+            if (deferring and self.material_override is None and all(self.draws(o) for o in glass)
+                    and all(culls_back_faces(o, clip_from_world) for o in glass)):
+                front = gpu.targets.zeroed(camera.size, "rgba32f")
+                frame.write("front_surface", front)
+            else:
+                frame.write("front_surface", refractor_surfaces(frame, "front", "nearest", glass))
         if deferring:
             # Cleared before anything is drawn: on llvmpipe (Mesa 22.3.6) clearing it right after a
             # draw into the colour target lost part of that draw (test_deferred_* guards this).
@@ -157,6 +182,8 @@ class ShadeSurfaces(Pass):
         if deferring:
             targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
                        DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
+            if front is not None:  # glass G-buffer draws also write the front-surface buffer
+                targets["glass"] = gpu.targets.framebuffer([g_buffer, front], depth)
             deferred = self._draw_objects(frame, drawn, targets)
             if deferred:
                 self._resolve_deferred(frame, deferred, color, exit_direction, g_buffer)
@@ -206,14 +233,22 @@ class ShadeSurfaces(Pass):
         # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
         # rasterizers pay for every side of a branch, even one on a uniform.
         variants = sorted({_variant(material) for _, material in drawn})
+        capturing = bool(deferring_targets) and "glass" in deferring_targets
+        if capturing:  # glass first: the front-surface buffer must hold the refractors alone
+            variants.sort(key=lambda variant: variant[0] != "glass")
         deferred = []  # (object, material, variant defines) in G-buffer id order
         for kind, dispersion in variants:
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion)}
+            program_defines = variant_defines
             if deferring_targets:
                 mode = DEFER_GBUFFER if kind in self.deferred else DEFER_SHADE_NOW
                 variant_defines["DEFERRED_SHADING"] = mode
-                deferring_targets[mode].use()
-            program = gpu.shaders.program(self.vertex, self.fragment, variant_defines)
+                if capturing and kind == "glass":
+                    program_defines = {**variant_defines, "CAPTURE_FRONT_SURFACE": 1}
+                    deferring_targets["glass"].use()
+                else:
+                    deferring_targets[mode].use()
+            program = gpu.shaders.program(self.vertex, self.fragment, program_defines)
             self._set_frame_uniforms(frame, program, caustic_maps)
             if deferring_targets:
                 _set_deferred_ray_uniforms(program, camera)

@@ -55,7 +55,9 @@ P2) is written to output location 1. ``internal_bounces`` and
 ``assume_back_first`` are compile-time switches (shader variants): llvmpipe
 runs both sides of every branch. Glass is shaded deferred (ShadeSurfaces'
 ``deferred``), once per visible pixel rather than per fragment of the mesh's
-small triangles.
+small triangles; the front-face buffer is written by that G-buffer draw of the
+glass (drawn before the other objects), which saves drawing every refractor
+once more (``captures_front_surface``; a separate pass where it cannot).
 
 Limits: two interfaces (more with ``internal_bounces``); P2 found in screen
 space, so it is only as exact as the buffers' resolution and it must lie inside
@@ -139,10 +141,11 @@ class DepthSearch(RasterTechnique):
                    "BACK_SECANT": int(params.back_iteration == "secant")}
         return [
             ShadowMaps(params.shadow_map_size),
-            RefractorSurfaces("front", "nearest"),
             RefractorSurfaces("back", "farthest"),
             *nearby.passes,
+            # The front-surface buffer comes from the glass G-buffer draw (captures_front_surface).
             ShadeSurfaces("passes/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
-                          set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",)),
+                          set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",),
+                          captures_front_surface=True),
         ]

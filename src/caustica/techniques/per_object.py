@@ -141,6 +141,9 @@ class PerObject(RasterTechnique):
         for technique in order:
             passes = get_technique(technique).build_passes(params.params_for(technique))
             at = next(i for i, p in enumerate(passes) if isinstance(p, ShadeSurfaces))
+            if passes[at].captures_front_surface:  # restricted runs cannot: the buffer is drawn beforehand
+                passes.insert(at, RefractorSurfaces("front", "nearest"))
+                at += 1
             for stage in passes[:at]:  # each channel made once: the techniques' buffers are alike
                 key = tuple(c.name for c in stage.writes)
                 if isinstance(stage, RefractorSurfaces) and stage.absorbing_only:

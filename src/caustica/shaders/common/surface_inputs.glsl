@@ -35,6 +35,9 @@ uniform float intensity_scale;
 #define DEFER_SHADE_NOW 1
 #define DEFER_GBUFFER 2
 #define DEFER_RESOLVE 3
+#ifndef CAPTURE_FRONT_SURFACE
+#define CAPTURE_FRONT_SURFACE 0  // 1: a glass G-buffer draw also writes the front-surface buffer (ShadeSurfaces)
+#endif
 #ifndef DEFERRED_SHADING
 #define DEFERRED_SHADING DEFER_NONE
 #endif
@@ -63,6 +66,9 @@ in vec3 world_normal;
 #if DEFERRED_SHADING == DEFER_GBUFFER
 layout(location = 0) out vec4 deferred_surface_out;
 uniform float deferred_id;  // this object's id in the G-buffer (1, 2, ...)
+#if CAPTURE_FRONT_SURFACE
+layout(location = 1) out vec4 front_surface_out;  // RefractorSurfaces' front buffer, written by the glass G-buffer draw
+#endif
 vec4 color;
 vec4 exit_direction;
 #else

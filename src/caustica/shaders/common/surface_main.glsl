@@ -30,6 +30,9 @@ void main() {
     vec3 ray_origin, ray_direction;
     deferred_pixel_ray(ray_origin, ray_direction);
     deferred_surface_out = vec4(n * deferred_id, length(world_position - ray_origin));
+#if CAPTURE_FRONT_SURFACE
+    front_surface_out = vec4(normalize(world_normal), length(world_position - camera_position));  // as surface_normal_distance.frag
+#endif
     return;
 #endif
     int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
