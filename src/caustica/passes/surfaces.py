@@ -32,15 +32,20 @@ class RefractorSurfaces(Pass):
         if face not in ("front", "back") or order not in ("nearest", "farthest"):
             raise ValueError("face must be 'front' or 'back', order 'nearest' or 'farthest'")
         self.face, self.order, self.absorbing_only = face, order, absorbing_only
-        self.channel = f"{face}_surface"
-        self.writes = (Channel(self.channel, "rgba32f",
-                               f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)"),)
+        self.writes = (refractor_channel(face, order),)
+        self.channel = self.writes[0].name
 
     def run(self, frame: Frame) -> None:
         objects = frame.scene.objects_of("glass")
         if self.absorbing_only:
             objects = [o for o in objects if np.any(o.material.absorption_coefficient > 0)]
         frame.write(self.channel, refractor_surfaces(frame, self.face, self.order, objects))
+
+
+def refractor_channel(face: str, order: str) -> Channel:
+    """The channel a refractor buffer is written to (RefractorSurfaces, ShadeSurfaces' captured front faces)."""
+    return Channel(f"{face}_surface", "rgba32f",
+                   f"{order} {face}-facing refractor surface: outward world normal xyz, eye distance w (0: none)")
 
 
 def refractor_surfaces(frame: Frame, face: str, order: str, objects) -> object:
@@ -135,8 +140,7 @@ class ShadeSurfaces(Pass):
         own = ("front_surface",) if self.captures_front_surface else ()
         self.reads = ("light_samples", "shadow_maps") + tuple(i for i in self.inputs if i not in own) + targets
         if own:
-            self.writes = ShadeSurfaces.writes + (Channel("front_surface", "rgba32f", "nearest front-facing refractor "
-                                                          "surface: outward world normal xyz, eye distance w (0: none)"),)
+            self.writes = ShadeSurfaces.writes + (refractor_channel("front", "nearest"),)
 
     @property
     def label(self) -> str:
