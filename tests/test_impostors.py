@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 import caustica.metrics
-from caustica.errors import TechniqueError
+from caustica.errors import SceneError, TechniqueError
 from caustica.raytrace.embree_scene import ray_scene_for
+from caustica.passes.impostors import MAX_IMPOSTORS, atlas_cell, atlas_grid
 from caustica.raytrace.paths import follow_refraction
 from caustica.scene import Camera, Glass, Scene, SceneObject, procedural_environment
 from caustica.scene.lights import PointLight
@@ -111,6 +112,27 @@ def test_parameters_are_validated(renderer):
     for bad in ({"depth": -1}, {"impostor_iterations": 1.5}, {"rect_offset": 2.0}, {"nearby": "planes"}):
         with pytest.raises(TechniqueError):
             renderer.render(_scene([_ball(), _floor()], size=16), "impostors", **bad)
+
+
+def test_atlas_squares_are_disjoint_and_inside_the_atlas():
+    for count in range(1, MAX_IMPOSTORS + 1):
+        columns, rows = atlas_grid(count)
+        cells = {atlas_cell(k, count, 64) for k in range(count)}
+        assert len(cells) == count and columns * rows >= count and rows <= columns
+        assert all(0 <= x <= (columns - 1) * 64 and 0 <= y <= (rows - 1) * 64 and x % 64 == y % 64 == 0 for x, y in cells)
+
+
+def test_atlas_beyond_the_texture_limit_is_a_scene_error(renderer):
+    scene = _scene([_ball(), _box(), _floor(), SceneObject("box2", box((0.3, 0.3, 0.3)), Diffuse(color=[0.2, 0.8, 0.2]),
+                                                             Transform(position=[-0.9, 0.15, 0.2]))], size=16)
+    info = renderer.device.info
+    limit = info["max_texture_size"]
+    info["max_texture_size"] = 1024  # three rectangles of 1024 texels need a 2048-texel atlas
+    try:
+        with pytest.raises(SceneError, match="impostor_size 1024 with 3 rectangles"):
+            renderer.render(scene, "impostors", impostor_size=1024)
+    finally:
+        info["max_texture_size"] = limit
 
 
 def test_reflections_switch_only_changes_reflected_rays(renderer):

@@ -30,14 +30,15 @@ import moderngl
 import numpy as np
 
 from ..cache import state_key
+from ..errors import SceneError
 from ..gpu.meshes import set_uniform, write_uniform_array
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
 from .surfaces import ShadeSurfaces
 
-MAX_IMPOSTORS = 8  # rectangles per reflector (texture units 24..31)
+MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
 MAX_PLANES = 8
-FIRST_IMPOSTOR_UNIT = 24  # after ShadeSurfaces' environment, inputs, shadow and caustic maps
+IMPOSTOR_UNIT = 24  # the atlas: after ShadeSurfaces' environment, inputs, shadow and caustic maps
 NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
 
 
@@ -55,10 +56,8 @@ class Impostor:
     slab: tuple[float, float]  # object's depth range from origin along axis
     camera: object  # OffscreenCamera of the texture
     planar: bool
-    texture: object = None  # rgba32f: radiance rgb, depth from origin along axis (0: empty)
-
-    def pooled(self):
-        return [self.texture]
+    texture: object = None  # the reflector's atlas, rgba32f: radiance rgb, depth from origin along axis (0: empty)
+    cell: tuple[int, int] = (0, 0)  # texel offset of this rectangle's square in the atlas
 
     def texel_area(self, resolution: int) -> float:
         """Area on the rectangle of one texel of a ``resolution``-square texture over it (scene units squared)."""
@@ -75,7 +74,8 @@ class ImpostorSet:
     cached: bool = False  # kept across frames in the device cache: ReleaseImpostors leaves it alone
 
     def pooled(self):
-        return [imp.texture for group in self.by_reflector.values() for imp in group]
+        """The atlases, one per reflector."""
+        return list({id(group[0].texture): group[0].texture for group in self.by_reflector.values() if group}.values())
 
     def all(self) -> list[Impostor]:
         return [imp for group in self.by_reflector.values() for imp in group]
@@ -137,13 +137,14 @@ def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect
     return Impostor(index, rect_center, axis, half_u, half_v, radius, origin, slab, camera, plane is not None)
 
 
-def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool = False):
-    """Radiance + depth (along ``axis`` from ``origin``, or the distance from it) in one pooled rgba32f texture."""
+def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool = False, into=None):
+    """Radiance + depth (along ``axis`` from ``origin``, or the distance from it) in one pooled rgba32f
+    texture, or in the square at texel offset ``cell`` of ``atlas`` with ``into=(atlas, cell)``."""
     gpu, ctx = frame.gpu, frame.gpu.ctx
-    out = gpu.targets.texture(camera.size, "rgba32f")
+    out, cell = into if into is not None else (gpu.targets.texture(camera.size, "rgba32f"), (0, 0))
     fbo = gpu.targets.framebuffer([out])
     fbo.use()
-    fbo.viewport = (0, 0, *camera.size)
+    fbo.viewport = (*cell, *camera.size)
     program = gpu.shaders.program("passes/fullscreen.vert", "passes/impostor_pack.frag")
     color.use(0)
     depth.use(1)
@@ -153,6 +154,7 @@ def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool 
     set_uniform(program, "origin", np.asarray(origin, "f4"))
     set_uniform(program, "axis", np.asarray(axis, "f4"))
     set_uniform(program, "radial", int(radial))
+    set_uniform(program, "cell", np.asarray(cell, "i4"))
     ctx.disable(moderngl.DEPTH_TEST)
     gpu.draw_fullscreen(program)
     ctx.enable(moderngl.DEPTH_TEST)
@@ -204,12 +206,12 @@ class BuildImpostors(Pass):
             reflector_center, _ = object_sphere(reflector)
             others = sorted((i for i in range(len(world.objects)) if i != r),
                             key=lambda i: np.linalg.norm(object_sphere(world.objects[i])[0] - reflector_center))
-            group = []
-            for i in others[: self.max_impostors]:
-                impostor = make_impostor(reflector_center, world.objects[i], i, self.size, self.rect_offset,
-                                         self.distance_factor)
-                impostor.texture = self.render_texture(frame, world, impostor)
-                group.append(impostor)
+            group = [make_impostor(reflector_center, world.objects[i], i, self.size, self.rect_offset,
+                                   self.distance_factor) for i in others[: self.max_impostors]]
+            atlas = self.make_atlas(frame, len(group))
+            for k, impostor in enumerate(group):
+                impostor.texture, impostor.cell = atlas, atlas_cell(k, len(group), self.size)
+                self.render_texture(frame, world, impostor)
             result.by_reflector[r] = group
             result.base[r] = base
             base += len(group)
@@ -219,17 +221,40 @@ class BuildImpostors(Pass):
             frame.gpu.cache[key] = result
         frame.write("impostors", result)
 
-    def render_texture(self, frame: Frame, world, impostor: Impostor):
-        """TEX_k: the object alone through the impostor's camera, packed with its depth along the axis."""
+    def make_atlas(self, frame: Frame, count: int):
+        """One zeroed rgba32f texture holding a reflector's ``count`` impostor squares (atlas_cell)."""
+        columns, rows = atlas_grid(count)
+        width, height = columns * self.size, rows * self.size
+        limit = frame.gpu.max_texture_size
+        if max(width, height) > limit:
+            raise SceneError(f"impostor_size {self.size} with {count} rectangles needs a {width}x{height} atlas, "
+                             f"above this GL's limit of {limit}; lower impostor_size or max_impostors")
+        return frame.gpu.targets.zeroed((width, height), "rgba32f")
+
+    def render_texture(self, frame: Frame, world, impostor: Impostor) -> None:
+        """TEX_k: the object alone through the impostor's camera, packed with its depth along the axis
+        into its square of the atlas."""
         obj = world.objects[impostor.index]
         depth = self.depth if obj.material.kind in ("glass", "mirror") else 0
         frame.channels.setdefault("impostor_world", world)
         kept = render_offscreen(frame, scene_subset(world, [impostor.index]), impostor.camera,
                                 self.texture_passes(depth), keep=("color", "depth"), share=("impostor_world",))
-        texture = pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis)
+        pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
+                     into=(impostor.texture, impostor.cell))
         for value in kept.values():
             frame.gpu.targets.give_back(value)
-        return texture
+
+
+def atlas_grid(count: int) -> tuple[int, int]:
+    """Columns and rows of an atlas of ``count`` squares: as near a square as whole rows allow."""
+    columns = max(1, int(np.ceil(np.sqrt(count))))
+    return columns, max(1, -(-count // columns))
+
+
+def atlas_cell(k: int, count: int, size: int) -> tuple[int, int]:
+    """Texel offset of square ``k`` in the atlas of ``count`` squares of ``size`` texels."""
+    columns, _ = atlas_grid(count)
+    return (k % columns) * size, (k // columns) * size
 
 
 class ReleaseImpostors(Pass):
@@ -257,7 +282,7 @@ def _impostor_state_key(scene) -> tuple:
 
 
 def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None, params) -> None:
-    """Set impostors.glsl's uniforms for one reflector (world index) and bind its textures from unit 24."""
+    """Set impostors.glsl's uniforms for one reflector (world index) and bind its atlas to unit 24."""
     group = [] if impostors is None or reflector is None else impostors.by_reflector.get(reflector, [])
     set_uniform(program, "impostor_count", len(group))
     set_uniform(program, "impostor_base", 0 if not group else int(impostors.base[reflector]))
@@ -269,19 +294,20 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
     clips = np.tile(np.eye(4, dtype="f4"), (n, 1, 1))
     vec = {name: np.zeros((n, 3), "f4") for name in ("origin", "axis", "center")}
     slab, radius = np.zeros((n, 2), "f4"), np.ones(n, "f4")
-    units = np.full(n, FIRST_IMPOSTOR_UNIT, "i4")
+    cells = np.zeros((n, 2), "i4")
     for k, imp in enumerate(group):
         clips[k] = imp.camera.clip_from_world().T
         vec["origin"][k], vec["axis"][k], vec["center"][k] = imp.origin, imp.axis, imp.center
-        slab[k], radius[k] = imp.slab, imp.radius
-        imp.texture.use(FIRST_IMPOSTOR_UNIT + k)
-        units[k] = FIRST_IMPOSTOR_UNIT + k
+        slab[k], radius[k], cells[k] = imp.slab, imp.radius, imp.cell
+    group[0].texture.use(IMPOSTOR_UNIT)
+    set_uniform(program, "impostor_atlas", IMPOSTOR_UNIT)
+    set_uniform(program, "impostor_size", int(group[0].camera.size[0]))
+    write_uniform_array(program, "impostor_cell", cells)
     write_uniform_array(program, "impostor_clip_from_world", clips)
     for name, values in vec.items():
         write_uniform_array(program, f"impostor_{name}", values)
     write_uniform_array(program, "impostor_slab", slab)
     write_uniform_array(program, "impostor_radius", radius)
-    write_uniform_array(program, "impostor_texture", units)
 
 
 def impostor_defines(frame: Frame) -> dict:

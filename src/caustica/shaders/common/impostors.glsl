@@ -5,7 +5,9 @@
 //     reflector's centre towards the object's centre; the ray meets the rectangle at Prect, the
 //     initial-point rule of 2.2.2 picks a seed among points along the ray, the iterative lookup
 //     of fig. 15-16 moves the point along the ray to the depth its texel holds; the nearest
-//     rectangle hit wins; rays that hit none see the environment.
+//     rectangle hit wins; rays that hit none see the environment. A reflector's textures are
+//     squares of one atlas, so a rectangle is a run-time index: uncorrected (fig. 18c), only
+//     the rectangles whose Prect lies on their texture fetch a texel.
 //   NEARBY_PLANES (Wyman, "intersecting T2 with other geometry"): a few diffuse rectangles
 //     intersected exactly and shaded like every diffuse receiver (lights, shadows, SH ambient).
 //   NEARBY_SEARCH_* (Wyman [Wyman05b, Policarpo05, Szirmay-Kalos05]): image-space search along
@@ -15,7 +17,7 @@
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
-//   only), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and sampler indices are fixed (a CPU rasterizer runs
+//   only), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
@@ -77,7 +79,9 @@ uniform vec3 impostor_axis[MAX_IMPOSTORS];                // w: reflector centre
 uniform vec3 impostor_center[MAX_IMPOSTORS];              // rectangle centre (its plane is perpendicular to w)
 uniform vec2 impostor_slab[MAX_IMPOSTORS];                // object's depth range from O along w
 uniform float impostor_radius[MAX_IMPOSTORS];             // object's bounding radius
-uniform sampler2D impostor_texture[MAX_IMPOSTORS];        // rgb radiance, a depth from O along w (0: empty)
+uniform sampler2D impostor_atlas;                         // rgb radiance, a depth from O along w (0: empty)
+uniform ivec2 impostor_cell[MAX_IMPOSTORS];               // texel offset of each rectangle's square in the atlas
+uniform int impostor_size;                                // texels a side of each square
 uniform float impostor_tolerance;                         // stop once t moves less than this (scene units)
 uniform float impostor_hit_tolerance;                     // final |depth - texel depth| < this * radius
 
@@ -88,7 +92,7 @@ bool impostor_pixel(int k, vec3 p, out vec2 pixel) {
     vec4 clip = impostor_clip_from_world[k] * vec4(p, 1.0);
     if (clip.w <= 1e-8) return false;
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-    pixel = uv * vec2(textureSize(impostor_texture[k], 0));
+    pixel = uv * float(impostor_size);
     return all(greaterThanEqual(uv, vec2(0.0))) && all(lessThan(uv, vec2(1.0)));
 }
 
@@ -96,36 +100,42 @@ bool impostor_pixel(int k, vec3 p, out vec2 pixel) {
 // continuous texel position: one projection per point.
 vec4 impostor_texel(int k, vec3 p, out vec2 pixel) {
     if (!impostor_pixel(k, p, pixel)) return vec4(0.0);
-    return texelFetch(impostor_texture[k], ivec2(pixel), 0);
+    return texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
 }
 
 // Radiance at a continuous texel position: bilinear over the neighbours that hold the object.
 vec3 impostor_radiance(int k, vec2 pixel) {
-    ivec2 size = textureSize(impostor_texture[k], 0);
+    ivec2 size = ivec2(impostor_size);
     vec2 x = pixel - 0.5;
     vec2 base = floor(x), f = x - base;
     vec3 sum = vec3(0.0);
     float weight = 0.0;
     for (int j = 0; j <= 1; ++j)
         for (int i = 0; i <= 1; ++i) {
-            vec4 s = texelFetch(impostor_texture[k], clamp(ivec2(base) + ivec2(i, j), ivec2(0), size - 1), 0);
+            vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + clamp(ivec2(base) + ivec2(i, j), ivec2(0), size - 1), 0);
             float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
             if (s.a > 0.0) { sum += w * s.rgb; weight += w; }
         }
-    return weight > 0.0 ? sum / weight : texelFetch(impostor_texture[k], ivec2(pixel), 0).rgb;
+    return weight > 0.0 ? sum / weight : texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0).rgb;
+}
+
+// Prect: where the ray meets rectangle k (t along it, pixel on its texture); false when it
+// misses the texture, and so (the paper's assumption) the object.
+bool impostor_prect(int k, vec3 o, vec3 d, out float t, out vec2 pixel) {
+    float dw = dot(d, impostor_axis[k]);
+    t = abs(dw) < 1e-6 ? -1.0 : (impostor_depth(k, impostor_center[k]) - impostor_depth(k, o)) / dw;
+    return t > 0.0 && impostor_pixel(k, o + t * d, pixel);
 }
 
 // One rectangle: Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
 // (t, pixel, s) is always the current point along the ray, its texel position and its texel.
 bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit, out vec3 texel_hit) {
-    float dw = dot(d, impostor_axis[k]);
-    if (abs(dw) < 1e-6) return false;
-    float o_depth = impostor_depth(k, o);
-    // Prect: the ray meets the rectangle, or (the paper's assumption) it misses the object.
-    float t = (impostor_depth(k, impostor_center[k]) - o_depth) / dw;
+    float t;
     vec2 pixel;
-    if (t <= 0.0 || !impostor_pixel(k, o + t * d, pixel)) return false;
-    vec4 s = texelFetch(impostor_texture[k], ivec2(pixel), 0);
+    if (!impostor_prect(k, o, d, t, pixel)) return false;
+    float dw = dot(d, impostor_axis[k]);
+    float o_depth = impostor_depth(k, o);
+    vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.
 #if IMPOSTOR_SAMPLES > 0 && IMPOSTOR_ITERATIONS > 0
@@ -175,7 +185,27 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     int hit = -1;
     vec2 hit_pixel = vec2(0.0);
     vec3 hit_texel = vec3(0.0);
-    for (int k = 0; k < MAX_IMPOSTORS; ++k) {  // a constant bound: unrolled, each sampler index fixed
+#if IMPOSTOR_ITERATIONS == 0
+    // Uncorrected (fig. 18c): Prect's texel. Every Prect first, then a fetch only for the
+    // rectangles whose texture Prect lies on: a CPU rasterizer runs a branch's fetch for every
+    // pixel, but a loop only as often as its busiest pixel needs.
+    float prect_t[MAX_IMPOSTORS];
+    vec2 prect_pixel[MAX_IMPOSTORS];
+    int on_texture = 0;  // bit k: Prect lies on rectangle k's texture
+    for (int k = 0; k < MAX_IMPOSTORS; ++k) {  // a constant bound: unrolled, constant uniform indices
+        if (k >= impostor_count) break;
+        if (impostor_prect(k, o, d, prect_t[k], prect_pixel[k])) on_texture |= 1 << k;
+    }
+    while (on_texture != 0) {
+        int k = findLSB(on_texture);
+        on_texture &= on_texture - 1;
+        vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + ivec2(prect_pixel[k]), 0);
+        if (s.a > 0.0 && prect_t[k] < best) {
+            best = prect_t[k]; hit = k; hit_pixel = prect_pixel[k]; hit_texel = s.rgb;
+        }
+    }
+#else
+    for (int k = 0; k < MAX_IMPOSTORS; ++k) {  // a constant bound: unrolled, constant uniform indices
         if (k >= impostor_count) break;
         float t;
         vec2 pixel;
@@ -184,14 +214,13 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
             best = t; hit = k; hit_pixel = pixel; hit_texel = texel;
         }
     }
+#endif
     if (hit < 0) return nearby_miss(d);
-    vec2 uv = hit_pixel / vec2(textureSize(impostor_texture[0], 0));  // every texture is impostor_size square
+    vec2 uv = hit_pixel / float(impostor_size);
 #if IMPOSTOR_ITERATIONS == 0
-    vec3 radiance = hit_texel;  // fig. 18c, uncorrected: Prect's texel
+    vec3 radiance = hit_texel;
 #else
-    vec3 radiance = vec3(0.0);
-    for (int k = 0; k < MAX_IMPOSTORS; ++k)  // sampler arrays take dynamically uniform indices
-        if (k == hit) radiance = impostor_radiance(k, hit_pixel);
+    vec3 radiance = impostor_radiance(hit, hit_pixel);
 #endif
     nearby_hit = vec4(o + best * d, 1.0);
     nearby_uvk = vec3(uv, float(impostor_base + hit + 1));
