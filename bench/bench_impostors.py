@@ -5,19 +5,23 @@ Stages (``caustica.scene.presets_impostors.FIG24_STAGES``) on the ``tvcg-fig24``
 buffer), (e) + 256^2 photon buffer, (f) + reflection of nearby geometry, (g) + recursion (depth 1).
 The paper's ratios to (a): 2.1, 2.6, 4.7, 5.3, 6.5, 9.0. Prints a markdown table.
 
-    .venv/bin/python bench/bench_impostors.py [--size 512] [--frames 3] [--rounds 3] [--reference-spp 256] [--no-reference]
+    .venv/bin/python bench/bench_impostors.py [--size 512] [--pairs 5] [--rounds 5] [--reference-spp 256] [--no-reference]
 
-Each round times every stage in turn (a warm-up frame, then the median of ``--frames``); a stage's
-ratio is the median over rounds of its time over stage (a)'s in the same round, so that load on
-the shared cores, which drifts over seconds, hits numerator and denominator alike.
+Each round visits every stage (b)-(g) in turn: a warm-up frame (it rebuilds the impostor textures
+when the previous stage kept other ones), then ``--pairs`` pairs of one stage-(a) frame and one
+frame of the stage, alternating which comes first. A stage's ratio is the median over all its pairs
+of frame time over the paired (a) frame's, with a 95% bootstrap interval: load on the shared cores
+drifts over seconds and hits both frames of a pair alike, which a ratio of separately timed
+medians does not cancel.
 """
 from __future__ import annotations
 
 import argparse
 import statistics
 
+import numpy as np
+
 from caustica.bench.compare import reference_image
-from caustica.bench.timing import timed_render
 from caustica.metrics import psnr_linear, relmse
 from caustica.renderer import Renderer
 from caustica.scene.presets import PRESETS
@@ -29,8 +33,8 @@ PAPER_RATIOS = {"a": 1.0, "b": 2.1, "c": 2.6, "d": 4.7, "e": 5.3, "f": 6.5, "g":
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
-    parser.add_argument("--frames", type=int, default=3)
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--pairs", type=int, default=5, help="(a, stage) frame pairs per stage and round")
+    parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--reference-spp", type=int, default=256)
     parser.add_argument("--no-reference", action="store_true", help="timings only")
     args = parser.parse_args(argv)
@@ -41,25 +45,45 @@ def main(argv=None) -> None:
         reference, description = reference_image(scene, size, args.reference_spp)
         print(f"reference: {description}")
     renderer = Renderer(size)
+    base_technique, base_params = FIG24_STAGES["a"]
     times = {stage: [] for stage in FIG24_STAGES}
-    images = {}
+    ratios = {stage: [] for stage in FIG24_STAGES}
+    images = {"a": renderer.render(scene, base_technique, 1, **base_params)}
     for _ in range(max(1, args.rounds)):
         for stage, (technique, params) in FIG24_STAGES.items():
-            images[stage], ms = timed_render(renderer, scene, technique, 1, args.frames, params)
-            times[stage].append(ms)
+            if stage == "a":
+                continue
+            images[stage] = renderer.render(scene, technique, 1, **params)  # warm-up
+            for pair in range(max(1, args.pairs)):
+                order = ((base_technique, base_params), (technique, params))
+                timed = [renderer.render_timed(scene, t, 1, **p)[1] for t, p in (order if pair % 2 == 0 else order[::-1])]
+                base_ms, stage_ms = timed if pair % 2 == 0 else timed[::-1]
+                times["a"].append(base_ms)
+                times[stage].append(stage_ms)
+                ratios[stage].append(stage_ms / base_ms)
     rows = []
     for stage, (technique, params) in FIG24_STAGES.items():
-        ratio = statistics.median(t / a for t, a in zip(times[stage], times["a"]))
+        ratio, low, high = (1.0, 1.0, 1.0) if stage == "a" else median_interval(ratios[stage])
         quality = ("-", "-") if reference is None else (f"{psnr_linear(images[stage], reference):.2f}",
                                                         f"{relmse(images[stage], reference):.4f}")
-        rows.append((stage, technique, params, statistics.median(times[stage]), ratio, PAPER_RATIOS[stage], *quality))
+        rows.append((stage, technique, params, statistics.median(times[stage]), ratio, low, high, PAPER_RATIOS[stage],
+                     *quality))
     print(f"GL renderer: {renderer.info()['renderer']}, {args.size}x{args.size}, 1 spp, {args.rounds} rounds of "
-          f"{args.frames} frames (ms: median over rounds; ratio: median of each round's ratio)")
-    print("| stage | technique | parameters | ms/frame | ratio to (a) | paper's ratio | PSNR dB | relMSE |")
-    print("|---|---|---|---|---|---|---|---|")
-    for stage, technique, params, ms, ratio, paper, psnr, rel in rows:
+          f"{args.pairs} (a, stage) pairs (ms: median frame; ratio: median of pair ratios, 95% bootstrap interval)")
+    print("| stage | technique | parameters | ms/frame | ratio to (a) | 95% interval | paper's ratio | PSNR dB | relMSE |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for stage, technique, params, ms, ratio, low, high, paper, psnr, rel in rows:
         settings = ", ".join(f"{k}={v}" for k, v in params.items()) or "-"
-        print(f"| {stage} | {technique} | {settings} | {ms:.1f} | {ratio:.2f} | {paper:.1f} | {psnr} | {rel} |")
+        print(f"| {stage} | {technique} | {settings} | {ms:.1f} | {ratio:.3f} | {low:.3f}-{high:.3f} | {paper:.1f} "
+              f"| {psnr} | {rel} |")
+
+
+def median_interval(samples, resamples: int = 2000, seed: int = 0) -> tuple[float, float, float]:
+    """Median of ``samples`` and its 95% percentile-bootstrap interval."""
+    values = np.asarray(samples, np.float64)
+    rng = np.random.default_rng(seed)
+    medians = np.median(values[rng.integers(0, len(values), (resamples, len(values)))], axis=1)
+    return float(np.median(values)), float(np.percentile(medians, 2.5)), float(np.percentile(medians, 97.5))
 
 
 if __name__ == "__main__":
