@@ -115,11 +115,14 @@ def test_parameters_are_validated(renderer):
 
 
 def test_atlas_squares_are_disjoint_and_inside_the_atlas():
-    for count in range(1, MAX_IMPOSTORS + 1):
-        columns, rows = atlas_grid(count)
-        cells = {atlas_cell(k, count, 64) for k in range(count)}
-        assert len(cells) == count and columns * rows >= count and rows <= columns
-        assert all(0 <= x <= (columns - 1) * 64 and 0 <= y <= (rows - 1) * 64 and x % 64 == y % 64 == 0 for x, y in cells)
+    for limit in (4096, 256):  # one row of 64-texel squares fits, or it does not
+        for count in range(1, MAX_IMPOSTORS + 1):
+            columns, rows = atlas_grid(count, 64, limit)
+            cells = {atlas_cell(k, columns, 64) for k in range(count)}
+            assert len(cells) == count and columns * rows >= count and rows <= columns
+            assert rows == 1 if count * 64 <= limit else columns * 64 <= limit
+            assert all(0 <= x <= (columns - 1) * 64 and 0 <= y <= (rows - 1) * 64 and x % 64 == y % 64 == 0
+                       for x, y in cells)
 
 
 def test_atlas_beyond_the_texture_limit_is_a_scene_error(renderer):

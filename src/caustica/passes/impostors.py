@@ -210,7 +210,8 @@ class BuildImpostors(Pass):
                                    self.distance_factor) for i in others[: self.max_impostors]]
             atlas = self.make_atlas(frame, len(group))
             for k, impostor in enumerate(group):
-                impostor.texture, impostor.cell = atlas, atlas_cell(k, len(group), self.size)
+                impostor.texture = atlas
+                impostor.cell = atlas_cell(k, atlas.size[0] // self.size, self.size)
                 self.render_texture(frame, world, impostor)
             result.by_reflector[r] = group
             result.base[r] = base
@@ -223,9 +224,9 @@ class BuildImpostors(Pass):
 
     def make_atlas(self, frame: Frame, count: int):
         """One zeroed rgba32f texture holding a reflector's ``count`` impostor squares (atlas_cell)."""
-        columns, rows = atlas_grid(count)
-        width, height = columns * self.size, rows * self.size
         limit = frame.gpu.max_texture_size
+        columns, rows = atlas_grid(count, self.size, limit)
+        width, height = columns * self.size, rows * self.size
         if max(width, height) > limit:
             raise SceneError(f"impostor_size {self.size} with {count} rectangles needs a {width}x{height} atlas, "
                              f"above this GL's limit of {limit}; lower impostor_size or max_impostors")
@@ -245,15 +246,16 @@ class BuildImpostors(Pass):
             frame.gpu.targets.give_back(value)
 
 
-def atlas_grid(count: int) -> tuple[int, int]:
-    """Columns and rows of an atlas of ``count`` squares: as near a square as whole rows allow."""
-    columns = max(1, int(np.ceil(np.sqrt(count))))
+def atlas_grid(count: int, size: int, limit: int) -> tuple[int, int]:
+    """Columns and rows of an atlas of ``count`` squares of ``size`` texels: one row when it fits
+    under the texture ``limit`` (no cell unused), else as near a square as whole rows allow."""
+    columns = count if count * size <= limit else int(np.ceil(np.sqrt(count)))
+    columns = max(1, columns)
     return columns, max(1, -(-count // columns))
 
 
-def atlas_cell(k: int, count: int, size: int) -> tuple[int, int]:
-    """Texel offset of square ``k`` in the atlas of ``count`` squares of ``size`` texels."""
-    columns, _ = atlas_grid(count)
+def atlas_cell(k: int, columns: int, size: int) -> tuple[int, int]:
+    """Texel offset of square ``k`` in an atlas of ``columns`` squares of ``size`` texels a row."""
     return (k % columns) * size, (k // columns) * size
 
 
