@@ -138,6 +138,17 @@ def test_atlas_beyond_the_texture_limit_is_a_scene_error(renderer):
         info["max_texture_size"] = limit
 
 
+def test_rebuilt_impostors_give_back_their_atlases(renderer):
+    """Each rebuild (here: the ball moves) returns the old atlases to the pool, a lone reflector's included."""
+    for others in ([], [_box(), _floor()]):
+        lent = []
+        for x in (0.0, 0.1, 0.2):
+            scene = _scene([_ball(position=(x, 0.7, 0.8)), *others], size=16)
+            renderer.render(scene, "impostors")
+            lent.append(len(renderer.device.targets._lent))
+        assert lent[1] == lent[2], (len(others), lent)
+
+
 def test_reflections_switch_only_changes_reflected_rays(renderer):
     """``reflections`` (fig. 24f): the Fresnel reflection at the glass entry and the mirror's reflected
     rays see the nearby box, or the environment only, as in depth-search (stage (a)); nothing but glass

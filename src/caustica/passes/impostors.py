@@ -74,8 +74,8 @@ class ImpostorSet:
     cached: bool = False  # kept across frames in the device cache: ReleaseImpostors leaves it alone
 
     def pooled(self):
-        """The atlases, one per reflector."""
-        return list({id(group[0].texture): group[0].texture for group in self.by_reflector.values() if group}.values())
+        """The atlases, one per reflector that has rectangles."""
+        return [group[0].texture for group in self.by_reflector.values() if group]
 
     def all(self) -> list[Impostor]:
         return [imp for group in self.by_reflector.values() for imp in group]
@@ -208,7 +208,7 @@ class BuildImpostors(Pass):
                             key=lambda i: np.linalg.norm(object_sphere(world.objects[i])[0] - reflector_center))
             group = [make_impostor(reflector_center, world.objects[i], i, self.size, self.rect_offset,
                                    self.distance_factor) for i in others[: self.max_impostors]]
-            atlas = self.make_atlas(frame, len(group))
+            atlas = self.make_atlas(frame, len(group)) if group else None  # a reflector alone has none
             for k, impostor in enumerate(group):
                 impostor.texture = atlas
                 impostor.cell = atlas_cell(k, atlas.size[0] // self.size, self.size)
@@ -247,11 +247,10 @@ class BuildImpostors(Pass):
 
 
 def atlas_grid(count: int, size: int, limit: int) -> tuple[int, int]:
-    """Columns and rows of an atlas of ``count`` squares of ``size`` texels: one row when it fits
+    """Columns and rows of an atlas of ``count`` (>= 1) squares of ``size`` texels: one row when it fits
     under the texture ``limit`` (no cell unused), else as near a square as whole rows allow."""
     columns = count if count * size <= limit else int(np.ceil(np.sqrt(count)))
-    columns = max(1, columns)
-    return columns, max(1, -(-count // columns))
+    return columns, -(-count // columns)
 
 
 def atlas_cell(k: int, columns: int, size: int) -> tuple[int, int]:
