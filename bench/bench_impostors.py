@@ -54,13 +54,13 @@ def main(argv=None) -> None:
             if stage == "a":
                 continue
             images[stage] = renderer.render(scene, technique, 1, **params)  # warm-up
+            runs = {"a": (base_technique, base_params), stage: (technique, params)}
             for pair in range(max(1, args.pairs)):
-                order = ((base_technique, base_params), (technique, params))
-                timed = [renderer.render_timed(scene, t, 1, **p)[1] for t, p in (order if pair % 2 == 0 else order[::-1])]
-                base_ms, stage_ms = timed if pair % 2 == 0 else timed[::-1]
-                times["a"].append(base_ms)
-                times[stage].append(stage_ms)
-                ratios[stage].append(stage_ms / base_ms)
+                ms = {}
+                for name in (("a", stage) if pair % 2 == 0 else (stage, "a")):
+                    ms[name] = renderer.render_timed(scene, runs[name][0], 1, **runs[name][1])[1]
+                    times[name].append(ms[name])
+                ratios[stage].append(ms[stage] / ms["a"])
     rows = []
     for stage, (technique, params) in FIG24_STAGES.items():
         ratio, low, high = (1.0, 1.0, 1.0) if stage == "a" else median_interval(ratios[stage])

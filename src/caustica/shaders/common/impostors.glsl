@@ -127,9 +127,10 @@ bool impostor_prect(int k, vec3 o, vec3 d, out float t, out vec2 pixel) {
     return t > 0.0 && impostor_pixel(k, o + t * d, pixel);
 }
 
-// One rectangle: Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
+// One rectangle, corrected (IMPOSTOR_ITERATIONS > 0; uncorrected lookups stop at Prect in
+// nearby_radiance): Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
 // (t, pixel, s) is always the current point along the ray, its texel position and its texel.
-bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit, out vec3 texel_hit) {
+bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit) {
     float t;
     vec2 pixel;
     if (!impostor_prect(k, o, d, t, pixel)) return false;
@@ -138,7 +139,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit,
     vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.
-#if IMPOSTOR_SAMPLES > 0 && IMPOSTOR_ITERATIONS > 0
+#if IMPOSTOR_SAMPLES > 0
     {
         float t0 = (impostor_slab[k].x - o_depth) / dw, t1 = (impostor_slab[k].y - o_depth) / dw;
         float lo = max(min(t0, t1), 0.0), hi = max(t0, t1);
@@ -171,11 +172,9 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit,
     }
     if (s.a <= 0.0 && last > 0.0) { t = last; pixel = last_pixel; s = last_s; }
     if (s.a <= 0.0) return false;
-    if (IMPOSTOR_ITERATIONS > 0 && abs(o_depth + t * dw - s.a) > impostor_hit_tolerance * impostor_radius[k])
-        return false;
+    if (abs(o_depth + t * dw - s.a) > impostor_hit_tolerance * impostor_radius[k]) return false;
     t_hit = t;
     uv_hit = pixel;
-    texel_hit = s.rgb;
     return true;
 }
 
@@ -209,9 +208,8 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
         if (k >= impostor_count) break;
         float t;
         vec2 pixel;
-        vec3 texel;
-        if (impostor_intersect(k, o, d, t, pixel, texel) && t < best) {
-            best = t; hit = k; hit_pixel = pixel; hit_texel = texel;
+        if (impostor_intersect(k, o, d, t, pixel) && t < best) {
+            best = t; hit = k; hit_pixel = pixel;
         }
     }
 #endif
