@@ -101,7 +101,7 @@ class ShadeSurfaces(Pass):
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
                  tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None,
-                 deferred: tuple[str, ...] = (), captures_front_surface: bool = False):
+                 deferred: tuple[str, ...] = (), captures_front_surface: bool = False, staged: tuple[str, ...] = ()):
         """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
         sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
         stage (it writes world_position and world_normal as the shared one does).
@@ -117,7 +117,11 @@ class ShadeSurfaces(Pass):
         Needs the shared vertex stage and a free input unit. ``captures_front_surface``: this run
         writes the ``front_surface`` input itself (RefractorSurfaces' nearest front faces), from the
         glass draw of the G-buffer when it can (glass deferred and drawn first, every refractor a
-        culled solid drawn by this run: one draw of each refractor fewer), else by drawing that buffer first."""
+        culled solid drawn by this run: one draw of each refractor fewer), else by drawing that buffer first.
+        ``staged``: deferred kinds resolved in two stages. The first (DEFER_STAGE 1) shades every pixel
+        and flags those that need a costlier path (``deferred_refine``); the second (DEFER_STAGE 2)
+        shades the flagged pixels alone, keyed in the depth buffer: a CPU rasterizer runs a branch that
+        no pixel of its vector takes, but skips every pixel that fails an early depth test."""
         if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
             raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
         self.fragment, self.vertex = fragment, vertex
@@ -130,6 +134,7 @@ class ShadeSurfaces(Pass):
         self.tag = tag
         self.frame_defines = frame_defines
         self.deferred = tuple(deferred)
+        self.staged = tuple(staged)
         if self.deferred and (vertex != "common/mesh_vertex.glsl"
                               or len(inputs) + 1 > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT):
             raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
@@ -282,7 +287,8 @@ class ShadeSurfaces(Pass):
 
     def _resolve_deferred(self, frame: Frame, deferred: list, color, exit_direction, g_buffer) -> None:
         """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
-        ids (deferred_key.frag), then one screen rectangle per object at its key, depth test EQUAL."""
+        ids (deferred_key.frag), then one screen rectangle per object at its key, depth test EQUAL.
+        Objects of a ``staged`` kind flag pixels for a second stage (_resolve_second_stage)."""
         gpu, ctx = frame.gpu, frame.gpu.ctx
         key_depth = gpu.targets.texture(frame.camera.size, "depth")
         g_unit = self.FIRST_INPUT_UNIT + len(self.inputs)  # the free unit after the inputs
@@ -297,23 +303,60 @@ class ShadeSurfaces(Pass):
         gpu.draw_fullscreen(keys)
 
         resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
-        resolve_fbo.use()
-        resolve_fbo.depth_mask = False
+        staged = [(index, obj, material, variant_defines)
+                  for index, (obj, material, variant_defines) in enumerate(deferred, start=1)
+                  if material.kind in self.staged]
+        refine = gpu.targets.zeroed(frame.camera.size, "r32f") if staged else None  # stage-1 flags: the key
         ctx.depth_func = "=="
-        caustic_maps = frame.channels.get("caustic_maps")
         for index, (obj, material, variant_defines) in enumerate(deferred, start=1):
-            program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
-                                          {**variant_defines, "DEFERRED_SHADING": DEFER_RESOLVE})
-            self._set_frame_uniforms(frame, program, caustic_maps)
-            set_uniform(program, "deferred_surface", g_unit)
-            _set_deferred_ray_uniforms(program, frame.camera)
-            set_uniform(program, "deferred_key", index / 256.0)
-            set_uniform(program, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
-            self._set_object_uniforms(frame, program, obj, material)
-            gpu.draw_fullscreen(program, vertices=6)
+            stage = 1 if material.kind in self.staged else 0
+            fbo = gpu.targets.framebuffer([color, exit_direction, refine], key_depth) if stage else resolve_fbo
+            fbo.use()
+            fbo.depth_mask = False
+            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": stage}, g_unit, index / 256.0)
+        if staged:
+            self._resolve_second_stage(frame, staged, refine, key_fbo, resolve_fbo, g_unit)
+            gpu.targets.give_back(refine)
         resolve_fbo.depth_mask = True
         ctx.depth_func = "<"
         gpu.targets.give_back(key_depth)
+
+    def _resolve_second_stage(self, frame: Frame, staged: list, refine, key_fbo, resolve_fbo, g_unit: int) -> None:
+        """The second stage of ``staged`` objects ((index, object, material, defines)): the pixels the
+        first flagged in ``refine`` (their object's key) get the key (2 index + 1) / 512 in ``key_fbo``'s
+        depth (deferred_refine_key.frag, within the object's rectangle), then DEFER_STAGE 2 shades
+        them, drawn at that key with the EQUAL test of ``resolve_fbo``."""
+        gpu, ctx, camera = frame.gpu, frame.gpu.ctx, frame.camera
+        refine_unit = g_unit + 1
+        refine.use(refine_unit)
+        keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_refine_key.frag")
+        set_uniform(keys, "deferred_refine", refine_unit)
+        key_fbo.use()
+        key_fbo.depth_mask = True
+        ctx.depth_func = "1"
+        for index, obj, _, _ in staged:
+            set_uniform(keys, "deferred_key", index / 256.0)
+            set_uniform(keys, "deferred_rect", _screen_rect(obj.world_mesh().bounds, camera))
+            gpu.draw_fullscreen(keys, vertices=6)
+        resolve_fbo.use()
+        resolve_fbo.depth_mask = False
+        ctx.depth_func = "=="
+        for index, obj, material, variant_defines in staged:
+            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": 2}, g_unit,
+                               (2 * index + 1) / 512.0)
+
+    def _draw_resolve(self, frame: Frame, obj, material, defines: dict, g_unit: int, key: float) -> None:
+        """One deferred object's resolve rectangle, drawn at depth ``key`` into the bound framebuffer."""
+        gpu = frame.gpu
+        program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
+                                      {**defines, "DEFERRED_SHADING": DEFER_RESOLVE})
+        self._set_frame_uniforms(frame, program, frame.channels.get("caustic_maps"))
+        set_uniform(program, "deferred_surface", g_unit)
+        _set_deferred_ray_uniforms(program, frame.camera)
+        set_uniform(program, "deferred_key", key)
+        set_uniform(program, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
+        self._set_object_uniforms(frame, program, obj, material)
+        gpu.draw_fullscreen(program, vertices=6)
 
     def _set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""

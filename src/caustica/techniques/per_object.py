@@ -159,4 +159,5 @@ def _restricted(shade: ShadeSurfaces, technique: str, params: PerObjectParams, f
     """``shade`` limited to the objects ``technique`` shades; only the first run clears and draws the background."""
     return ShadeSurfaces(shade.fragment, shade.defines, shade.material_override, shade.inputs, shade.set_uniforms,
                          objects=lambda obj: params.technique_of(obj) == technique, background=first, tag=technique,
-                         vertex=shade.vertex, frame_defines=shade.frame_defines, deferred=shade.deferred)
+                         vertex=shade.vertex, frame_defines=shade.frame_defines, deferred=shade.deferred,
+                         staged=shade.staged)

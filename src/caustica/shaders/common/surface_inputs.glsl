@@ -41,6 +41,9 @@ uniform float intensity_scale;
 #ifndef DEFERRED_SHADING
 #define DEFERRED_SHADING DEFER_NONE
 #endif
+#ifndef DEFER_STAGE
+#define DEFER_STAGE 0  // a resolve in one stage; 1, 2: the first or second of two (ShadeSurfaces' ``staged``)
+#endif
 
 #if DEFERRED_SHADING == DEFER_GBUFFER || DEFERRED_SHADING == DEFER_RESOLVE
 uniform mat4 deferred_world_from_clip;
@@ -77,4 +80,11 @@ layout(location = 1) out vec4 exit_direction;  // debug: world direction leaving
 #endif
 #if DEFERRED_SHADING == DEFER_SHADE_NOW
 layout(location = 2) out vec4 deferred_surface_out;
+#endif
+#if DEFERRED_SHADING == DEFER_RESOLVE && DEFER_STAGE == 1
+// The first of two resolve stages: a shader sets deferred_refine where the second stage must
+// shade the pixel again (its costlier path); main() writes the object's key there, 0 elsewhere.
+layout(location = 2) out float deferred_refine_out;
+uniform float deferred_key;  // this object's key (deferred_resolve.vert)
+bool deferred_refine = false;
 #endif

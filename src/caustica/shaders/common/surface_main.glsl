@@ -53,4 +53,7 @@ void main() {
     }
 #endif
     color = vec4(intensity_scale * radiance, 1.0);
+#if DEFERRED_SHADING == DEFER_RESOLVE && DEFER_STAGE == 1
+    deferred_refine_out = deferred_refine ? deferred_key : 0.0;
+#endif
 }

@@ -12,7 +12,7 @@
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
 // Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
-// INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1),
+// INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1), BACK_SPHERE_START (0/1),
 // ASSUME_BACK_FIRST (0/1; compile-time, since
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
@@ -24,6 +24,9 @@
 #endif
 #ifndef BACK_SECANT
 #define BACK_SECANT 1  // ours: back-face dT starts at d_V and takes secant steps (0: 2.1.3's small start, depth steps)
+#endif
+#ifndef BACK_SPHERE_START
+#define BACK_SPHERE_START 1  // ours, with BACK_SECANT: start at the chord along T1 of the sphere fitting d_V (0: at d_V)
 #endif
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
@@ -219,6 +222,12 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
 #if BACK_SECANT
     // Ours: the refractor's thickness along the view ray at P1 (Wyman's d_V, from the back buffer).
     float first_back = max(surface_at(back_surface, pix1).w - length(p1 - camera_position), start);
+#if BACK_SPHERE_START
+    // Ours: the sphere that touches the surface at P1 and cuts the chord d_V = 2 R cos(theta_i)
+    // from the view ray cuts 2 R cos(theta_t) from T1, so start at d_V cos(theta_t) / cos(theta_i):
+    // exact on a sphere, where the iteration then only confirms it.
+    first_back = max(first_back * dot(n, t1) / min(dot(n, v), -1e-3), start);
+#endif
 #else
     float first_back = start;
 #endif
@@ -231,6 +240,13 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     bool left = true;
 #if ASSUME_BACK_FIRST
     bool found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+#if DEFER_STAGE == 1
+    // The first of two resolve stages (ShadeSurfaces' ``staged``): the pixels whose P2 left the
+    // silhouette are shaded again, with the search, by the second stage, which runs on them alone
+    // (llvmpipe would run the search below for every vector, even where no pixel takes it).
+    deferred_refine = left;
+    left = false;
+#endif
 #else
     bool found = false;
 #endif
