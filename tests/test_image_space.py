@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import caustica
 from caustica.errors import TechniqueError
 from caustica.metrics import angular_error, exact_exit_directions
 from caustica.renderer import Renderer
@@ -224,3 +225,23 @@ def test_parameters_are_validated(renderer):
         with pytest.raises(TechniqueError):
             renderer.render(scene, "image-space", **bad)
     assert renderer.render(scene, "image-space", use_dn=False, second_surface="nearest").shape == (16, 16, 3)
+
+
+def test_one_ior_variant_equals_the_per_channel_paths(renderer, monkeypatch):
+    """Glass with one IOR follows one path for all channels (DISPERSION 0): the image and exit
+    directions of the per-channel variant, forced here for the same glass."""
+    from caustica.passes import surfaces
+
+    scene = caustica.load_scene("glass-sphere")
+    scene.camera = scene.camera.with_size(64, 64)
+    scene.objects[0].material = Glass(1.5, absorption_color=[0.6, 0.8, 0.9])
+    one_path = renderer.render(scene, "image-space")
+    one_dirs = renderer.exit_directions(scene, "image-space")
+    variant = surfaces._variant
+    monkeypatch.setattr(surfaces, "_variant", lambda material: (variant(material)[0], material.kind == "glass"))
+    per_channel = renderer.render(scene, "image-space")
+    per_channel_dirs = renderer.exit_directions(scene, "image-space")
+    assert (one_dirs[1]).sum() > 500
+    np.testing.assert_allclose(one_path, per_channel, atol=1e-6)
+    np.testing.assert_array_equal(one_dirs[1], per_channel_dirs[1])
+    np.testing.assert_allclose(one_dirs[0], per_channel_dirs[0], atol=1e-6)

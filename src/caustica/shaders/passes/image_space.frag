@@ -6,7 +6,7 @@
 // Colour: F1 env(reflect) + (1 - F1) (1 - F2) exp(-sigma_a d~) env(T2).
 // Exit direction (location 1): T2 of the green channel; w = 1, or 2 where the exit refraction
 // was totally internally reflected and TIR_MODE chose T2.
-// Host defines: MAX_LIGHTS, CAUSTICS (ShadeSurfaces); USE_DN (1: interpolate with d_N; 0: d~ = d_V);
+// Host defines: MAX_LIGHTS, CAUSTICS, DISPERSION (ShadeSurfaces; 0: one IOR, one path for all channels); USE_DN (1: interpolate with d_N; 0: d~ = d_V);
 // TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2); NEARBY, MAX_PLANES (common/impostors.glsl:
 // T2 from P2 and the reflections meet nearby planes or an image-space search instead of the environment).
 #version 430 core
@@ -110,9 +110,10 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     has_dn = dn.y > 0.0 && abs(dn.y - front) <= 1e-3 * front;  // the same front surface
     d_n = dn.x;
 #endif
-    // Follow each channel's path and look up the environment.
     vec3 reflected = nearby_reflection(world_position, reflect_direction(v, n));
     vec3 result;
+#if DISPERSION
+    // Follow each channel's path and look up the environment.
     for (int c = 0; c < 3; ++c) {
         Exit e = refract_twice(v, n, ior_rgb[c], d_v, d_n, has_dn);
         float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
@@ -123,6 +124,15 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         result[c] = f1 * reflected[c] + (1.0 - f1) * through;
         if (c == 1) exit_dir = vec4(e.direction, e.tir ? 2.0 : 1.0);
     }
+#else
+    // One IOR for all channels: one path, one lookup (the three channels' paths would be equal).
+    Exit e = refract_twice(v, n, ior_rgb[1], d_v, d_n, has_dn);
+    float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[1]);
+    vec3 through = e.entered ? e.transmittance * exp(-absorption_coefficient * e.distance)
+                             * nearby_cached(e.origin, e.direction) : vec3(0.0);
+    result = f1 * reflected + (1.0 - f1) * through;
+    exit_dir = vec4(e.direction, e.tir ? 2.0 : 1.0);
+#endif
     return result;
 }
 
