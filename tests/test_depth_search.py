@@ -12,8 +12,8 @@ from caustica.scene.presets import PRESETS
 from caustica.scene.shapes import sphere
 
 # Mean exit-direction error (degrees) at 96x96, measured on llvmpipe with the defaults:
-# IOR 1.5: 0.034, 1.75: 0.038, 0.8: 0.56 (env-map: 18.6, 22.8, 12.1); with back_iteration="secant" (start
-# at d_V): 0.033, 0.035, 0.70; "depth-step" (the paper's small first dT and flat-face steps): 0.17, 0.04,
+# IOR 1.5: 0.030, 1.75: 0.033, 0.8: 0.56 (env-map: 18.6, 22.8, 12.1); with back_iteration="secant" (start
+# at d_V): 0.036, 0.040, 0.70; "depth-step" (the paper's small first dT and flat-face steps): 0.17, 0.05,
 # 0.91. Bounds leave >2x margin.
 MEAN_BOUND = {1.5: 0.1, 1.75: 0.1, 0.8: 1.5}
 
@@ -57,7 +57,7 @@ def test_sphere_start_is_the_chord_of_a_sphere(renderer, ior):
     """Ours: a sphere cuts the chord 2 R cos(theta) from any line through P1 at theta to the normal,
     so d_V cos(theta_t) / cos(theta_i) is T1's chord: on a ball the start alone (no correction)
     already lands on the exit, where a start at d_V is far off (measured at 96x96: 0.22 / 0.30
-    against 17 / 24 degrees mean; 0.034 / 0.038 after the default 5 corrections)."""
+    against 17 / 24 degrees mean; 0.030 / 0.033 after the corrections)."""
     scene = ball_scene(ior)
     chord = exit_error(renderer, scene, "depth-search", iterations=0)["mean_deg"]
     thickness = exit_error(renderer, scene, "depth-search", back_iteration="secant", iterations=0)["mean_deg"]

@@ -129,14 +129,13 @@ vec4 layer_surface(int layer, vec2 pixel, float depth) {
 // BACK_SECANT, ours, only the first step, then the secant through the last two steps, which also
 // follows the face's tilt); |S - P1| where the slope is small. Front faces (steep near the silhouette, where front exits happen), and the nearer
 // layer: dT = the distance along T1 to the tangent plane at S. A point that leaves the
-// silhouette steps back halfway to the last point inside and sets `left`. Returns false if
-// no point was inside.
+// silhouette steps back halfway to the last point inside and sets `left`. A step shorter than
+// `tolerance` ends it (its dT kept, N_S the surface just read). Returns false if no point was inside.
 bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, out bool left) {
     bool tangent_plane = layer != BACK_LAYER;
     left = false;
     s2 = vec4(0.0);
     float inside_dt = 0.0;
-    bool done = false;
     float last_dt = 0.0, last_gap = 0.0;  // the previous back-face step (secant)
     for (int i = 0; ; ++i) {
         vec3 q = p1 + dt * t1;
@@ -150,7 +149,7 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
         }
         inside_dt = dt;
         s2 = s;
-        if (i >= iterations || done) break;
+        if (i >= iterations) break;
         vec3 sp = surface_point(pixel, s.w);
         vec3 ray = normalize(q - camera_position);
         float rate = dot(t1, ray);
@@ -168,8 +167,10 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
         else if (!tangent_plane && abs(slope) > 0.05) next = dt + gap / slope;
         else next = length(sp - p1);
         if (!(next > 0.0)) next = length(sp - p1);  // also catches NaN
-        done = abs(next - dt) < tolerance;
         dt = next;
+        // Converged: keep the step, with this lookup's surface for N2 (within tolerance of it),
+        // rather than pay one more lookup to confirm it.
+        if (abs(next - inside_dt) < tolerance) { inside_dt = dt; break; }
     }
     dt = inside_dt;
     return s2.w > 0.0;
