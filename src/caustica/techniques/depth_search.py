@@ -17,7 +17,9 @@ refractors (outward normal and eye distance). For each glass fragment:
    (overshooting back-face steps near the rim would otherwise flip to front).
 3. dT (2.1.3, figs. 8-9; the figures' exact update is not in the text): S is
    the surface the chosen buffer holds where P1 + dT T1 projects (bilinear
-   between texels that all hold a surface, for sub-texel P2 and N2). Back
+   between texels that all hold a surface, for sub-texel P2 and N2; where
+   some are empty, the covered one with the largest weight, so that a point
+   less than a texel off the silhouette still finds its edge). Back
    exits drive the depth gap |S - E| - |P1 + dT T1 - E| to zero.
    ``back_iteration`` "depth-step" reads fig. 8 literally: the paper's small
    initial dT, each step the gap over T1's rate along the pixel ray (as if
@@ -35,8 +37,10 @@ refractors (outward normal and eye distance). For each glass fragment:
    the IOR 1.5 sphere at 512^2 the back-face iteration then takes 1.04 steps
    per pixel on average instead of 3.4, for the same exit error;
    teapot and bunny errors are unchanged (docs/benchmarks.md). Front exits
-   start from |Pe - P1| (dT -> 0 is a fixed point on the front faces) and
-   jump to the tangent plane at S. A point off the silhouette steps back
+   start from |Pe - P1| (dT -> 0 is a fixed point on the front faces), with
+   "sphere-secant" from the same chord, which ends on a front face just as
+   well (IOR 0.8 sphere at 512^2: mean / p95 exit error 0.48 / 0.76 -> 0.15 /
+   0.25 degrees with the edge lookup above), and jump to the tangent plane at S. A point off the silhouette steps back
    halfway. ``iterations`` steps at most, fewer once dT moves less than
    ``tolerance`` (scene units): that step is kept, with N2 from the surface
    read before it, without one more lookup to confirm it. The plain fixed

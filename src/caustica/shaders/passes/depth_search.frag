@@ -74,8 +74,16 @@ vec4 surface_filtered(sampler2D surfaces, vec2 pixel) {
     s10.w = hi_in.x && lo_in.y ? s10.w : 0.0;
     s01.w = lo_in.x && hi_in.y ? s01.w : 0.0;
     s11.w = hi_in.x && hi_in.y ? s11.w : 0.0;
-    vec4 nearest = f.y < 0.5 ? (f.x < 0.5 ? s00 : s10) : (f.x < 0.5 ? s01 : s11);
-    if (min(min(s00.w, s10.w), min(s01.w, s11.w)) <= 0.0) return nearest;
+    if (min(min(s00.w, s10.w), min(s01.w, s11.w)) <= 0.0) {
+        // Not all four hold a surface: the one with the largest bilinear weight that does, so a
+        // point less than a texel off the silhouette still finds the edge (ours; fewer P2 that
+        // seem to leave the silhouette). None: empty.
+        vec4 weight = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+        weight = mix(vec4(-1.0), weight, greaterThan(vec4(s00.w, s10.w, s01.w, s11.w), vec4(0.0)));
+        float best = max(max(weight.x, weight.y), max(weight.z, weight.w));
+        vec4 covered = best == weight.x ? s00 : best == weight.y ? s10 : best == weight.z ? s01 : s11;
+        return best >= 0.0 ? covered : vec4(0.0);
+    }
     return mix(mix(s00, s10, f.x), mix(s01, s11, f.x), f.y);
 }
 
@@ -239,8 +247,9 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     float dt = first_back;
     vec4 s2;
     bool left = true;
+    bool found = false;
 #if ASSUME_BACK_FIRST
-    bool found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+    found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
 #if DEFER_STAGE == 1
     // The first of two resolve stages (ShadeSurfaces' ``staged``): the pixels whose P2 left the
     // silhouette are shaded again, with the search, by the second stage, which runs on them alone
@@ -248,8 +257,6 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     deferred_refine = left;
     left = false;
 #endif
-#else
-    bool found = false;
 #endif
     if (left) {
         // 2.1.2: silhouette point Pe along the projected T1; front exit when T1 turns further
@@ -266,18 +273,20 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
             front_exit = theta1 > theta2;
         }
         // A front exit lies on the front arc between P1 and Pe: start from the chord length
-        // (dT = 0 would be a fixed point there). A back exit keeps the first iteration's
-        // result when it ran.
+        // (dT = 0 would be a fixed point there), or with BACK_SPHERE_START from the sphere's
+        // chord along T1, which ends on a front face just as well. A back exit keeps the first
+        // iteration's result when it ran.
         if (front_exit) {
+#if BACK_SPHERE_START
+            dt = first_back;  // ours
+#else
             dt = max(length(chord), start);
+#endif
             found = correct_distance(FRONT_LAYER, p1, t1, dt, s2, left);
-        }
-#if !ASSUME_BACK_FIRST
-        else {
+        } else if (ASSUME_BACK_FIRST == 0) {
             dt = first_back;
             found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
         }
-#endif
     }
     // P2 with N2 from the buffer (2.1.4); outside every buffer N2 = T1, so T2 = T1 (env-map's
     // single refraction).
