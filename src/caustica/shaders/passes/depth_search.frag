@@ -151,6 +151,9 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
         vec4 s = buffer_pixel(q, pixel) ? layer_surface(layer, pixel, length(q - camera_position)) : vec4(0.0);
         if (s.w <= 0.0) {
             left = true;
+            // The first of two resolve stages hands a pixel that left on to the second, which
+            // iterates again: no need to go on here.
+            if (DEFER_STAGE == 1 && layer == BACK_LAYER) break;
             dt = 0.5 * (dt + inside_dt);
             if (i >= iterations) break;
             continue;
