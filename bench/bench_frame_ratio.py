@@ -6,7 +6,10 @@ cores, which drifts over seconds, hits numerator and denominator alike. Prints a
 with the GL renderer.
 
     .venv/bin/python bench/bench_frame_ratio.py [--scene glass-sphere] [--size 512] [--spp 1]
-        [--rounds 15] [--techniques image-space,depth-search]
+        [--rounds 15] [--techniques image-space,depth-search] [--ior 0.8]
+
+``--ior`` gives every glass object of the scene that IOR (the IOR 1.75 and 0.8 spheres of
+bench_refraction.py are glass-sphere with ``--ior 1.75`` and ``--ior 0.8``).
 """
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ import statistics
 
 import caustica
 from caustica.renderer import Renderer
+from caustica.scene import Glass
 
 
 def main(argv=None) -> None:
@@ -24,8 +28,12 @@ def main(argv=None) -> None:
     parser.add_argument("--spp", type=int, default=1)
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--techniques", default="image-space,depth-search")
+    parser.add_argument("--ior", type=float, help="give every glass object this IOR")
     args = parser.parse_args(argv)
     scene = caustica.load_scene(args.scene)
+    if args.ior is not None:
+        for obj in scene.objects_of("glass"):
+            obj.material = Glass(ior=args.ior)
     renderer = Renderer((args.size, args.size))
     techniques = ["env-map"] + [t.strip() for t in args.techniques.split(",") if t.strip() and t.strip() != "env-map"]
     for name in techniques:
@@ -35,7 +43,8 @@ def main(argv=None) -> None:
         for name in techniques:
             times[name].append(renderer.render_timed(scene, name, args.spp)[1])
         print(f"round {round_index + 1}/{args.rounds}", end="\r", flush=True)
-    print(f"GL renderer: {renderer.info()['renderer']}; {args.scene} at {args.size}x{args.size}, {args.spp} spp, "
+    ior = "" if args.ior is None else f" (glass IOR {args.ior})"
+    print(f"GL renderer: {renderer.info()['renderer']}; {args.scene}{ior} at {args.size}x{args.size}, {args.spp} spp, "
           f"{args.rounds} rounds")
     print("| technique | ms (median) | ms (fastest) | ratio to env-map (median of rounds) |")
     print("|---|---|---|---|")
