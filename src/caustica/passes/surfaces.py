@@ -287,7 +287,8 @@ class ShadeSurfaces(Pass):
 
     def _resolve_deferred(self, frame: Frame, deferred: list, color, exit_direction, g_buffer) -> None:
         """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
-        ids (deferred_key.frag), then one screen rectangle per object at its key, depth test EQUAL.
+        ids (deferred_key.frag, drawn over each object's screen rectangle), then one screen rectangle
+        per object at its key, depth test EQUAL.
         Objects of a ``staged`` kind flag pixels for a second stage (_resolve_second_stage)."""
         gpu, ctx = frame.gpu, frame.gpu.ctx
         key_depth = gpu.targets.texture(frame.camera.size, "depth")
@@ -298,9 +299,12 @@ class ShadeSurfaces(Pass):
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "1"
         g_buffer.use(g_unit)
-        keys = gpu.shaders.program("passes/fullscreen.vert", "passes/deferred_key.frag")
+        keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_key.frag")
         set_uniform(keys, "deferred_surface", g_unit)
-        gpu.draw_fullscreen(keys)
+        set_uniform(keys, "deferred_key", 0.5)  # the quad's depth: unused, the shader writes its key
+        for obj, _, _ in deferred:  # each object's screen rectangle, not the whole viewport
+            set_uniform(keys, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
+            gpu.draw_fullscreen(keys, vertices=6)
 
         resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
         staged = [(index, obj, material, variant_defines)

@@ -4,7 +4,6 @@
 // Reads deferred_surface (the id is the length of xyz); writes depth only.
 #version 430 core
 uniform sampler2D deferred_surface;
-in vec2 ndc;
 
 void main() {
     float id = round(length(texelFetch(deferred_surface, ivec2(gl_FragCoord.xy), 0).xyz));
