@@ -280,7 +280,7 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         // chord along T1, which ends on a front face just as well. A back exit keeps the first
         // iteration's result when it ran.
         if (front_exit) {
-#if BACK_SPHERE_START
+#if BACK_SECANT && BACK_SPHERE_START
             dt = first_back;  // ours
 #else
             dt = max(length(chord), start);
