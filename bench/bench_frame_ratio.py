@@ -14,9 +14,9 @@ bench_refraction.py are glass-sphere with ``--ior 1.75`` and ``--ior 0.8``).
 from __future__ import annotations
 
 import argparse
-import statistics
 
 import caustica
+from caustica.bench.timing import timed_in_turns
 from caustica.renderer import Renderer
 from caustica.scene import Glass
 
@@ -36,21 +36,15 @@ def main(argv=None) -> None:
             obj.material = Glass(ior=args.ior)
     renderer = Renderer((args.size, args.size))
     techniques = ["env-map"] + [t.strip() for t in args.techniques.split(",") if t.strip() and t.strip() != "env-map"]
-    for name in techniques:
-        renderer.render(scene, name, args.spp)
-    times = {name: [] for name in techniques}
-    for round_index in range(args.rounds):
-        for name in techniques:
-            times[name].append(renderer.render_timed(scene, name, args.spp)[1])
-        print(f"round {round_index + 1}/{args.rounds}", end="\r", flush=True)
+    timed = timed_in_turns(renderer, scene, {name: (name, {}) for name in techniques}, args.spp, args.rounds,
+                           "env-map", lambda i: print(f"round {i + 1}/{args.rounds}", end="\r", flush=True))
     ior = "" if args.ior is None else f" (glass IOR {args.ior})"
     print(f"GL renderer: {renderer.info()['renderer']}; {args.scene}{ior} at {args.size}x{args.size}, {args.spp} spp, "
           f"{args.rounds} rounds")
     print("| technique | ms (median) | ms (fastest) | ratio to env-map (median of rounds) |")
     print("|---|---|---|---|")
-    for name in techniques:
-        ratio = statistics.median(t / e for t, e in zip(times[name], times["env-map"]))
-        print(f"| {name} | {statistics.median(times[name]):.1f} | {min(times[name]):.1f} | {ratio:.2f} |")
+    for name, t in timed.items():
+        print(f"| {name} | {t['ms']:.1f} | {t['fastest']:.1f} | {t['ratio']:.2f} |")
 
 
 if __name__ == "__main__":

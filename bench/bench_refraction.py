@@ -4,12 +4,16 @@ For the unit glass sphere at IOR 1.5, 1.75 and 0.8, the glass teapot and the
 glass bunny (the last two need ../shared/data), renders env-map, image-space,
 depth-search and exact at 512x512 and prints a markdown table; writes contact
 sheets of the sphere (IOR 1.5) and the bunny to docs/images/. Rows
-"depth-search +k" use our extension ``internal_bounces=k`` (not in the paper),
-timed in the same run. ``--quality`` adds the time-to-quality ratio against
-Mitsuba on glass-sphere (``caustica bench``'s, with the bounce variants).
+"depth-search +k" use our extension ``internal_bounces=k`` (not in the paper).
+The ms column: the GPU techniques and the +k rows timed in turns (``--rounds``
+rounds of one frame each after a warm-up), the ratio the median over rounds of
+each frame over env-map's in the same round, so that the machine's drift hits
+both alike; exact (CPU) is timed once. ``--quality`` adds the time-to-quality
+ratio against Mitsuba on glass-sphere (``caustica bench``'s, with the bounce
+variants).
 
     .venv/bin/python bench/bench_refraction.py [--size 512] [--reference-spp 512] [--spp 4] [--bounces 1,2]
-        [--quality] [--scenes sphere]
+        [--rounds 7] [--quality] [--scenes sphere]
 """
 from __future__ import annotations
 
@@ -23,7 +27,7 @@ import caustica
 from caustica.bench.compare import compare
 from caustica.bench.harness import time_to_quality
 from caustica.bench.sheet import contact_sheet, save_sheet
-from caustica.bench.timing import timed_render
+from caustica.bench.timing import timed_in_turns, timed_render
 from caustica.metrics import compare_images, psnr_linear, region_masks, relmse
 from caustica.reference.render import render_reference
 from caustica.renderer import Renderer
@@ -51,22 +55,29 @@ def scenes():
             print(f"skipped {preset}: {exc}", file=sys.stderr)
 
 
-def bounce_rows(scene, result, bounces, spp, frames):
+def bounce_rows(scene, result, bounces, spp):
     """Rows for depth-search with ``internal_bounces`` = each of ``bounces`` (our extension), rendered
-    and timed right after ``result`` (same scene, size, reference); env-map re-timed beside them."""
+    after ``result`` (same scene, size, reference); their ms come from frame_times."""
     renderer = Renderer(result.size)
     camera = renderer.camera_for(scene)
     masks = region_masks(scene, camera, spp=max(1, spp))
     exact = next(r.image for r in result.results if r.technique == "exact")
     plain = next(r for r in result.results if r.technique == "depth-search")
-    _, env_ms = timed_render(renderer, scene, "env-map", spp, frames)
     rows = []
     for k in bounces:
-        image, ms = timed_render(renderer, scene, "depth-search", spp, frames, {"internal_bounces": k})
+        image = renderer.render(scene, "depth-search", spp, internal_bounces=k)
         metrics = compare_images(image, result.reference_image, masks)
         rows.append((f"depth-search +{k}", plain.angular or {}, psnr_linear(image, exact), metrics["all"]["psnr_linear"],
-                     metrics["refractor"]["psnr_linear"], ms, ms / env_ms))
+                     metrics["refractor"]["psnr_linear"]))
     return rows
+
+
+def frame_times(scene, size, spp, rounds, bounces) -> dict:
+    """The GPU techniques (and depth-search +k) timed in turns: {name: (median ms, ratio to env-map)}."""
+    variants = {name: (name, {}) for name in TECHNIQUES if name != "exact"}
+    variants.update({f"depth-search +{k}": ("depth-search", {"internal_bounces": k}) for k in bounces})
+    timed = timed_in_turns(Renderer((size, size)), scene, variants, spp, rounds, "env-map")
+    return {name: (t["ms"], t["ratio"]) for name, t in timed.items()}
 
 
 def quality_with_bounces(bounces, size=256, reference_spp=512):
@@ -94,7 +105,9 @@ def main():
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--reference-spp", type=int, default=512)
-    parser.add_argument("--frames", type=int, default=5)
+    parser.add_argument("--frames", type=int, default=5, help="frames per technique in compare (images, metrics)")
+    parser.add_argument("--rounds", type=int, default=7,
+                        help="rounds of the GPU techniques timed in turns (the ms and ms / env-map columns)")
     parser.add_argument("--bounces", default="1,2", help="depth-search internal_bounces rows on the spheres ('' for none)")
     parser.add_argument("--quality", action="store_true", help="also the time-to-quality ratio on glass-sphere")
     parser.add_argument("--scenes", default="", help="only scenes whose label starts with this (e.g. 'sphere, IOR 1.5')")
@@ -109,17 +122,20 @@ def main():
                          reference_spp=args.reference_spp, log=lambda m: print(m, file=sys.stderr))
         renderer_name = result.renderer
         exact = next(r.image for r in result.results if r.technique == "exact")
-        env_ms = next(r.ms for r in result.results if r.technique == "env-map")
+        scene_bounces = bounces if label.startswith("sphere") else []
+        print(f"timing {label} in {args.rounds} rounds ...", file=sys.stderr)
+        times = frame_times(scene, args.size, args.spp, args.rounds, scene_bounces)
+        env_ms = times["env-map"][0]
+        times["exact"] = (next(r.ms for r in result.results if r.technique == "exact"), None)  # CPU: timed once
         for r in result.results:
             angular = r.angular or {}
+            ms, ratio = times[r.technique]
             rows.append((label, r.technique, angular.get("mean_deg", np.nan), angular.get("p95_deg", np.nan),
                          psnr_linear(r.image, exact), r.metrics["all"]["psnr_linear"],
-                         r.metrics["refractor"]["psnr_linear"], r.ms, r.ms / env_ms))
-        if label.startswith("sphere"):
-            for name, angular, vs_exact, vs_ref, vs_ref_refr, ms, ratio in bounce_rows(scene, result, bounces,
-                                                                                        args.spp, args.frames):
-                rows.insert(-1, (label, name, angular.get("mean_deg", np.nan), angular.get("p95_deg", np.nan),
-                                 vs_exact, vs_ref, vs_ref_refr, ms, ratio))
+                         r.metrics["refractor"]["psnr_linear"], ms, ms / env_ms if ratio is None else ratio))
+        for name, angular, vs_exact, vs_ref, vs_ref_refr in bounce_rows(scene, result, scene_bounces, args.spp):
+            rows.insert(-1, (label, name, angular.get("mean_deg", np.nan), angular.get("p95_deg", np.nan),
+                             vs_exact, vs_ref, vs_ref_refr, *times[name]))
         if sheet_name:
             DOCS.mkdir(parents=True, exist_ok=True)
             sheet_rows = [(r.technique, r.image, r.error_map) for r in result.results]

@@ -70,3 +70,29 @@ def test_bench_writes_json_with_every_column(tmp_path, capsys):
         assert [c["spp"] for c in quality["mitsuba_curve"]] == [1, 2, 4]
         assert {"ms", "relmse", "mitsuba_spp", "mitsuba_seconds", "speed_ratio"} <= set(quality["techniques"]["env-map"])
     assert plot.stat().st_size > 1000
+
+
+def test_timed_in_turns_takes_the_median_of_same_round_ratios():
+    """Frames of each variant alternate round by round after one warm-up each, and a ratio is the
+    median of each round's frame over the baseline's in that round (here 1, not the 1.5 that a ratio
+    of the two medians would give)."""
+    from caustica.bench.timing import timed_in_turns
+
+    frames = {"base": [10.0, 40.0, 20.0], "other": [30.0, 40.0, 20.0]}  # ms per round
+
+    class FakeRenderer:
+        def __init__(self):
+            self.calls = []
+
+        def render(self, scene, technique, spp, **params):
+            self.calls.append(("warm-up", technique))
+
+        def render_timed(self, scene, technique, spp, **params):
+            self.calls.append(("timed", technique))
+            return None, frames[technique][sum(c == ("timed", technique) for c in self.calls) - 1]
+
+    renderer = FakeRenderer()
+    timed = timed_in_turns(renderer, None, {"base": ("base", {}), "other": ("other", {"k": 1})}, 1, 3, "base")
+    assert renderer.calls == [("warm-up", "base"), ("warm-up", "other")] + [("timed", "base"), ("timed", "other")] * 3
+    assert timed["other"]["ratio"] == pytest.approx(1.0) and timed["base"]["ratio"] == pytest.approx(1.0)
+    assert timed["other"]["ms"] == 30.0 and timed["other"]["fastest"] == 20.0

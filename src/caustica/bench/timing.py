@@ -20,3 +20,23 @@ def timed_render(renderer, scene, technique: str, spp: int, frames: int, params:
         image, ms = renderer.render_timed(scene, technique, spp, **params)
         timings.append(ms)
     return image, statistics.median(timings)
+
+
+def timed_in_turns(renderer, scene, variants: dict, spp: int, rounds: int, baseline: str, progress=None) -> dict:
+    """Frame times of GPU technique variants rendered in turns, one frame of each per round after one
+    warm-up frame each, so that load on shared cores, which drifts over seconds, hits them alike.
+
+    ``variants`` maps a name to (technique, params). Returns {name: {"ms": median ms, "fastest": min ms,
+    "ratio": median over rounds of the variant's time over ``baseline``'s in the same round}}.
+    ``progress(round_index)`` is called after each round.
+    """
+    for technique, params in variants.values():
+        renderer.render(scene, technique, spp, **params)
+    times = {name: [] for name in variants}
+    for round_index in range(max(1, rounds)):
+        for name, (technique, params) in variants.items():
+            times[name].append(renderer.render_timed(scene, technique, spp, **params)[1])
+        if progress is not None:
+            progress(round_index)
+    return {name: {"ms": statistics.median(t), "fastest": min(t),
+                   "ratio": statistics.median(a / b for a, b in zip(t, times[baseline]))} for name, t in times.items()}
