@@ -14,6 +14,7 @@ from .lights import MAX_LIGHTS, bind_lights, draw_objects
 MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
 DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
 MAX_DEFERRED = 255  # G-buffer ids 1..255 keyed as depth id / 256
+SECOND_STAGE_KEY = 1.0 / 512.0  # a staged object's second-stage pixels: depth id / 256 + this, between the ids
 
 
 class RefractorSurfaces(Pass):
@@ -299,25 +300,27 @@ class ShadeSurfaces(Pass):
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "1"
         g_buffer.use(g_unit)
+        rects = [_screen_rect(obj.world_mesh().bounds, frame.camera) for obj, _, _ in deferred]
         keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_key.frag")
         set_uniform(keys, "deferred_surface", g_unit)
         set_uniform(keys, "deferred_key", 0.5)  # the quad's depth: unused, the shader writes its key
-        for obj, _, _ in deferred:  # each object's screen rectangle, not the whole viewport
-            set_uniform(keys, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
+        for rect in rects:  # each object's screen rectangle, not the whole viewport
+            set_uniform(keys, "deferred_rect", rect)
             gpu.draw_fullscreen(keys, vertices=6)
 
         resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
-        staged = [(index, obj, material, variant_defines)
-                  for index, (obj, material, variant_defines) in enumerate(deferred, start=1)
+        staged = [(index, obj, material, variant_defines, rect)
+                  for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1)
                   if material.kind in self.staged]
         refine = gpu.targets.zeroed(frame.camera.size, "r32f") if staged else None  # stage-1 flags: the key
         ctx.depth_func = "=="
-        for index, (obj, material, variant_defines) in enumerate(deferred, start=1):
+        for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1):
             stage = 1 if material.kind in self.staged else 0
             fbo = gpu.targets.framebuffer([color, exit_direction, refine], key_depth) if stage else resolve_fbo
             fbo.use()
             fbo.depth_mask = False
-            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": stage}, g_unit, index / 256.0)
+            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": stage}, g_unit,
+                               index / 256.0, rect)
         if staged:
             self._resolve_second_stage(frame, staged, refine, key_fbo, resolve_fbo, g_unit)
             gpu.targets.give_back(refine)
@@ -326,11 +329,12 @@ class ShadeSurfaces(Pass):
         gpu.targets.give_back(key_depth)
 
     def _resolve_second_stage(self, frame: Frame, staged: list, refine, key_fbo, resolve_fbo, g_unit: int) -> None:
-        """The second stage of ``staged`` objects ((index, object, material, defines)): the pixels the
-        first flagged in ``refine`` (their object's key) get the key (2 index + 1) / 512 in ``key_fbo``'s
-        depth (deferred_refine_key.frag, within the object's rectangle), then DEFER_STAGE 2 shades
-        them, drawn at that key with the EQUAL test of ``resolve_fbo``."""
-        gpu, ctx, camera = frame.gpu, frame.gpu.ctx, frame.camera
+        """The second stage of ``staged`` objects ((index, object, material, defines, screen rectangle)):
+        the pixels the first flagged in ``refine`` (their object's key, index / 256) get the key
+        index / 256 + SECOND_STAGE_KEY in ``key_fbo``'s depth (deferred_refine_key.frag, within the
+        object's rectangle), then DEFER_STAGE 2 shades them, drawn at that key with the EQUAL test of
+        ``resolve_fbo``."""
+        gpu, ctx = frame.gpu, frame.gpu.ctx
         refine_unit = g_unit + 1
         refine.use(refine_unit)
         keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_refine_key.frag")
@@ -338,19 +342,21 @@ class ShadeSurfaces(Pass):
         key_fbo.use()
         key_fbo.depth_mask = True
         ctx.depth_func = "1"
-        for index, obj, _, _ in staged:
+        for index, _, _, _, rect in staged:
             set_uniform(keys, "deferred_key", index / 256.0)
-            set_uniform(keys, "deferred_rect", _screen_rect(obj.world_mesh().bounds, camera))
+            set_uniform(keys, "second_stage_key", index / 256.0 + SECOND_STAGE_KEY)
+            set_uniform(keys, "deferred_rect", rect)
             gpu.draw_fullscreen(keys, vertices=6)
         resolve_fbo.use()
         resolve_fbo.depth_mask = False
         ctx.depth_func = "=="
-        for index, obj, material, variant_defines in staged:
+        for index, obj, material, variant_defines, rect in staged:
             self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": 2}, g_unit,
-                               (2 * index + 1) / 512.0)
+                               index / 256.0 + SECOND_STAGE_KEY, rect)
 
-    def _draw_resolve(self, frame: Frame, obj, material, defines: dict, g_unit: int, key: float) -> None:
-        """One deferred object's resolve rectangle, drawn at depth ``key`` into the bound framebuffer."""
+    def _draw_resolve(self, frame: Frame, obj, material, defines: dict, g_unit: int, key: float, rect) -> None:
+        """One deferred object's resolve rectangle ``rect`` (_screen_rect), drawn at depth ``key`` into
+        the bound framebuffer."""
         gpu = frame.gpu
         program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
                                       {**defines, "DEFERRED_SHADING": DEFER_RESOLVE})
@@ -358,7 +364,7 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "deferred_surface", g_unit)
         _set_deferred_ray_uniforms(program, frame.camera)
         set_uniform(program, "deferred_key", key)
-        set_uniform(program, "deferred_rect", _screen_rect(obj.world_mesh().bounds, frame.camera))
+        set_uniform(program, "deferred_rect", rect)
         self._set_object_uniforms(frame, program, obj, material)
         gpu.draw_fullscreen(program, vertices=6)
 

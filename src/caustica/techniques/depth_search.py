@@ -40,12 +40,12 @@ refractors (outward normal and eye distance). For each glass fragment:
    start from |Pe - P1| (dT -> 0 is a fixed point on the front faces), with
    "sphere-secant" from the same chord, which ends on a front face just as
    well (IOR 0.8 sphere at 512^2: mean / p95 exit error 0.48 / 0.76 -> 0.15 /
-   0.25 degrees with the edge lookup above), and jump to the tangent plane at S. A point off the silhouette steps back
-   halfway. ``iterations`` steps at most, fewer once dT moves less than
-   ``tolerance`` (scene units): that step is kept, with N2 from the surface
-   read before it, without one more lookup to confirm it. The plain fixed
-   point dT <- |S - P1| we tried first needs about 8 steps where these need
-   4 to 5.
+   0.25 degrees with the edge lookup above), and jump to the tangent plane at
+   S. A point off the silhouette steps back halfway. ``iterations`` steps at
+   most, fewer once dT moves less than ``tolerance`` (scene units): that step
+   is kept, with N2 from the surface read before it, without one more lookup
+   to confirm it. The plain fixed point dT <- |S - P1| we tried first needs
+   about 8 steps where these need 4 to 5.
 4. N2 from the front or back normal buffer at P2 (2.1.4), T2 = refract(T1, N2),
    environment lookup (fig. 10c). Where no buffer holds P2, T2 = T1.
 5. Our extension, not in the paper: ``internal_bounces`` (default 0, the paper's
