@@ -162,11 +162,8 @@ def test_size_above_gl_limit(tmp_path, capsys, renderer):
 
 
 def test_size_zero_on_command_line(tmp_path, capsys):
-    with pytest.raises(SystemExit) as exit_info:
-        main(["render", "glass-sphere", "--size", "0x64", "-o", str(tmp_path / "o.png")])
-    assert exit_info.value.code == 2
-    err = capsys.readouterr().err
-    assert_one_line_error(2, err, "0x64")
+    code, _, err = run_cli(["render", "glass-sphere", "--size", "0x64", "-o", tmp_path / "o.png"], capsys)
+    assert_one_line_error(code, err, "0x64")
 
 
 def test_real_process_exit_code_and_no_traceback(tmp_path):

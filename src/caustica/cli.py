@@ -9,7 +9,7 @@ import statistics
 import sys
 from pathlib import Path
 
-from .errors import CausticaError, OutputError
+from .errors import CausticaError, OutputError, first_line
 
 OUTPUT_SUFFIXES = (".png", ".exr")
 
@@ -23,13 +23,78 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _size(text: str) -> tuple[int, int]:
+    from .scene.io import MAX_IMAGE_SIZE
+
     try:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"size '{text}' must look like 512x512") from None
+        raise argparse.ArgumentTypeError(f"size '{_shown(text)}' must look like 512x512") from None
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"size '{text}' must be at least 1x1")
+    if max(width, height) > MAX_IMAGE_SIZE:
+        raise argparse.ArgumentTypeError(f"size '{text}' is above the limit of {MAX_IMAGE_SIZE} pixels a side; use a smaller size")
     return width, height
+
+
+def _shown(text: str, limit: int = 40) -> str:
+    """``text`` cut to ``limit`` characters for a one-line message."""
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _integer(low: int, high: int):
+    """An argparse type: an integer in [low, high]."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{_shown(text)}' is not an integer; give one in [{low}, {high}]") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value} is out of range; give an integer in [{low}, {high}]")
+        return value
+
+    return parse
+
+
+def _number(low: float, high: float, low_open: bool = False):
+    """An argparse type: a finite number in [low, high] (or (low, high] with ``low_open``)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{_shown(text)}' is not a number") from None
+        inside = (value > low if low_open else value >= low) and value <= high
+        if not inside:  # NaN fails both comparisons
+            interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+            raise argparse.ArgumentTypeError(f"{_shown(text)} is out of range; give a finite number in {interval}")
+        return value
+
+    return parse
+
+
+# Bounds of the numeric options: what a frame, a reference or a table can sensibly ask for.
+MAX_SPP = 4096
+MAX_FRAMES = 100_000
+MAX_REFERENCE_SPP = 1 << 16
+MAX_EXPOSURE = 64.0
+SPP = _integer(1, MAX_SPP)
+FRAMES = _integer(1, MAX_FRAMES)
+EXPOSURE = _number(-MAX_EXPOSURE, MAX_EXPOSURE)
+# Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
+# so argparse does not read the value as an option.
+_VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--reference-spp", "--quality-size", "--max-spp",
+                  "--ior", "--directions", "--max-depth", "--sizes"}
+
+
+def _join_negative_values(argv: list[str]) -> list[str]:
+    out: list[str] = []
+    for token in argv:
+        if out and out[-1] in _VALUE_OPTIONS and token[:1] == "-" and token[1:2] in set("0123456789.in"):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
 
 
 def _names(text: str) -> list[str]:
@@ -40,12 +105,14 @@ def _names(text: str) -> list[str]:
 
 
 def _sizes(text: str) -> list[int]:
+    from .scene.io import MAX_IMAGE_SIZE
+
     try:
         sizes = [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"sizes '{text}' must look like 256,512,1024") from None
-    if not sizes or min(sizes) < 1:
-        raise argparse.ArgumentTypeError(f"sizes '{text}' must be positive integers")
+        raise argparse.ArgumentTypeError(f"sizes '{_shown(text)}' must look like 256,512,1024") from None
+    if not sizes or min(sizes) < 1 or max(sizes) > MAX_IMAGE_SIZE:
+        raise argparse.ArgumentTypeError(f"sizes '{_shown(text)}' must be integers in [1, {MAX_IMAGE_SIZE}]")
     return sizes
 
 
@@ -53,17 +120,26 @@ def _param(text: str) -> tuple[str, object]:
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"parameter '{text}' must look like name=value")
     key, value = text.split("=", 1)
+    import math
     import tomllib
 
+    key = key.strip().replace("-", "_")
+    if not key.isidentifier():
+        raise argparse.ArgumentTypeError(f"parameter name '{_shown(key)}' is not a name; write name=value")
     try:
         parsed = tomllib.loads(f"v = {value}")["v"]
     except tomllib.TOMLDecodeError:
         parsed = value  # a bare word is a string
-    return key.strip().replace("-", "_"), parsed
+    if isinstance(parsed, float) and not math.isfinite(parsed):
+        raise argparse.ArgumentTypeError(f"parameter {key} = {value.strip()} must be a finite number")
+    return key, parsed
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = _Parser(prog="caustica", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"caustica {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     render = sub.add_parser("render", help="render a scene file or preset to PNG or EXR")
@@ -71,9 +147,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-o", "--output", required=True, help="output image, .png (sRGB) or .exr (linear float)")
     render.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
-    render.add_argument("--spp", type=int, default=1, help="samples per pixel as a k x k grid (box filter)")
-    render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for PNG output")
-    render.add_argument("--frames", type=int, default=3, help="timed frames after one warm-up (GPU techniques)")
+    render.add_argument("--spp", type=SPP, default=1, help="samples per pixel as a k x k grid (box filter)")
+    render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
+    render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
 
@@ -81,11 +157,11 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
     view.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
-    view.add_argument("--spp", type=int, default=1, help="samples per pixel as a k x k grid (box filter)")
-    view.add_argument("--exposure", type=float, default=0.0, help="exposure in stops")
+    view.add_argument("--spp", type=SPP, default=1, help="samples per pixel as a k x k grid (box filter)")
+    view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
     view.add_argument("-p", "--param", type=_param, action="append", default=[],
                       help="technique parameter name=value (repeatable)")
-    view.add_argument("--frames", type=int, help="quit after this many frames (scripted runs)")
+    view.add_argument("--frames", type=FRAMES, help="quit after this many frames (scripted runs)")
     view.add_argument("--screenshot", help="write the last frame here (.png sRGB or .exr linear)")
     view.add_argument("--window-screenshot", help="write the whole last window, panel included, here (.png)")
     view.add_argument("--script", help="a JSON list of events, e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"]]")
@@ -96,9 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("scene", help="a .toml scene file or a preset name")
     comp.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated (default env-map,exact)")
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
-    comp.add_argument("--spp", type=int, default=4, help="samples per pixel of the techniques (default 4)")
-    comp.add_argument("--reference-spp", type=int, default=256, help="Mitsuba samples per pixel (cached; default 256)")
-    comp.add_argument("--frames", type=int, default=5, help="timed frames after a warm-up (default 5)")
+    comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques (default 4)")
+    comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
+    comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
     comp.add_argument("--json", help="write the figures as JSON here")
     comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
 
@@ -106,20 +182,20 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--scenes", type=_names, default=["glass-sphere", "caustic-sphere"], help="comma-separated scenes or presets")
     bench.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated techniques")
     bench.add_argument("--sizes", type=_sizes, default=[256, 512, 1024], help="comma-separated image sides (default 256,512,1024)")
-    bench.add_argument("--frames", type=int, default=5, help="timed frames after a warm-up (default 5)")
-    bench.add_argument("--quality-size", type=int, default=256, help="image side of the time-to-quality runs (default 256)")
-    bench.add_argument("--reference-spp", type=int, default=1024, help="spp of the reference for time-to-quality (cached)")
-    bench.add_argument("--max-spp", type=int, default=256, help="largest Mitsuba spp tried for time-to-quality")
+    bench.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
+    bench.add_argument("--quality-size", type=_integer(1, 4096), default=256, help="image side of the time-to-quality runs (default 256)")
+    bench.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=1024, help="spp of the reference for time-to-quality (cached)")
+    bench.add_argument("--max-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="largest Mitsuba spp tried for time-to-quality")
     bench.add_argument("--no-mitsuba", action="store_true", help="skip the time-to-quality comparison")
     bench.add_argument("--json", help="write the figures as JSON here")
     bench.add_argument("--plot", help="write ms-vs-resolution and error-vs-time plots (PNG) here")
 
     pre = sub.add_parser("precompute", help="light transport table of a glass mesh (Iwasaki et al.), quantized, to .npz")
     pre.add_argument("mesh", help="a mesh file (.obj, .ply, .stl, .glb, .gltf, .off), in object space")
-    pre.add_argument("--ior", type=float, required=True, help="index of refraction of the glass (e.g. 1.5)")
+    pre.add_argument("--ior", type=_number(0.0, 10.0, low_open=True), required=True, help="index of refraction of the glass (e.g. 1.5)")
     pre.add_argument("-o", "--output", required=True, help="output table, .npz")
-    pre.add_argument("--directions", type=int, default=129, help="sampled incident directions, 2 r^2 + 1 (default 129)")
-    pre.add_argument("--max-depth", type=int, default=8, help="glass interfaces followed per ray (default 8)")
+    pre.add_argument("--directions", type=_integer(1, 1 << 20), default=129, help="sampled incident directions, 2 r^2 + 1 (default 129)")
+    pre.add_argument("--max-depth", type=_integer(1, 64), default=8, help="glass interfaces followed per ray (default 8)")
     pre.add_argument("--quiet", action="store_true", help="no progress bar")
 
     sub.add_parser("techniques", help="list the techniques")
@@ -129,15 +205,35 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    import warnings
+
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     try:
-        return COMMANDS[args.command](args)
-    except CausticaError as exc:
-        print(f"caustica: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("caustica: interrupted", file=sys.stderr)
-        return 130
+        args = build_parser().parse_args(argv)
+    except SystemExit as stop:  # --help, --version, or a bad argument (already reported in one line)
+        return stop.code if isinstance(stop.code, int) else 2
+    # Library warnings are held back: an error prints its one line alone; a success shows them after.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        try:
+            code = COMMANDS[args.command](args)
+        except CausticaError as exc:
+            return _fail(first_line(exc), 2)
+        except MemoryError:
+            return _fail("out of memory; use a smaller --size, fewer --spp or smaller maps", 2)
+        except KeyboardInterrupt:
+            return _fail("interrupted", 130)
+    for warning in caught:
+        print(f"caustica: warning: {_shown(first_line(warning.message), MAX_MESSAGE)}", file=sys.stderr)
+    return code
+
+
+MAX_MESSAGE = 400  # characters of an error line; a longer message is cut
+
+
+def _fail(message: str, code: int) -> int:
+    print(f"caustica: {_shown(message, MAX_MESSAGE)}", file=sys.stderr)
+    return code
 
 
 def cmd_render(args) -> int:
@@ -147,8 +243,6 @@ def cmd_render(args) -> int:
     from .techniques import get_technique
 
     output = _check_output(args.output, OUTPUT_SUFFIXES)
-    if args.spp < 1 or args.frames < 1:
-        raise CausticaError("--spp and --frames must be at least 1")
     technique = get_technique(args.technique)
     scene = load_scene(args.scene)
     renderer = Renderer(args.size)
@@ -173,8 +267,6 @@ def cmd_view(args) -> int:
     check_display()
     screenshot = _check_output(args.screenshot, OUTPUT_SUFFIXES)
     window_shot = _check_output(args.window_screenshot, (".png",))
-    if args.spp < 1 or (args.frames is not None and args.frames < 1):
-        raise CausticaError("--spp and --frames must be at least 1")
     script = _read_script(args.script)
     scene = load_scene(args.scene)
     from .viewer import Viewer
@@ -243,8 +335,10 @@ def cmd_compare(args) -> int:
 
     json_path = _check_output(args.json, (".json",))
     sheet_path = _check_output(args.sheet, (".png",))
-    if args.spp < 1 or args.frames < 1 or args.reference_spp < 1:
-        raise CausticaError("--spp, --reference-spp and --frames must be at least 1")
+    from .metrics.checks import optional_module
+
+    optional_module("skimage.metrics", "scikit-image")  # SSIM and FLIP of every row: fail before any render
+    optional_module("flip_evaluator", "flip-evaluator")
     for name in args.techniques:
         get_technique(name)
     scene = load_scene(args.scene)
@@ -268,8 +362,6 @@ def cmd_bench(args) -> int:
 
     json_path = _check_output(args.json, (".json",))
     plot_path = _check_output(args.plot, (".png",))
-    if args.frames < 1:
-        raise CausticaError("--frames must be at least 1")
     for name in args.techniques:
         get_technique(name)
     scenes = [load_scene(name) for name in args.scenes]
@@ -301,10 +393,6 @@ def cmd_precompute(args) -> int:
     from .transport.precompute import DirectionGrid, precompute_table
 
     output = _check_output(args.output, (".npz",))
-    if not args.ior > 0:
-        raise CausticaError(f"--ior {args.ior} must be positive (glass is about 1.5, water 1.33)")
-    if not 1 <= args.max_depth <= 64:
-        raise CausticaError(f"--max-depth {args.max_depth} must lie in [1, 64]")
     try:
         DirectionGrid.of_count(args.directions)
     except ValueError as exc:

@@ -48,3 +48,7 @@ def closest_name(name: str, candidates) -> str:
 
 class ReferenceUnavailableError(CausticaError, RuntimeError):
     """The Mitsuba ground truth cannot run (Mitsuba not installed, or its variant unavailable)."""
+
+
+class MissingExtraError(CausticaError, ImportError):
+    """An optional package is not installed (a ``caustica[extra]`` of pyproject.toml)."""

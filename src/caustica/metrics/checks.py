@@ -41,9 +41,11 @@ def masked_mean(values: np.ndarray, mask: np.ndarray | None) -> float:
 
 
 def optional_module(name: str, package: str):
-    """Import ``name``, or raise ImportError naming the pip package to install."""
+    """Import ``name``, or raise MissingExtraError (an ImportError) naming the pip package to install."""
+    from ..errors import MissingExtraError
+
     try:
         return importlib.import_module(name)
     except ImportError as exc:
-        raise ImportError(f"{name} is not installed; install it with `pip install {package}` "
-                          f"(or `pip install caustica[metrics]`)") from exc
+        raise MissingExtraError(f"{name} is not installed; install it with `pip install {package}` "
+                                f"(or `pip install 'caustica[metrics]'`)") from exc
