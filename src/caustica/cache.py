@@ -6,10 +6,13 @@ entry is recomputed; a cache that cannot be written only costs a recompute.
 from __future__ import annotations
 
 import os
-import secrets
+import re
 from pathlib import Path
 
 import numpy as np
+
+from .atomic import write_atomic
+from .errors import OutputError
 
 
 def cache_dir(kind: str) -> Path:
@@ -18,17 +21,21 @@ def cache_dir(kind: str) -> Path:
     return (Path(env) if env else Path.home() / ".cache" / "caustica") / kind
 
 
+def slug(text: str, limit: int = 40) -> str:
+    """A readable file-name prefix from user text (a scene name): only [A-Za-z0-9_-], at most ``limit``
+    characters, never empty; no separator, '..' or NUL can pass. Cache keys stay hashes; this is a label."""
+    return re.sub(r"[^A-Za-z0-9_-]+", "-", str(text)).strip("-")[:limit] or "unnamed"
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``."""
+    """Write ``data`` atomically to ``path`` (its folder created), through :func:`caustica.atomic.write_atomic`:
+    OutputError (an OSError) when it cannot be written, nothing left on disk."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
     try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the folder {path.parent} ({exc.strerror}); check permissions") from None
+    write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def load_array(path: Path, shape: tuple | None = None, dtype=None) -> np.ndarray | None:

@@ -215,14 +215,19 @@ def main(argv: list[str] | None = None) -> int:
     # Library warnings are held back: an error prints its one line alone; a success shows them after.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
+        from .atomic import Terminated, signals_raise
+
         try:
-            code = COMMANDS[args.command](args)
+            with signals_raise():  # SIGTERM and SIGHUP unwind like Ctrl-C: no temporary file left behind
+                code = COMMANDS[args.command](args)
         except CausticaError as exc:
             return _fail(first_line(exc), 2)
         except MemoryError:
             return _fail("out of memory; use a smaller --size, fewer --spp or smaller maps", 2)
         except KeyboardInterrupt:
             return _fail("interrupted", 130)
+        except Terminated as stop:
+            return _fail(f"{stop}", 128 + stop.signum)
     for warning in caught:
         print(f"caustica: warning: {_shown(first_line(warning.message), MAX_MESSAGE)}", file=sys.stderr)
     return code
@@ -311,18 +316,18 @@ def _check_output(path: str | None, suffixes: tuple[str, ...]) -> Path | None:
     """Fail before any work when an output cannot be written."""
     if path is None:
         return None
+    from .atomic import check_writable
+
     out = Path(path)
     if out.suffix.lower() not in suffixes:
         raise OutputError(f"output '{out}' must end in {' or '.join(suffixes)}")
-    if not out.parent.is_dir():
-        raise OutputError(f"output directory '{out.parent}' does not exist; create it first")
-    return out
+    return check_writable(out)  # a read-only or virtual place, a directory in the way, a name too long
 
 
 def _write_json(path: Path, data) -> None:
     import json
 
-    from .images import write_atomic
+    from .atomic import write_atomic
 
     write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=2)))
 

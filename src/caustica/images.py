@@ -8,13 +8,12 @@ temporary file in the target directory first, so a failed write leaves nothing.
 """
 from __future__ import annotations
 
-import os
 import re
-import secrets
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_atomic  # noqa: F401  (re-exported: every image output goes through it)
 from .errors import EnvironmentImageError, OutputError, first_line
 
 READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
@@ -228,20 +227,3 @@ def _write_exr(tmp: str, image: np.ndarray) -> None:
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image, dtype=np.float32)}) as exr:
         exr.write(tmp)
-
-
-def write_atomic(path: Path, write) -> Path:
-    """Call ``write(temp_path)`` in the target directory, then rename over ``path``."""
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise OutputError(f"output directory {directory} does not exist; create it first")
-    # Created like any new file (mode 0o666 less the umask), unlike mkstemp's 0o600.
-    tmp = str(directory / f".{path.name}.{secrets.token_hex(6)}.tmp")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except Exception as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise OutputError(f"cannot write {path}: {first_line(exc)}; check permissions and free space") from None
-    return path

@@ -11,8 +11,10 @@ needs to match the technique's error give the speed ratio.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 
+from ..atomic import write_atomic
 from ..renderer import Renderer
 from ..techniques import get_technique
 from .timing import timed_render
@@ -112,5 +114,7 @@ def plot(rows: list[dict], quality: list[dict], path) -> None:
                title=f"{q['scene']} {q['size']}^2: error vs time")
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        write_atomic(Path(path), lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    finally:
+        plt.close(fig)

@@ -560,10 +560,14 @@ class Viewer:
         return self._save_window(path)
 
     def _save_window(self, path) -> str:
+        from pathlib import Path
+
         from PIL import Image
 
-        Image.fromarray(self.last_window).save(path)
-        return str(path)
+        from ..atomic import write_atomic
+
+        pixels = self.last_window
+        return str(write_atomic(Path(path), lambda tmp: Image.fromarray(pixels).save(tmp, format="PNG")))
 
     # Input callbacks: ImGui first; the view gets what the panel does not want.
     def _on_char(self, window, char) -> None:
