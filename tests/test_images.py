@@ -98,7 +98,7 @@ def rle_channel(values: bytes) -> bytes:
 def test_hdr_reads_run_length_encoded_scanlines(tmp_path):
     height, width = 3, 16
     rgbe = np.zeros((height, width, 4), np.uint8)
-    rgbe[..., 3] = 129  # 2**(129-136) * (m + 0.5)
+    rgbe[..., 3] = 129  # 2**(129-136) * m
     rgbe[:, :8, 0] = 200  # a run
     rgbe[:, :, 1] = np.arange(width) * 10  # literals
     rgbe[1, :, 2] = 77
@@ -110,8 +110,31 @@ def test_hdr_reads_run_length_encoded_scanlines(tmp_path):
     header = f"#?RADIANCE\n# made by a test\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1.0\n\n-Y {height} +X {width}\n".encode()
     (tmp_path / "rle.hdr").write_bytes(header + bytes(body))
     back = read_image(tmp_path / "rle.hdr")
-    expected = (rgbe[..., :3].astype(np.float64) + 0.5) * 2.0 ** (129 - 136)
+    expected = rgbe[..., :3].astype(np.float64) * 2.0 ** (129 - 136)
     np.testing.assert_allclose(back, expected, rtol=1e-7)
+
+
+def test_hdr_decodes_as_mitsuba_and_stb_image():
+    # value = mantissa * 2**(exponent - 136), no half-step offset: 128 * 2**-7 is exactly 1, zero stays zero.
+    from caustica.images import rgbe_to_float
+
+    pixels = np.array([[0, 128, 0, 129], [255, 1, 0, 136], [200, 200, 200, 0]], np.uint8)
+    np.testing.assert_array_equal(rgbe_to_float(pixels), np.array([[0, 1, 0], [255, 1, 0], [0, 0, 0]], np.float32))
+
+
+def test_hdr_encoding_is_the_exact_inverse_of_decoding():
+    from caustica.images import float_to_rgbe, rgbe_to_float
+
+    rng = np.random.default_rng(3)
+    rgbe = rng.integers(0, 256, (500, 4)).astype(np.uint8)
+    rgbe[:, 0] = np.maximum(rgbe[:, 0], 128)  # a normalized pixel: its brightest mantissa in [128, 256)
+    rgbe[:, 3] = rng.integers(1, 256, 500)
+    np.testing.assert_array_equal(float_to_rgbe(rgbe_to_float(rgbe)), rgbe)
+    # Floats round to the nearest step (half a step of the brightest channel at most), 255.9/256 up to 1.
+    values = rng.random((500, 3)) * np.exp(rng.normal(0.0, 8.0, (500, 1)))
+    error = np.abs(rgbe_to_float(float_to_rgbe(values)) - values) / values.max(axis=-1, keepdims=True)
+    assert error.max() <= 1.0 / 256 + 1e-12
+    np.testing.assert_array_equal(float_to_rgbe(np.array([255.9 / 256, 0.0, 0.0])), [128, 0, 0, 129])
 
 
 def test_hdr_bottom_up_orientation(tmp_path):

@@ -159,22 +159,30 @@ def _decode_rle_channel(buf: memoryview, pos: int, dest: np.ndarray) -> int:
 
 
 def rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
-    """(..., 4) uint8 RGBE to (..., 3) float32, each mantissa at the centre of its bin."""
+    """(..., 4) uint8 RGBE to (..., 3) float32: mantissa * 2**(exponent - 136), exponent 0 is black.
+
+    As Mitsuba, stb_image and OpenEXR's tools decode it (no half-step offset, so black stays black)."""
     exponent = rgbe[..., 3].astype(np.int32)
     scale = np.where(exponent > 0, np.ldexp(1.0, exponent - 136), 0.0)
-    return ((rgbe[..., :3].astype(np.float64) + 0.5) * scale[..., None]).astype(np.float32)
+    return (rgbe[..., :3].astype(np.float64) * scale[..., None]).astype(np.float32)
 
 
 def float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
-    """(..., 3) non-negative floats to (..., 4) uint8 RGBE (inverse of :func:`rgbe_to_float`)."""
+    """(..., 3) non-negative floats to (..., 4) uint8 RGBE, the inverse of :func:`rgbe_to_float`: each
+    mantissa rounded to the nearest step (error at most half a step of the brightest channel); values
+    too small for the shared exponent become black."""
     rgb = np.maximum(np.asarray(rgb, dtype=np.float64), 0.0)
     brightest = rgb.max(axis=-1)
-    mantissa, exponent = np.frexp(brightest)
-    visible = brightest > 1e-32
-    scale = np.where(visible, mantissa * 256.0 / np.where(visible, brightest, 1.0), 0.0)
+    # Exponent e puts the brightest mantissa in [128, 256): brightest = f * 2**x with f in [0.5, 1), e = x + 128.
+    _, x = np.frexp(brightest)
+    exponent = np.where(np.rint(np.ldexp(brightest, 8 - x)) >= 256, x + 129, x + 128)  # rounded up to 256: next one
+    visible = (brightest > 0) & (exponent >= 1)
+    exponent = np.minimum(exponent, 255)
+    step = np.ldexp(1.0, exponent - 136)
     out = np.zeros(rgb.shape[:-1] + (4,), dtype=np.uint8)
-    out[..., :3] = np.clip(np.floor(rgb * scale[..., None]), 0, 255)
-    out[..., 3] = np.where(visible, np.clip(exponent + 128, 0, 255), 0)
+    mantissa = np.clip(np.rint(rgb / step[..., None]), 0, 255)
+    out[..., :3] = np.where(visible[..., None], mantissa, 0)
+    out[..., 3] = np.where(visible, exponent, 0)
     return out
 
 
