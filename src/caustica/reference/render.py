@@ -69,12 +69,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..cache import cache_dir, load_array, store_array
+from ..cache import cache_dir, load_array, slug, store_array
 from ..errors import ReferenceUnavailableError, first_line
 from .mitsuba_export import environment_hash, has_absorbing_glass, has_dispersion, mesh_file_hash, scene_to_mitsuba
 
@@ -118,6 +119,22 @@ def mitsuba_module(variant: str | None = None):
 
 def default_cache_dir() -> Path:
     return cache_dir("reference")
+
+
+def reference_file_name(scene, camera, spp: int, seed: int, key: str) -> str:
+    """The cache file of one reference: the hash ``key`` says what it holds; the scene name appears only as a
+    slug (no separators, no '..': a name like '../../x' stays inside the cache folder). Preset names are
+    their own slugs, so caches written before keep their names."""
+    seed_tag = f"-seed{int(seed)}" if seed else ""  # seed 0 keeps the names existing caches have
+    return f"{slug(scene.name)}-{camera.size[0]}x{camera.size[1]}-{int(spp)}spp{seed_tag}-{key}.npy"
+
+
+def _legacy_file(cache_dir: Path, path: Path, name: str) -> list[Path]:
+    """The name a reference had before slugs (the raw scene name, e.g. 'sphere-ior-1.5'), where that name
+    was a plain file name: existing caches stay readable."""
+    if name == slug(name) or not re.fullmatch(r"[A-Za-z0-9_.-]{1,80}", name) or ".." in name:
+        return []
+    return [cache_dir / (name + path.name[len(slug(name)):])]
 
 
 def diffuse_coverage(scene, camera, spp: int = COVERAGE_SPP) -> np.ndarray:
@@ -240,12 +257,12 @@ def render_reference(
         camera = camera.with_size(*size)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(scene, camera, spp, max_depth, active, analytic_spheres)
-    seed_tag = f"-seed{int(seed)}" if seed else ""  # seed 0 keeps the names existing caches have
-    path = cache_dir / f"{scene.name}-{camera.size[0]}x{camera.size[1]}-{spp}spp{seed_tag}-{key}.npy"
+    path = cache_dir / reference_file_name(scene, camera, spp, seed, key)
     if cache:
-        cached = load_array(path)
-        if cached is not None:
-            return cached  # a missing or damaged entry renders again
+        for candidate in (path, *_legacy_file(cache_dir, path, scene.name)):
+            cached = load_array(candidate)
+            if cached is not None:
+                return cached  # a missing or damaged entry renders again
 
     coverage = diffuse_coverage(scene, camera)
     renders = planned_renders(scene, coverage)
