@@ -147,7 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-o", "--output", required=True, help="output image, .png (sRGB) or .exr (linear float)")
     render.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
-    render.add_argument("--spp", type=SPP, default=1, help="samples per pixel as a k x k grid (box filter)")
+    render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
     render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
@@ -157,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
     view.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
-    view.add_argument("--spp", type=SPP, default=1, help="samples per pixel as a k x k grid (box filter)")
+    view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
     view.add_argument("-p", "--param", type=_param, action="append", default=[],
                       help="technique parameter name=value (repeatable)")
@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("scene", help="a .toml scene file or a preset name")
     comp.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated (default env-map,exact)")
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
-    comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques (default 4)")
+    comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
     comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
     comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
     comp.add_argument("--json", help="write the figures as JSON here")
@@ -245,10 +245,11 @@ def cmd_render(args) -> int:
     from . import load_scene
     from .images import write_image
     from .renderer import Renderer
-    from .techniques import get_technique
+    from .techniques.base import check_spp, get_technique
 
     output = _check_output(args.output, OUTPUT_SUFFIXES)
     technique = get_technique(args.technique)
+    check_spp(technique, args.spp)
     scene = load_scene(args.scene)
     renderer = Renderer(args.size)
     params = dict(args.param)
@@ -336,7 +337,7 @@ def cmd_compare(args) -> int:
     from . import load_scene
     from .bench.compare import compare, format_table
     from .bench.sheet import contact_sheet, save_sheet
-    from .techniques import get_technique
+    from .techniques.base import check_spp, get_technique
 
     json_path = _check_output(args.json, (".json",))
     sheet_path = _check_output(args.sheet, (".png",))
@@ -345,7 +346,7 @@ def cmd_compare(args) -> int:
     optional_module("skimage.metrics", "scikit-image")  # SSIM and FLIP of every row: fail before any render
     optional_module("flip_evaluator", "flip-evaluator")
     for name in args.techniques:
-        get_technique(name)
+        check_spp(get_technique(name), args.spp)
     scene = load_scene(args.scene)
     result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.frames,
                      reference_spp=args.reference_spp, log=lambda m: print(m, file=sys.stderr))

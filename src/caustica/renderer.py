@@ -7,7 +7,7 @@ import numpy as np
 
 from .errors import SceneError
 from .scene import Scene
-from .techniques.base import get_technique
+from .techniques.base import check_spp, get_technique
 
 
 class Renderer:
@@ -51,6 +51,7 @@ class Renderer:
         parameters = tech.make_params(**params)
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
+        check_spp(tech, spp)
         start = time.perf_counter()
         image = tech.render(self, scene, camera, parameters, int(spp))
         if tech.uses_gl:

@@ -6,6 +6,7 @@ its parameters as a validated dataclass, and a docstring citing its paper.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -41,6 +42,9 @@ class Technique:
     summary: ClassVar[str] = ""
     Params: ClassVar[type] = NoParams
     uses_gl: ClassVar[bool] = True
+    # Samples per pixel form a k x k grid (raster supersampling, exact's stratified rays), so spp must be
+    # a square; False where any count is honoured (Mitsuba's sampler).
+    square_spp: ClassVar[bool] = True
     # Prefixes of qualified parameters (``prefix.name``) this technique routes itself (``per-object``'s
     # techniques); a composite passes such parameters on to it whole.
     qualified_prefixes: ClassVar[tuple[str, ...]] = ()
@@ -67,6 +71,19 @@ class Technique:
     def render(self, renderer: "Renderer", scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
         """Return a (H, W, 3) float32 linear image, row 0 at the top."""
         raise NotImplementedError
+
+
+def check_spp(technique: "Technique", spp: int) -> None:
+    """TechniqueError unless ``technique`` renders exactly ``spp`` samples per pixel: a k x k grid takes
+    only squares (2 would render 1, 3 would render 4)."""
+    if not technique.square_spp or spp < 1:
+        return
+    k = math.isqrt(int(spp))
+    if k * k != spp:
+        raise TechniqueError(
+            f"spp {spp} is not a square; '{technique.name}' takes k x k samples per pixel: "
+            f"use {k * k} or {(k + 1) ** 2} (any of 1, 4, 9, 16, ...)"
+        )
 
 
 def technique_names() -> list[str]:

@@ -42,6 +42,7 @@ class MitsubaReference(Technique):
     summary = "Ground truth from Mitsuba 3: path tracing composited with light tracing for caustics (CPU, cached)"
     Params = MitsubaParams
     uses_gl = False
+    square_spp = False  # Mitsuba's independent sampler takes any count
 
     def render(self, renderer, scene, camera, params, spp: int) -> np.ndarray:
         from ..reference.render import render_reference

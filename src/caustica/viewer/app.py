@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import CausticaError
 from ..scene import Scene
+from ..techniques.base import check_spp, get_technique
 from .frames import (
     LiveImage,
     LiveRenderer,
@@ -80,6 +81,7 @@ class Viewer:
         from ..techniques import get_technique
 
         get_technique(technique).make_params(**(params or {}))  # fail on bad input before opening a window
+        check_spp(get_technique(technique), int(spp))
         self.scene = scene
         self.orbit = OrbitCamera(scene.camera)
         self.technique, self.params = technique, dict(params or {})
@@ -705,7 +707,8 @@ EVENTS = {
     "light": Viewer.move_light, "drag_light": Viewer.drag_light,
     "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
     "exposure": lambda v, value: setattr(v, "exposure", float(value)),
-    "spp": lambda v, value: (setattr(v, "spp", int(value)), v.changed()),
+    "spp": lambda v, value: (check_spp(get_technique(v.technique), int(value)), setattr(v, "spp", int(value)),
+                             v.changed()),
     "overlay": lambda v, on=True: setattr(v, "show_overlay", bool(on)),
     "time": Viewer.set_time, "play": Viewer.play, "panel": lambda v, on=True: on != v.show_panel and v.toggle_panel(),
     "screenshot": Viewer.screenshot, "screenshot_window": Viewer.screenshot_window,
