@@ -30,16 +30,22 @@ def show(scene, technique: str = "env-map", size=None, spp: int = 1, exposure: f
     ``widgets``: None uses ipywidgets when installed, True requires it, False returns a static PIL image.
     """
     from . import load_scene
+    from .errors import MissingExtraError
     from .renderer import Renderer
 
     if isinstance(scene, str):
         scene = load_scene(scene)
     renderer = Renderer(size)
-    if widgets is None:
+    if widgets is not False:
         try:
             import ipywidgets  # noqa: F401
         except ImportError:
+            if widgets:
+                raise MissingExtraError("show(widgets=True) needs ipywidgets; pip install 'caustica[notebook]' "
+                                        "or pass widgets=False") from None
             widgets = False
+        else:
+            widgets = True  # None meant "when installed" (it fell through to the static image before)
     if not widgets:
         return to_pil(renderer.render(scene, technique, spp, **params), exposure)
     return _widget(scene, renderer, technique, spp, exposure, params)
