@@ -52,3 +52,15 @@ class ReferenceUnavailableError(CausticaError, RuntimeError):
 
 class MissingExtraError(CausticaError, ImportError):
     """An optional package is not installed (a ``caustica[extra]`` of pyproject.toml)."""
+
+
+def short(value, limit: int = 60) -> str:
+    """``repr(value)`` cut to about ``limit`` characters, for one-line messages that echo user input
+    (a 100,000-element array or a key with a newline must not make a message of many lines or pages)."""
+    text = repr(value.tolist() if hasattr(value, "tolist") and getattr(value, "size", 2) < 2 * limit else value)
+    text = text.replace("\n", "\\n").replace("\r", "\\r")
+    return text if len(text) <= limit else text[: limit - 5] + " ...]" if text[0] == "[" else text[: limit - 3] + "..."
+
+
+class RenderOptionError(SceneError):
+    """An invalid render option: image size, samples per pixel, or a frame too large for the GL."""

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SceneError, short
+from . import rules
 from .transform import look_at_view_from_world, perspective_clip_from_view
 
 
@@ -32,21 +34,28 @@ class Camera:
     size: tuple[int, int] = (512, 512)
 
     def __post_init__(self):
-        self.position = np.asarray(self.position, dtype=np.float64)
-        self.look_at = np.asarray(self.look_at, dtype=np.float64)
-        self.up = np.asarray(self.up, dtype=np.float64)
-        self.size = (int(self.size[0]), int(self.size[1]))
-        if not 0.0 < self.fov_y < 180.0:
-            raise ValueError(f"field of view {self.fov_y} must lie strictly between 0 and 180 degrees")
-        if not 0.0 < self.near < self.far:
-            raise ValueError(f"near ({self.near}) and far ({self.far}) must satisfy 0 < near < far")
-        if self.size[0] <= 0 or self.size[1] <= 0:
-            raise ValueError(f"image size {self.size[0]}x{self.size[1]} must be positive; give e.g. size = [512, 512]")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.position = rules.vector(self.position, "position")
+        self.look_at = rules.vector(self.look_at, "look_at")
+        self.up = rules.vector(self.up, "up")
+        unit_up = rules.direction(self.up, "up")
+        self.size = rules.image_size(self.size, "size")
+        if not (rules.finite(self.fov_y) and 0.0 < self.fov_y < 180.0):
+            raise SceneError(f"field of view {short(self.fov_y)} must lie strictly between 0 and 180 degrees")
+        self.fov_y = float(self.fov_y)
+        self.near = rules.number(self.near, "near", rules.MIN_LENGTH, rules.MAX_COORDINATE, hint=" scene units")
+        self.far = rules.number(self.far, "far", rules.MIN_LENGTH, 10 * rules.MAX_COORDINATE, hint=" scene units")
+        if not self.near < self.far <= rules.MAX_DEPTH_RATIO * self.near:
+            raise SceneError(f"near {self.near:g} and far {self.far:g} must satisfy 0 < near < far <= "
+                             f"{rules.MAX_DEPTH_RATIO:g} * near (depth precision); raise near or lower far")
         forward = self.look_at - self.position
-        if np.linalg.norm(forward) < 1e-12:
-            raise ValueError("camera position and look_at coincide; move one of them")
-        if np.linalg.norm(np.cross(forward, self.up)) < 1e-9 * np.linalg.norm(forward) * np.linalg.norm(self.up):
-            raise ValueError("camera up is parallel to the view direction; choose another up vector")
+        if np.linalg.norm(forward) < 1e-9 * max(1.0, float(np.abs(self.position).max())):
+            raise SceneError("camera position and look_at coincide; move one of them")
+        if np.linalg.norm(np.cross(forward / np.linalg.norm(forward), unit_up)) < 1e-9:
+            raise SceneError("camera up is parallel to the view direction; choose another up vector")
 
     @property
     def aspect(self) -> float:

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import EnvironmentImageError
+from ..errors import EnvironmentImageError, short
+from . import rules
 
 PROCEDURAL_ENVIRONMENTS = ("sky-checker", "black", "white")
 
@@ -43,11 +44,26 @@ class Environment:
     _sh: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
-        self.image = np.ascontiguousarray(self.image, dtype=np.float32)
-        if self.image.ndim != 3 or self.image.shape[2] != 3 or min(self.image.shape[:2]) < 2:
-            raise EnvironmentImageError("environment image must be an RGB image at least 2x2 pixels")
-        if not np.all(np.isfinite(self.image)):
+        self.validate()
+
+    def validate(self) -> None:
+        """Check the image (an assigned one too) and store it as float32: (H, W, 3), at least 2x2, every value
+        finite and at most rules.MAX_INTENSITY (checked before the cast, which would overflow to inf)."""
+        try:
+            image = np.asarray(self.image)
+        except (TypeError, ValueError):
+            image = np.zeros(0)
+        if not np.issubdtype(image.dtype, np.number) or np.issubdtype(image.dtype, np.complexfloating) \
+                or image.ndim != 3 or image.shape[2] != 3 or min(image.shape[:2]) < 2:
+            raise EnvironmentImageError(f"environment image {self.source} must be an RGB image of at least "
+                                        f"2x2 pixels (got shape {short(getattr(image, 'shape', None))})")
+        low, high = float(image.min()), float(image.max())  # NaN propagates: two passes, no temporary
+        if not (np.isfinite(low) and np.isfinite(high)):
             raise EnvironmentImageError(f"environment image {self.source} holds NaN or infinite values; repair the file")
+        if max(-low, high) > rules.MAX_INTENSITY:
+            raise EnvironmentImageError(f"environment image {self.source} holds values up to {max(-low, high):.3g}, "
+                                        f"above {rules.MAX_INTENSITY:g}; rescale the image")
+        self.image = np.ascontiguousarray(image, dtype=np.float32)
 
     def texel_coordinates(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Continuous texel coordinates (x, y) Mitsuba samples for directions ``d``."""

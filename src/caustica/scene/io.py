@@ -17,12 +17,12 @@ from __future__ import annotations
 import inspect
 import math
 import tomllib
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError, closest_name
+from ..errors import SceneError, closest_name, short
+from . import rules
 from .camera import Camera, fov_y_from_fov_x
 from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment, procedural_environment
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
@@ -32,13 +32,13 @@ from .scene import Scene, SceneObject
 from .shapes import SHAPES
 from .transform import Transform
 
-MAX_IMAGE_SIZE = 16384
+MAX_IMAGE_SIZE = rules.MAX_IMAGE_SIZE
 _REQUIRED = object()
 
 # Value kinds a key can hold, each with the phrase used in error messages.
 NUMBER, INTEGER, BOOLEAN, STRING, VEC3, RGB = "number", "integer", "boolean", "string", "vec3", "rgb"
 _KIND_TEXT = {
-    NUMBER: "a number", INTEGER: "an integer", BOOLEAN: "true or false", STRING: "a string",
+    NUMBER: "a finite number", INTEGER: "an integer", BOOLEAN: "true or false", STRING: "a string",
     VEC3: "three numbers [x, y, z]", RGB: "a number or three numbers [r, g, b]",
     "numbers2": "a number or two numbers", "numbers3": "a number or three numbers",
 }
@@ -67,17 +67,38 @@ def load_scene(source: str | Path) -> Scene:
     """A built-in preset by name, or a TOML scene file."""
     from .presets import PRESETS
 
+    if not isinstance(source, (str, Path)):
+        raise SceneError(f"a scene is a preset name or a .toml file path, not {short(source)}; "
+                         "run 'caustica presets' for the built-in scenes")
     if isinstance(source, str) and source in PRESETS:
         return PRESETS[source]()
-    path = Path(source)
-    if not path.exists():
+    if not str(source).strip():
+        raise SceneError("the scene name is empty; give a preset name (see 'caustica presets') or a .toml file")
+    path = _path(source, "scene file")
+    if not _exists(path, "scene file"):
         if path.suffix == "" and path.parent == Path("."):
-            raise SceneError(f"unknown preset '{source}'{closest_name(str(source), PRESETS)}; "
+            raise SceneError(f"unknown preset {short(str(source))}{closest_name(str(source), PRESETS)}; "
                              "run 'caustica presets' to list them, or give a .toml scene file")
         raise SceneError(f"scene file not found: {path}; check the path, or run 'caustica presets' for the built-in scenes")
     if not path.is_file():
         raise SceneError(f"scene path {path} is not a file; give a .toml scene file")
     return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem)
+
+
+def _path(name, what: str) -> Path:
+    """``name`` as a Path; SceneError for a name the OS cannot take (a NUL byte)."""
+    if "\x00" in str(name):
+        raise SceneError(f"{what} name {short(str(name))} holds a NUL byte; give a valid file name")
+    return Path(name)
+
+
+def _exists(path: Path, what: str) -> bool:
+    """Whether ``path`` exists; SceneError for a name the OS refuses (too long, ...)."""
+    try:
+        return path.exists()
+    except OSError as exc:
+        raise SceneError(f"cannot look up {what} {short(str(path))}: {exc.strerror or exc}; give a valid file name") \
+            from None
 
 
 def _read_toml(path: Path) -> dict:
@@ -104,22 +125,9 @@ def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "sce
         objects=_objects(top.tables("objects"), base_dir),
         lights=[_light(t, f"lights[{i}]") for i, t in enumerate(top.tables("lights"))],
         environment=_environment(top.table("environment"), base_dir),
-        intensity_scale=top.get("intensity_scale", NUMBER, 1.0, positive=True),
+        intensity_scale=rules.intensity_scale(top.get("intensity_scale", NUMBER, 1.0)),
         name=top.get("name", STRING, default_name),
     )
-
-
-@contextmanager
-def _context(where: str):
-    """Re-raise ValueErrors from the scene dataclasses as SceneError prefixed with ``where``."""
-    try:
-        yield
-    except SceneError as exc:
-        if str(exc).startswith(where):  # already names its key
-            raise
-        raise type(exc)(f"{where}: {exc}") from None
-    except (ValueError, TypeError) as exc:
-        raise SceneError(f"{where}: {exc}") from None
 
 
 class _Table:
@@ -132,7 +140,7 @@ class _Table:
         for key in data:
             if key not in keys:
                 place = where or "the scene's top level"
-                raise SceneError(f"unknown key '{key}' in {place}{closest_name(key, keys)}; "
+                raise SceneError(f"unknown key {short(key)} in {place}{closest_name(str(key), keys)}; "
                                  f"allowed keys: {', '.join(keys)}")
 
     def name(self, key: str) -> str:
@@ -141,7 +149,7 @@ class _Table:
     def __contains__(self, key: str) -> bool:
         return key in self.data
 
-    def get(self, key: str, kind: str, default=_REQUIRED, positive: bool = False):
+    def get(self, key: str, kind: str, default=_REQUIRED):
         """The value of ``key`` converted to ``kind``; ``default`` when absent (SceneError if required)."""
         if key not in self.data:
             if default is _REQUIRED:
@@ -149,9 +157,7 @@ class _Table:
             return default
         value = _convert(self.data[key], kind)
         if value is None:
-            raise SceneError(f"{self.name(key)} must be {_KIND_TEXT[kind]} (got {self.data[key]!r})")
-        if positive and not np.all(np.asarray(value) > 0):
-            raise SceneError(f"{self.name(key)} must be positive (got {self.data[key]!r})")
+            raise SceneError(f"{self.name(key)} must be {_KIND_TEXT[kind]} (got {short(self.data[key])})")
         return value
 
     def table(self, key: str) -> dict:
@@ -210,7 +216,7 @@ def _camera(data: dict) -> Camera:
         if not 0.0 < fov_x < 180.0:
             raise SceneError(f"camera.fov_x {fov_x} must lie strictly between 0 and 180 degrees")
         fov_y = fov_y_from_fov_x(fov_x, *size)
-    with _context("camera"):
+    with rules.context("camera", CAMERA_KEYS):
         return Camera(
             position=table.get("position", VEC3, [0.0, 0.0, 4.0]),
             look_at=table.get("look_at", VEC3, [0.0, 0.0, 0.0]),
@@ -225,22 +231,20 @@ def _camera(data: dict) -> Camera:
 def _image_size(table: _Table) -> tuple[int, int]:
     value = table.data.get("size", [512, 512])
     if not (isinstance(value, list) and len(value) == 2 and all(_convert(v, INTEGER) is not None for v in value)):
-        raise SceneError(f"camera.size must be two integers [width, height] (got {value!r})")
-    if not all(1 <= v <= MAX_IMAGE_SIZE for v in value):
-        raise SceneError(f"camera.size {value} must lie between 1 and {MAX_IMAGE_SIZE} pixels a side")
-    return int(value[0]), int(value[1])
+        raise SceneError(f"camera.size must be two integers [width, height] (got {short(value)})")
+    return rules.image_size(value, "camera.size")
 
 
 def _environment(data: dict, base_dir: Path) -> Environment:
     table = _Table(data, "environment", {"file": STRING, "procedural": STRING})
     if "file" in table and "procedural" in table:
         raise SceneError("environment has both file and procedural; give only one of them")
-    with _context("environment"):
+    with rules.context("environment", ("file", "procedural")):
         if "file" in table:
-            return load_environment(base_dir / table.get("file", STRING))
+            return load_environment(base_dir / _path(table.get("file", STRING), "environment.file"))
         name = table.get("procedural", STRING, "sky-checker")
         if name not in PROCEDURAL_ENVIRONMENTS:
-            raise SceneError(f"procedural '{name}' is unknown{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
+            raise SceneError(f"procedural {short(name)} is unknown{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
                              f"choose one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
         return procedural_environment(name)
 
@@ -252,7 +256,7 @@ def _typed(data: dict, where: str, kinds: dict, role: str) -> tuple[str, dict]:
     kind = data.get("type")
     if not isinstance(kind, str) or kind not in kinds:
         hint = closest_name(kind, kinds) if isinstance(kind, str) else ""
-        what = f"type {kind!r} is unknown{hint}" if "type" in data else "needs a type"
+        what = f"type {short(kind)} is unknown{hint}" if "type" in data else "needs a type"
         raise SceneError(f"{where} {what}; choose a {role} type from {', '.join(kinds)}")
     return kind, {"type": STRING, **kinds[kind]}
 
@@ -261,7 +265,7 @@ def _light(data: dict, where: str):
     kind, keys = _typed(data, where, LIGHT_KEYS, "light")
     table = _Table(data, where, keys)
     intensity = table.get("intensity", RGB, np.full(3, 10.0 if kind != "directional" else 3.0))
-    with _context(where):
+    with rules.context(where, keys):
         if kind == "point":
             return PointLight(table.get("position", VEC3), intensity)
         if kind == "directional":
@@ -286,7 +290,7 @@ def _material(data, where: str):
     kind, keys = _typed(data, where, {k: v[1] for k, v in MATERIALS.items()}, "material")
     table = _Table(data, where, keys)
     values = {key: table.get(key, keys[key]) for key in data if key != "type"}
-    with _context(where):
+    with rules.context(where, keys):
         return MATERIALS[kind][0](**values)
 
 
@@ -313,7 +317,7 @@ def _objects(entries: list[dict], base_dir: Path) -> list[SceneObject]:
         obj = _object(data, where, base_dir, meshes)
         if obj.name in owner:
             if "name" in data:
-                raise SceneError(f"{where}.name '{obj.name}' is already used by {owner[obj.name]}; "
+                raise SceneError(f"{where}.name {short(obj.name)} is already used by {owner[obj.name]}; "
                                  "give each object its own name")
             obj.name = f"{obj.name}-{i}"
         owner[obj.name] = where
@@ -331,23 +335,23 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) ->
     shape = data.get("shape")
     if shape is not None and (not isinstance(shape, str) or shape not in SHAPES):
         hint = closest_name(shape, SHAPES) if isinstance(shape, str) else ""
-        raise SceneError(f"{where}.shape {shape!r} is unknown{hint}; choose one of {', '.join(SHAPES)}")
+        raise SceneError(f"{where}.shape {short(shape)} is unknown{hint}; choose one of {', '.join(SHAPES)}")
     shape_keys = _shape_keys(shape) if shape else {}
     table = _Table(data, where, {**OBJECT_KEYS, **shape_keys})
     if "center" in table and "position" in table:
         raise SceneError(f"{where} has both center and position; give only one of them")
-    with _context(where):
+    with rules.context(where, table.keys):
         if shape:
             mesh = _shape(shape, {key: table.get(key, kind) for key, kind in shape_keys.items() if key in table}, where)
         else:
-            path = (base_dir / table.get("mesh", STRING)).resolve()
+            path = (base_dir / _path(table.get("mesh", STRING), f"{where}.mesh")).resolve()
             if path not in meshes:
                 meshes[path] = load_mesh(path)
             mesh = meshes[path]
         transform = Transform(
             position=table.get("position" if "position" in table else "center", VEC3, np.zeros(3)),
             rotation=table.get("rotation", VEC3, np.zeros(3)),
-            scale=table.get("scale", _numbers(3), np.ones(3), positive=True),
+            scale=table.get("scale", _numbers(3), np.ones(3)),
         )
     material = _material(data.get("material"), f"{where}.material")
     name = table.get("name", STRING, shape or Path(data.get("mesh", "mesh")).stem)
@@ -359,6 +363,4 @@ def _shape(shape: str, params: dict, where: str) -> Mesh:
     try:
         return SHAPES[shape](**params)
     except ValueError as exc:
-        message = str(exc)
-        joint = "." if message.split(" ", 1)[0] in _shape_keys(shape) else ": "
-        raise SceneError(f"{where}{joint}{message}") from None
+        raise SceneError(rules.joined(where, str(exc), _shape_keys(shape))) from None

@@ -5,14 +5,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .materials import _rgb
+from ..errors import SceneError
+from . import rules
 
 
-def _unit(value, name: str) -> np.ndarray:
-    v = np.asarray(value, dtype=np.float64).reshape(-1)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) < 1e-12:
-        raise ValueError(f"{name} must be a non-zero vector [x, y, z]")
-    return v / np.linalg.norm(v)
+def _intensity(value) -> np.ndarray:
+    return rules.rgb(value, "intensity", rules.MAX_INTENSITY)
 
 
 @dataclass
@@ -22,8 +20,12 @@ class PointLight:
     kind = "point"
 
     def __post_init__(self):
-        self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
-        self.intensity = _rgb(self.intensity, "point light intensity")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.position = rules.vector(self.position, "position")
+        self.intensity = _intensity(self.intensity)
 
     def point_samples(self):
         return [(self.position, self.intensity)]
@@ -38,8 +40,12 @@ class DirectionalLight:
     kind = "directional"
 
     def __post_init__(self):
-        self.direction = _unit(self.direction, "directional light direction")
-        self.intensity = _rgb(self.intensity, "directional light irradiance")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.direction = rules.direction(self.direction, "direction")
+        self.intensity = _intensity(self.intensity)
 
 
 @dataclass
@@ -54,11 +60,18 @@ class SpotLight:
     kind = "spot"
 
     def __post_init__(self):
-        self.position = np.asarray(self.position, dtype=np.float64).reshape(3)
-        self.direction = _unit(self.direction, "spot light direction")
-        self.intensity = _rgb(self.intensity, "spot light intensity")
-        if not 0 < self.inner_angle <= self.outer_angle < 90:
-            raise ValueError("spot angles must satisfy 0 < inner_angle <= outer_angle < 90 degrees")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.position = rules.vector(self.position, "position")
+        self.direction = rules.direction(self.direction, "direction")
+        self.intensity = _intensity(self.intensity)
+        self.inner_angle = rules.number(self.inner_angle, "inner_angle", 0.0, 90.0, open_low=True, hint=" degrees")
+        self.outer_angle = rules.number(self.outer_angle, "outer_angle", 0.0, 90.0, open_low=True, hint=" degrees")
+        if not self.inner_angle <= self.outer_angle < 90:
+            raise SceneError(f"spot angles (inner_angle {self.inner_angle:g}, outer_angle {self.outer_angle:g}) "
+                                   "must satisfy 0 < inner_angle <= outer_angle < 90 degrees")
 
     def falloff(self, cos_angle: np.ndarray) -> np.ndarray:
         """Smooth step from the outer cone (0) to the inner cone (1)."""
@@ -81,12 +94,15 @@ class LineLight:
     kind = "line"
 
     def __post_init__(self):
-        self.start = np.asarray(self.start, dtype=np.float64).reshape(3)
-        self.end = np.asarray(self.end, dtype=np.float64).reshape(3)
-        self.intensity = _rgb(self.intensity, "line light intensity")
-        self.samples = int(self.samples)
-        if self.samples < 1:
-            raise ValueError("line light samples must be at least 1")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.start = rules.vector(self.start, "start")
+        self.end = rules.vector(self.end, "end")
+        self.intensity = _intensity(self.intensity)
+        self.samples = rules.integer(self.samples, "samples", 1, rules.MAX_LINE_SAMPLES,
+                                     hint=" (GL techniques take 8 light samples in all)")
 
     def point_samples(self):
         ts = (np.arange(self.samples) + 0.5) / self.samples

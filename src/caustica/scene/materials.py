@@ -5,14 +5,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SceneError, short
+from . import rules
 
-def _rgb(value, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64).reshape(-1)
-    if arr.size == 1:
-        arr = np.repeat(arr, 3)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError(f"{name} must be three non-negative numbers [r, g, b]")
-    return arr
+
 
 
 @dataclass
@@ -23,7 +19,11 @@ class Diffuse:
     kind = "diffuse"
 
     def __post_init__(self):
-        self.color = _rgb(self.color, "diffuse color")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
 
 
 @dataclass
@@ -34,7 +34,11 @@ class Mirror:
     kind = "mirror"
 
     def __post_init__(self):
-        self.color = _rgb(self.color, "mirror color")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
 
 
 @dataclass
@@ -53,19 +57,25 @@ class Glass:
     kind = "glass"
 
     def __post_init__(self):
-        self.ior = float(self.ior)
-        if not np.isfinite(self.ior) or self.ior <= 0:
-            raise ValueError(f"ior {self.ior} must be positive (glass is about 1.5, water 1.33)")
-        self.absorption_color = _rgb(self.absorption_color, "absorption color")
-        if np.any(self.absorption_color > 1):
-            raise ValueError("absorption color is a transmittance and must lie in [0, 1]")
-        self.absorption_distance = float(self.absorption_distance)
-        if not self.absorption_distance > 0:
-            raise ValueError("absorption distance must be positive")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules): the IOR and,
+        with ``abbe``, each channel's IOR in rules.IOR_RANGE."""
+        self.ior = rules.ior(self.ior)
+        self.absorption_color = rules.rgb(self.absorption_color, "absorption_color", 1.0)  # a transmittance
+        self.absorption_distance = rules.number(self.absorption_distance, "absorption_distance", rules.MIN_LENGTH,
+                                                1e12, hint=" scene units")
         if self.abbe is not None:
-            self.abbe = float(self.abbe)
-            if not self.abbe > 0:
-                raise ValueError("abbe number must be positive (crown glass is about 60)")
+            self.abbe = rules.number(self.abbe, "abbe", 0.0, 1e6, open_low=True,
+                                     hint=" (crown glass is about 60, dense flint 30)")
+            with np.errstate(all="ignore"):
+                channels = self.ior_rgb
+            low, high = rules.IOR_RANGE
+            if not np.all(np.isfinite(channels) & (channels >= low) & (channels <= high)):
+                raise SceneError(f"abbe {self.abbe:g} spreads ior {self.ior:g} to per-channel IORs "
+                                 f"{short(np.round(channels, 3))} outside [{low:g}, {high:g}]; use a larger abbe "
+                                 "number (crown glass is about 60)")
 
     @property
     def absorption_coefficient(self) -> np.ndarray:

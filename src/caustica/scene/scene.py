@@ -1,14 +1,17 @@
 """The scene: camera, objects (mesh + transform + material), lights, environment."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SceneError
+from . import rules
 from .camera import Camera
 from .environment import Environment, procedural_environment
-from .lights import Light
-from .materials import Material
+from .lights import DirectionalLight, Light, LineLight, PointLight, SpotLight
+from .materials import Diffuse, Glass, Material, Mirror
 from .mesh import Mesh
 from .transform import Transform
 
@@ -30,6 +33,23 @@ class SceneObject:
             self._world = self.mesh.transformed(self.world_from_object())
         return self._world
 
+    def validate(self, where: str = "object") -> None:
+        """Check the mesh, material and transform (the loader's rules) and that the transformed mesh stays
+        within +-rules.MAX_COORDINATE; errors name ``where.key``."""
+        with rules.context(where, ("name", "mesh", "material", "transform")):
+            if not isinstance(self.name, str):
+                raise SceneError(f"name {_type_name(self.name)} must be a string")
+            _part(self.mesh, (Mesh,), "mesh", "a caustica.scene.Mesh").validate()
+        _validated(self.material, (Glass, Diffuse, Mirror), f"{where}.material", "a Glass, Diffuse or Mirror")
+        _validated(self.transform, (Transform,), f"{where}.transform", "a Transform")
+        # The object's world box: the corners of its object-space box through world_from_object.
+        corners = np.array(np.meshgrid(*self.mesh.bounds.T.astype(np.float64))).reshape(3, -1).T
+        world = corners @ self.world_from_object()[:3, :3].T + self.transform.position
+        reach = float(np.abs(world).max())
+        if reach > rules.MAX_COORDINATE:
+            raise SceneError(f"{where} reaches {reach:.3g} scene units from the origin once scaled and placed, beyond "
+                             f"+-{rules.MAX_COORDINATE:g}; lower its scale or move it closer")
+
     def moved(self, transform: Transform) -> "SceneObject":
         return SceneObject(self.name, self.mesh, self.material, transform)
 
@@ -43,6 +63,26 @@ class Scene:
     intensity_scale: float = 1.0
     name: str = "scene"
 
+    def validate(self) -> "Scene":
+        """Check every part with the TOML loader's rules (scene/rules.py and each part's ``validate``), for a
+        scene edited after loading: SceneError, MeshError or EnvironmentImageError naming the part the way
+        scene files do (``objects[0].material.ior ...``). Pure data, a few milliseconds for a 69K-triangle
+        mesh. Returns the scene."""
+        _validated(self.camera, (Camera,), "camera", "a caustica.scene.Camera")
+        for name, items in (("objects", self.objects), ("lights", self.lights)):
+            if not isinstance(items, (list, tuple)):
+                raise SceneError(f"{name} {_type_name(items)} must be a list")
+        for i, obj in enumerate(self.objects):
+            _part(obj, (SceneObject,), f"objects[{i}]", "a SceneObject").validate(f"objects[{i}]")
+        for i, light in enumerate(self.lights):
+            _validated(light, (PointLight, DirectionalLight, SpotLight, LineLight), f"lights[{i}]",
+                       "a PointLight, DirectionalLight, SpotLight or LineLight")
+        _validated(self.environment, (Environment,), "environment", "a caustica.scene.Environment")
+        self.intensity_scale = rules.intensity_scale(self.intensity_scale)
+        if not isinstance(self.name, str):
+            raise SceneError(f"name {_type_name(self.name)} must be a string")
+        return self
+
     def objects_of(self, kind: str) -> list[SceneObject]:
         """Objects whose material kind is ``kind`` ('diffuse', 'mirror', 'glass')."""
         return [o for o in self.objects if o.material.kind == kind]
@@ -53,3 +93,26 @@ class Scene:
             return np.array([[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]])
         boxes = np.stack([o.world_mesh().bounds for o in self.objects])
         return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+
+def _type_name(value) -> str:
+    return f"(a {type(value).__name__})"
+
+
+def _part(value, kinds: tuple, where: str, what: str):
+    """``value`` when it is one of ``kinds``, else SceneError naming ``where``."""
+    if not isinstance(value, kinds):
+        raise SceneError(f"{where} {_type_name(value)} must be {what}")
+    return value
+
+
+def _validated(value, kinds: tuple, where: str, what: str) -> None:
+    """Type-check ``value`` and run its own validate, errors naming ``where`` (``where.field ...``)."""
+    _part(value, kinds, where, what)
+    with rules.context(where, [f.name for f in dataclasses.fields(value)]):
+        value.validate()
+
+
+def check_scene(scene) -> Scene:
+    """``scene`` validated (Renderer.render_timed calls this first); SceneError when it is no Scene."""
+    return _part(scene, (Scene,), "the scene", "a caustica.scene.Scene (see caustica.load_scene)").validate()

@@ -15,36 +15,51 @@ import math
 
 import numpy as np
 
+from ..errors import short
+from . import rules
 from .mesh import Mesh
+
+
+MAX_WAVE_SAMPLES = 1 << 24  # grid vertices times waves of a water surface (each a float64 in a few arrays)
 
 
 # Grid helpers ------------------------------------------------------------------
 
 
 def _positive(**values) -> None:
-    """ValueError naming the first parameter that is not a positive finite number."""
+    """ValueError naming the first parameter that is not a positive number of at most rules.MAX_COORDINATE."""
     for name, value in values.items():
-        arr = np.asarray(value, dtype=np.float64)
-        if not np.all(np.isfinite(arr) & (arr > 0)):
-            raise ValueError(f"{name} must be positive (got {arr.tolist()})")
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            arr = np.array(np.nan)
+        if not np.all(np.isfinite(arr) & (arr > 0) & (arr <= rules.MAX_COORDINATE)):
+            raise ValueError(f"{name} must be positive and at most {rules.MAX_COORDINATE:g} (got {short(value)})")
 
 
 def _dims(size, n: int, name: str = "size") -> np.ndarray:
     """``size`` as ``n`` positive numbers (a single number stands for all of them)."""
-    arr = np.asarray(size, dtype=np.float64).reshape(-1)
+    try:
+        arr = np.asarray(size, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        arr = np.array([np.nan])
     if arr.size == 1:
         arr = np.repeat(arr, n)
     if arr.size != n:
-        raise ValueError(f"{name} must be one number or {n} numbers (got {size})")
+        raise ValueError(f"{name} must be one number or {n} numbers (got {short(size)})")
     _positive(**{name: arr})
     return arr
 
 
-def _count(name: str, value: int, minimum: int) -> int:
-    """An integer resolution parameter, at least ``minimum``."""
-    if int(value) != value or value < minimum:
-        raise ValueError(f"{name} must be an integer of at least {minimum} (got {value})")
-    return int(value)
+def _count(name: str, value: int, minimum: int, maximum: int = rules.MAX_TRIANGLES) -> int:
+    """An integer resolution parameter in [minimum, maximum]."""
+    return rules.integer(value, name, minimum, maximum)
+
+
+def _budget(triangles: int, **params) -> None:
+    """ValueError naming the resolution parameters when they would make more than rules.MAX_TRIANGLES triangles."""
+    rules.triangles(triangles, " and ".join(f"{k} {v}" for k, v in params.items()) + " would make",
+                    f"lower {' or '.join(params)}")
 
 
 def _grid_faces(rows: int, cols: int, wrap_rows: bool = False, wrap_cols: bool = False) -> np.ndarray:
@@ -112,7 +127,8 @@ def _y_to_z(part):
 def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
     """Icosphere: an icosahedron subdivided ``subdivisions`` times, exactly radial normals."""
     _positive(radius=radius)
-    subdivisions = _count("subdivisions", subdivisions, 0)
+    subdivisions = _count("subdivisions", subdivisions, 0, 64)
+    _budget(20 * 4**subdivisions, subdivisions=subdivisions)
     t = (1.0 + math.sqrt(5.0)) / 2.0
     vertices = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
                          [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=np.float64)
@@ -141,6 +157,7 @@ def _heightfield(size, resolution: int, height, name: str) -> Mesh:
     """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz)."""
     width, depth = _dims(size, 2)
     n = _count("resolution", resolution, 1) + 1
+    _budget(2 * (n - 1) ** 2, resolution=n - 1)
     # Rows follow X and columns Z, so that d/dcol x d/drow = +Z x +X = +Y.
     x, z = np.meshgrid(np.linspace(-width / 2, width / 2, n), np.linspace(-depth / 2, depth / 2, n), indexing="ij")
     y, dydx, dydz = height(x, z)
@@ -175,10 +192,11 @@ def torus(major_radius: float = 1.0, minor_radius: float = 0.3, segments: int = 
     _positive(major_radius=major_radius, minor_radius=minor_radius)
     if minor_radius >= major_radius:
         raise ValueError(f"minor_radius ({minor_radius}) must be smaller than major_radius ({major_radius})")
-    theta = 2.0 * np.pi * np.arange(_count("sides", sides, 3)) / sides
+    sides, segments = _count("sides", sides, 3), _count("segments", segments, 3)
+    _budget(2 * sides * segments, segments=segments, sides=sides)
+    theta = 2.0 * np.pi * np.arange(sides) / sides
     nr, ny = np.cos(theta), np.sin(theta)  # counter-clockwise around the tube cross-section
-    part = _revolve(major_radius + minor_radius * nr, minor_radius * ny, nr, ny,
-                    _count("segments", segments, 3), closed=True)
+    part = _revolve(major_radius + minor_radius * nr, minor_radius * ny, nr, ny, segments, closed=True)
     return _merge([part], "torus")
 
 
@@ -192,10 +210,11 @@ def torus_knot(p: int = 2, q: int = 3, radius: float = 1.0, tube_radius: float =
     leftover twist evenly.
     """
     _positive(radius=radius, tube_radius=tube_radius)
-    p, q = _count("p", p, 1), _count("q", q, 1)
+    p, q = _count("p", p, 1, 1000), _count("q", q, 1, 1000)
     if math.gcd(p, q) != 1:
         raise ValueError(f"p ({p}) and q ({q}) must be coprime for a knot (a single closed curve)")
     n, m = _count("segments", segments, 8), _count("sides", sides, 3)
+    _budget(2 * n * m, segments=n, sides=m)
     # Curve and tangent (analytic derivative).
     t = 2.0 * np.pi * np.arange(n) / n
     rho, drho = radius * (2.0 + np.cos(q * t)) / 3.0, -radius * q * np.sin(q * t) / 3.0
@@ -238,6 +257,7 @@ def cylinder(radius: float = 1.0, height: float = 2.0, segments: int = 64, caps:
     """Cylinder about the Y axis from y = -height/2 to height/2; smooth side, flat caps."""
     _positive(radius=radius, height=height)
     segments, h = _count("segments", segments, 3), height / 2.0
+    _budget(6 * segments, segments=segments)
     parts = [_strip([(radius, -h), (radius, h)], (1.0, 0.0), segments)]
     if caps:
         parts += [_strip([(0.0, -h), (radius, -h)], (0.0, -1.0), segments),
@@ -251,6 +271,7 @@ def ring(inner_radius: float = 0.8, outer_radius: float = 1.0, height: float = 0
     if inner_radius >= outer_radius:
         raise ValueError(f"inner_radius ({inner_radius}) must be smaller than outer_radius ({outer_radius})")
     segments, h, ri, ro = _count("segments", segments, 3), height / 2.0, inner_radius, outer_radius
+    _budget(8 * segments, segments=segments)
     # The cross-section rectangle, counter-clockwise: bottom, outer wall, top, inner wall.
     parts = [_strip([(ri, -h), (ro, -h)], (0.0, -1.0), segments), _strip([(ro, -h), (ro, h)], (1.0, 0.0), segments),
              _strip([(ro, h), (ri, h)], (0.0, 1.0), segments), _strip([(ri, h), (ri, -h)], (-1.0, 0.0), segments)]
@@ -277,6 +298,7 @@ def _spherical_cap(aperture: float, pole_y: float, rim_y: float, convex: bool, r
 def _lens(name: str, aperture: float, center_y: float, edge_y: float, convex: bool, segments: int, rings: int) -> Mesh:
     """Two mirror-image spherical caps (poles at +-center_y, rims at +-edge_y) joined by a band, axis Z."""
     segments, rings = _count("segments", segments, 3), _count("rings", rings, 1)
+    _budget(4 * segments * rings + 2 * segments, segments=segments, rings=rings)
     r, y, nr, ny = _spherical_cap(aperture, -center_y, -edge_y, convex, rings)
     # Counter-clockwise: bottom cap from its pole out, the rim band, the top cap back to its pole.
     parts = [_revolve(r, y, nr, ny, segments)]
@@ -295,7 +317,7 @@ def biconvex_lens(radius: float = 1.0, thickness: float = 0.4, edge_thickness: f
     cylindrical band joins the two rims.
     """
     _positive(radius=radius, thickness=thickness)
-    if not 0.0 <= edge_thickness < thickness:
+    if not 0.0 <= rules.number(edge_thickness, "edge_thickness") < thickness:
         raise ValueError(f"edge_thickness ({edge_thickness}) must lie in [0, thickness) (thickness is {thickness})")
     return _lens("biconvex-lens", radius, thickness / 2.0, edge_thickness / 2.0, True, segments, rings)
 
@@ -324,10 +346,14 @@ def water_heightfield(size=(4.0, 4.0), resolution: int = 128, amplitude: float =
     from ``seed``; each wave moves at the deep-water speed (omega^2 = g k), so
     ``time`` animates it. Normals come from the analytic gradient.
     """
-    if not (np.isfinite(amplitude) and amplitude >= 0):
-        raise ValueError(f"amplitude must be zero or positive (got {amplitude})")
-    waves = _count("waves", waves, 1)
-    rng = np.random.default_rng(int(seed))
+    amplitude = rules.number(amplitude, "amplitude", 0.0, rules.MAX_COORDINATE)
+    time = rules.number(time, "time", -rules.MAX_COORDINATE, rules.MAX_COORDINATE, hint=" seconds")
+    waves = _count("waves", waves, 1, 256)
+    samples = (_count("resolution", resolution, 1) + 1) ** 2 * waves
+    if samples > MAX_WAVE_SAMPLES:
+        raise ValueError(f"resolution {resolution} and waves {waves} would evaluate {samples:,} wave samples, above "
+                         f"the limit of {MAX_WAVE_SAMPLES:,}; lower resolution or waves")
+    rng = np.random.default_rng(_count("seed", seed, 0, 2**63 - 1))
     angle = rng.uniform(0.0, 2.0 * np.pi, waves)
     wavelength = rng.uniform(0.15, 0.5, waves) * float(np.max(_dims(size, 2)))
     phase = rng.uniform(0.0, 2.0 * np.pi, waves)

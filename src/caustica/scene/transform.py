@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import rules
+
 
 def _vec3(value, name: str) -> np.ndarray:
     arr = np.asarray(value, dtype=np.float64).reshape(-1)
@@ -36,12 +38,13 @@ class Transform:
     scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     def __post_init__(self):
-        self.position = _vec3(self.position, "position")
-        self.rotation = _vec3(self.rotation, "rotation")
-        scale = np.asarray(self.scale, dtype=np.float64).reshape(-1)
-        self.scale = np.repeat(scale, 3) if scale.size == 1 else _vec3(scale, "scale")
-        if np.any(self.scale <= 0) or not np.all(np.isfinite(self.scale)):
-            raise ValueError("scale must be positive")
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.position = rules.vector(self.position, "position")
+        self.rotation = rules.vector(self.rotation, "rotation", limit=rules.MAX_ROTATION)
+        self.scale = rules.scale(self.scale)
 
     def world_from_object(self) -> np.ndarray:
         m = np.eye(4)
