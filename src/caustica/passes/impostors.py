@@ -32,6 +32,7 @@ import numpy as np
 from ..cache import state_key
 from ..errors import SceneError
 from ..gpu.meshes import set_uniform, write_uniform_array
+from ..scene import rules
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
 from .surfaces import ShadeSurfaces
@@ -388,13 +389,10 @@ class NearbyParams:
         if self.nearby not in NEARBY_MODES or self.nearby == "impostors":
             raise ValueError(f"nearby {self.nearby!r} must be one of none, planes, search-linear, search-binary, "
                              "search-secant (impostors: use the 'impostors' technique)")
-        for name, low, high in (("search_linear_steps", 1, 512), ("search_refine_steps", 0, 32)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or not low <= value <= high:
-                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-            setattr(self, name, int(value))
-        if not (np.isfinite(float(self.search_distance)) and float(self.search_distance) >= 0.0):
-            raise ValueError(f"search_distance {self.search_distance} must be >= 0 scene units (0: the scene's diagonal)")
+        for name, (low, high) in {"search_linear_steps": (1, 512), "search_refine_steps": (0, 32)}.items():
+            setattr(self, name, rules.integer(getattr(self, name), name, low, high))
+        # Scene units; 0: the scene's diagonal.
+        self.search_distance = rules.number(self.search_distance, "search_distance", 0.0, rules.MAX_COORDINATE)
         self.search_distance = float(self.search_distance)
 
 

@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ..errors import TechniqueError, closest_name
+from ..errors import TechniqueError, closest_name, short
+from ..scene import rules
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..renderer import Renderer
@@ -26,13 +27,26 @@ class NoParams:
 
 
 def check_integers(params, ranges: dict) -> None:
-    """Each field ``name: (low, high)`` of ``params`` must be an integer (not a bool) in [low, high];
-    stored as int. A ValueError names the field otherwise (parameter dataclasses' __post_init__)."""
+    """Each field ``name: (low, high)`` of ``params`` must be an integer (not a bool, a string or inf) in
+    [low, high]; stored as int. A TechniqueError names the field otherwise (parameter dataclasses' __post_init__)."""
     for name, (low, high) in ranges.items():
-        value = getattr(params, name)
-        if isinstance(value, bool) or int(value) != value or not low <= value <= high:
-            raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-        setattr(params, name, int(value))
+        setattr(params, name, rules.integer(getattr(params, name), name, low, high, error=TechniqueError))
+
+
+def check_numbers(params, ranges: dict) -> None:
+    """Each field ``name: (low, high)`` or ``(low, high, ends)`` of ``params`` must be a finite number (not a
+    bool or a string) in the range, ``ends`` one of "[]" (the default), "(]", "[)", "()"; stored as float.
+    A TechniqueError names the field and its range otherwise."""
+    for name, (low, high, *ends) in ranges.items():
+        ends = ends[0] if ends else "[]"
+        setattr(params, name, rules.number(getattr(params, name), name, low, high, open_low=ends[0] == "(",
+                                           open_high=ends[1] == ")", error=TechniqueError))
+
+
+def check_flags(params, names) -> None:
+    """Each field in ``names`` must be true or false (not 'yes', not 1); stored as bool."""
+    for name in names:
+        setattr(params, name, rules.flag(getattr(params, name), name, error=TechniqueError))
 
 
 class Technique:
@@ -60,7 +74,7 @@ class Technique:
         for key in values:
             if key not in fields:
                 raise TechniqueError(
-                    f"technique '{self.name}' has no parameter '{key}'{closest_name(key, fields)}; "
+                    f"technique '{self.name}' has no parameter {short(key)}{closest_name(key, fields)}; "
                     f"its parameters are: {', '.join(sorted(fields)) or 'none'}"
                 )
         try:
@@ -94,13 +108,16 @@ def technique_names() -> list[str]:
 def get_technique(name: str) -> Technique:
     """A technique by name; ``view+caustics`` composes a view technique with a caustic technique."""
     _load_builtin()
+    if not isinstance(name, str):
+        raise TechniqueError(f"technique {short(name)} must be a technique name such as 'env-map'; "
+                             "run 'caustica techniques' to list them")
     if "+" in name:
         from .composite import composite_technique
 
         return composite_technique(name, get_technique)
     if name not in _REGISTRY:
         raise TechniqueError(
-            f"unknown technique '{name}'{closest_name(name, _REGISTRY)}; run 'caustica techniques' to list them"
+            f"unknown technique {short(name)}{closest_name(name, _REGISTRY)}; run 'caustica techniques' to list them"
         )
     return _REGISTRY[name]()
 

@@ -79,6 +79,7 @@ from ..passes.light_space import (
     dispatch_photons,
 )
 from .composite import CausticTechnique
+from .base import check_integers, check_numbers
 from .env_map import ShadowedParams
 
 MAX_CASTERS = 32
@@ -102,25 +103,18 @@ class CausticMappingParams(ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        if int(self.map_size) != self.map_size or not 16 <= self.map_size <= 4096:
-            raise ValueError(f"map_size {self.map_size} must be an integer in [16, 4096]")
-        if int(self.photon_grid) != self.photon_grid or not (self.photon_grid == 0 or 8 <= self.photon_grid <= 4096):
+        check_integers(self, {"map_size": (16, 4096), "photon_grid": (0, 4096), "iterations": (0, 64),
+                              "exit_iterations": (0, 64)})
+        if 0 < self.photon_grid < 8:
             raise ValueError(f"photon_grid {self.photon_grid} must be 0 (= map_size) or an integer in [8, 4096]")
-        for name, top in (("iterations", 64), ("exit_iterations", 64)):
-            value = getattr(self, name)
-            if int(value) != value or not 0 <= value <= top:
-                raise ValueError(f"{name} {value} must be an integer in [0, {top}]")
         if self.estimator not in ESTIMATORS:
             raise ValueError(f"estimator '{self.estimator}' must be one of {', '.join(ESTIMATORS)}")
         if self.splat not in ("auto", "compute", "points"):
             raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
-        if not 0.75 <= float(self.splat_radius) <= 8.0:
-            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
+        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
         if self.point_map not in ("frustum", "cube"):
             raise ValueError(f"point_map '{self.point_map}' must be 'frustum' or 'cube'")
-        self.map_size, self.photon_grid = int(self.map_size), int(self.photon_grid) or int(self.map_size)
-        self.iterations, self.exit_iterations = int(self.iterations), int(self.exit_iterations)
-        self.splat_radius = float(self.splat_radius)
+        self.photon_grid = self.photon_grid or self.map_size
 
 
 class TracePhotons(Pass):

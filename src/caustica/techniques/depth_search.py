@@ -92,7 +92,9 @@ from ..gpu.meshes import set_uniform
 from ..passes.impostors import NearbyParams, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
-from .base import check_integers
+from ..errors import short
+from ..scene.rules import MAX_COORDINATE
+from .base import check_flags, check_integers, check_numbers
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -115,23 +117,13 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        if int(self.search_steps) != self.search_steps or not 1 <= self.search_steps <= 16:
-            raise ValueError(f"search_steps {self.search_steps} must be an integer in [1, 16] (the paper uses 8)")
-        if not 0.0 < float(self.search_start) <= 2.0:
-            raise ValueError(f"search_start {self.search_start} must lie in (0, 2] (a fraction of the buffer size; "
-                             "the paper uses 0.75)")
-        if int(self.iterations) != self.iterations or not 0 <= self.iterations <= 32:
-            raise ValueError(f"iterations {self.iterations} must be an integer in [0, 32] (the paper uses 2 to 5)")
-        if not (np.isfinite(float(self.tolerance)) and float(self.tolerance) >= 0.0):
-            raise ValueError(f"tolerance {self.tolerance} must be a non-negative distance in scene units")
-        if not isinstance(self.assume_back_first, (bool, np.bool_)):
-            raise ValueError(f"assume_back_first {self.assume_back_first!r} must be true or false")
-        check_integers(self, {"internal_bounces": (0, MAX_INTERNAL_BOUNCES)})
+        # The paper: 8 search steps from 75 percent of the buffer, 2 to 5 iterations.
+        check_integers(self, {"search_steps": (1, 16), "iterations": (0, 32),
+                              "internal_bounces": (0, MAX_INTERNAL_BOUNCES)})
+        check_numbers(self, {"search_start": (0.0, 2.0, "(]"), "tolerance": (0.0, MAX_COORDINATE)})
+        check_flags(self, ("assume_back_first",))
         if self.back_iteration not in BACK_ITERATIONS:
-            raise ValueError(f"back_iteration {self.back_iteration!r} must be one of {', '.join(BACK_ITERATIONS)}")
-        self.search_steps, self.iterations = int(self.search_steps), int(self.iterations)
-        self.search_start, self.tolerance = float(self.search_start), float(self.tolerance)
-        self.assume_back_first = bool(self.assume_back_first)
+            raise ValueError(f"back_iteration {short(self.back_iteration)} must be one of {', '.join(BACK_ITERATIONS)}")
 
 
 class DepthSearch(RasterTechnique):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
+from .base import check_integers
 from .raster import RasterTechnique
 
 
@@ -27,9 +28,7 @@ class ShadowedParams:
     shadow_map_size: int = 1024
 
     def __post_init__(self):
-        if not 16 <= int(self.shadow_map_size) <= 8192:
-            raise ValueError(f"shadow_map_size {self.shadow_map_size} must lie in [16, 8192]")
-        self.shadow_map_size = int(self.shadow_map_size)
+        check_integers(self, {"shadow_map_size": (16, 8192)})
 
 
 class EnvMap(RasterTechnique):

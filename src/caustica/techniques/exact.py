@@ -25,7 +25,7 @@ import numpy as np
 
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.paths import trace
-from .base import Technique
+from .base import Technique, check_numbers
 
 
 @dataclass
@@ -44,9 +44,7 @@ class ExactParams:
             raise ValueError(f"max_depth must be an integer, got {self.max_depth!r}")
         if not 0 <= self.max_depth <= 64:
             raise ValueError(f"max_depth {self.max_depth} must lie between 0 and 64")
-        self.min_weight = float(self.min_weight)
-        if not 0.0 <= self.min_weight < 1.0:
-            raise ValueError(f"min_weight {self.min_weight} must lie in [0, 1)")
+        check_numbers(self, {"min_weight": (0.0, 1.0, "[)")})
 
 
 class Exact(Technique):

@@ -59,7 +59,7 @@ from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
 from ..passes.light_space import float_atomics
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
-from .base import check_integers
+from .base import check_integers, check_numbers
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes
 
@@ -78,10 +78,8 @@ class ImpostorCausticsParams(ImpostorParams):
     def __post_init__(self):
         super().__post_init__()
         check_integers(self, {"photon_buffer": (8, 4096), "caustic_size": (8, 4096), "filter_k": (0, 16)})
-        if self.filter_s is not None:
-            if not (np.isfinite(float(self.filter_s)) and float(self.filter_s) > 0):
-                raise ValueError(f"filter_s {self.filter_s} must be a positive number, or None (energy conserving)")
-            self.filter_s = float(self.filter_s)
+        if self.filter_s is not None:  # None: energy conserving
+            check_numbers(self, {"filter_s": (0.0, 1e6, "(]")})
 
 
 def filter_weights(k: int) -> np.ndarray:

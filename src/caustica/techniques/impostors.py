@@ -41,8 +41,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..gpu.meshes import set_uniform
 from ..passes.impostors import (
     MAX_IMPOSTORS,
@@ -53,7 +51,8 @@ from ..passes.impostors import (
     impostor_defines,
     world_index,
 )
-from .base import check_integers
+from ..scene.rules import MAX_COORDINATE
+from .base import check_flags, check_integers, check_numbers
 from .depth_search import DepthSearch, DepthSearchParams
 from .raster import RasterTechnique
 
@@ -78,20 +77,11 @@ class ImpostorParams(DepthSearchParams):
         super().__post_init__()
         check_integers(self, {"impostor_size": (16, 4096), "depth": (0, 4), "impostor_iterations": (0, 64),
                               "initial_samples": (0, 64), "max_impostors": (1, MAX_IMPOSTORS)})
-        for name, low in (("impostor_tolerance", 0.0), ("hit_tolerance", 0.0), ("rect_offset", 0.0),
-                          ("distance_factor", 4.0)):
-            value = float(getattr(self, name))
-            if not (np.isfinite(value) and value >= low):
-                raise ValueError(f"{name} {getattr(self, name)} must be a number >= {low}")
-            setattr(self, name, value)
+        check_numbers(self, {"impostor_tolerance": (0.0, MAX_COORDINATE), "hit_tolerance": (0.0, MAX_COORDINATE),
+                             "rect_offset": (0.0, 1.0), "distance_factor": (4.0, MAX_COORDINATE)})
         if self.nearby != "none":
             raise ValueError(f"nearby {self.nearby!r}: the impostors technique is its own nearby geometry; leave it 'none'")
-        if self.rect_offset > 1.0:
-            raise ValueError(f"rect_offset {self.rect_offset} must lie in [0, 1] bounding radii")
-        for flag in ("reflections", "write_hits"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
-            setattr(self, flag, bool(getattr(self, flag)))
+        check_flags(self, ("reflections", "write_hits"))
 
 
 def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, photon: bool = False) -> list:

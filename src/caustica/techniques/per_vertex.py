@@ -63,6 +63,9 @@ from ..per_vertex.viewpoint import UP_MODES, Lines, ViewVolume, fit_view_volume,
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.optics import normalize
 from ..scene.scene import Scene
+from ..errors import TechniqueError, short
+from ..scene import rules
+from .base import check_flags, check_integers, check_numbers
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -89,34 +92,19 @@ class PerVertexParams(ShadowedParams):
 
     def __post_init__(self):
         super().__post_init__()
-        size = self.map_size
-        if isinstance(size, bool) or not isinstance(size, (int, float, np.integer)) or int(size) != size \
-                or not (size == 0 or 16 <= size <= 8192):
-            raise ValueError(f"map_size {size!r} must be 0 (sized to the reflector) or an integer in [16, 8192]")
-        self.map_size = int(size)
-        for name, low, high in (("depth", 0, 8), ("max_patches", 1, 256), ("max_interfaces", 1, 32)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or not low <= value <= high:
-                raise ValueError(f"{name} {value} must be an integer in [{low}, {high}]")
-            setattr(self, name, int(value))
-        self.fov_threshold = float(self.fov_threshold)
-        self.map_density = float(self.map_density)
-        if not 0.05 <= self.map_density <= 64.0:
-            raise ValueError(f"map_density {self.map_density} must lie in [0.05, 64] texels per covered pixel")
-        if not 1.0 <= self.fov_threshold <= 179.0:
-            raise ValueError(f"fov_threshold {self.fov_threshold} must lie in [1, 179] degrees")
+        check_integers(self, {"map_size": (0, 8192)})
+        if 0 < self.map_size < 16:
+            raise ValueError(f"map_size {self.map_size} must be 0 (sized to the reflector) or an integer in [16, 8192]")
+        check_integers(self, {"depth": (0, 8), "max_patches": (1, 256), "max_interfaces": (1, 32)})
+        # map_density: texels per covered pixel; fov_threshold: degrees.
+        check_numbers(self, {"map_density": (0.05, 64.0), "fov_threshold": (1.0, 179.0)})
         if self.up not in UP_MODES:
             raise ValueError(f"up '{self.up}' must be one of {', '.join(UP_MODES)}")
-        for flag in ("zoom_region", "cache", "lenses"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise ValueError(f"{flag} {getattr(self, flag)!r} must be true or false")
-            setattr(self, flag, bool(getattr(self, flag)))
+        check_flags(self, ("zoom_region", "cache", "lenses"))
         if self.ior_rgb is not None:
-            ior = np.asarray(self.ior_rgb, dtype=np.float64).reshape(-1)
-            if ior.size == 1:
-                ior = np.repeat(ior, 3)
-            if ior.shape != (3,) or not np.all(np.isfinite(ior) & (ior > 0)):
-                raise ValueError(f"ior_rgb {self.ior_rgb} must be three positive IORs (red, green, blue)")
+            ior = rules.rgb(self.ior_rgb, "ior_rgb", rules.IOR_RANGE[1], error=TechniqueError)
+            for value in ior:
+                rules.ior(value, f"ior_rgb {short(self.ior_rgb)}: channel IOR", error=TechniqueError)
             self.ior_rgb = tuple(float(x) for x in ior)
 
 

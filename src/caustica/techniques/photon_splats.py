@@ -58,8 +58,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..passes.light_space import (
     CachedPasses,
     FitCasterViews,
@@ -70,7 +68,7 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
-from .base import check_integers
+from .base import check_flags, check_integers, check_numbers
 from .composite import CausticTechnique
 from .env_map import ShadowedParams
 
@@ -94,16 +92,12 @@ class PhotonSplatsParams(ShadowedParams):
         super().__post_init__()
         check_integers(self, {"photon_buffer_size": (8, 4096), "caustic_map_size": (16, 4096),
                               "land_iterations": (0, 64)})
-        if not 0.75 <= float(self.splat_radius) <= 8.0:
-            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
-        self.splat_radius = float(self.splat_radius)
+        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
         if self.splat not in ("auto", "compute", "points"):
             raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
         if self.tir_mode not in TIR_MODES:
             raise ValueError(f"tir_mode {self.tir_mode!r} must be one of {', '.join(TIR_MODES)}")
-        if not isinstance(self.use_dn, (bool, np.bool_)):
-            raise TypeError(f"use_dn {self.use_dn!r} must be true or false")
-        self.use_dn = bool(self.use_dn)
+        check_flags(self, ("use_dn",))
 
 
 class PhotonSplats(CausticTechnique):

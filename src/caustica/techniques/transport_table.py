@@ -47,7 +47,7 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..transport.precompute import DirectionGrid
-from .base import check_integers
+from .base import check_flags, check_integers, check_numbers
 from .composite import CausticTechnique
 from .env_map import ShadowedParams
 
@@ -65,7 +65,7 @@ class TableParams(ShadowedParams):
         super().__post_init__()
         check_integers(self, {"directions": (3, 100000), "max_depth": (1, 64)})
         DirectionGrid.of_count(self.directions)
-        self.quantized = bool(self.quantized)
+        check_flags(self, ("quantized",))
 
 
 @dataclass
@@ -84,9 +84,7 @@ class TransportTableParams(TableParams):
         for name, options in _CHOICES.items():
             if getattr(self, name) not in options:
                 raise ValueError(f"{name} '{getattr(self, name)}' must be one of {', '.join(options)}")
-        if not 0.75 <= float(self.splat_radius) <= 8.0:
-            raise ValueError(f"splat_radius {self.splat_radius} must lie in [0.75, 8] texels")
-        self.splat_radius = float(self.splat_radius)
+        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
 
 
 _INTEGER_RANGES = {"map_size": (16, 4096), "photon_budget": (1, 1 << 24)}
