@@ -8,6 +8,10 @@ import numpy as np
 from .errors import SceneError
 from .scene import Scene
 from .techniques.base import check_spp, get_technique
+from . import frame_limits
+from .errors import RenderOptionError
+from .scene import rules
+from .scene.scene import check_scene
 
 
 class Renderer:
@@ -21,7 +25,7 @@ class Renderer:
 
     def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False,
                  device=None):
-        self.size = None if size is None else (int(size[0]), int(size[1]))
+        self.size = None if size is None else rules.image_size(size, "Renderer size", error=RenderOptionError)
         self._device = device
         self._keep = keep_channels
         self.channels: dict = {}
@@ -49,8 +53,13 @@ class Renderer:
         """Render and return (image, milliseconds), the GPU finished before the clock stops."""
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
+        check_scene(scene)
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
+        if tech.uses_gl:
+            frame_limits.check_frame_memory(camera.size, spp, parameters, scene)
+            frame_limits.check_map_sides(parameters, scene, self.device.max_texture_size)
+            frame_limits.check_environment_texture(scene.environment, self.device.max_texture_size)
         check_spp(tech, spp)
         start = time.perf_counter()
         image = tech.render(self, scene, camera, parameters, int(spp))
@@ -59,8 +68,7 @@ class Renderer:
         return image, (time.perf_counter() - start) * 1000.0
 
     def _check_size(self, size, spp: int, uses_gl: bool) -> None:
-        if spp < 1:
-            raise SceneError(f"samples per pixel {spp} must be at least 1")
+        frame_limits.check_spp(spp)
         width, height = size
         if width < 1 or height < 1:
             raise SceneError(f"image size {width}x{height} must be at least 1x1")
