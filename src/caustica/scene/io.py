@@ -14,6 +14,7 @@ that names the key as ``table[index].key`` and says how to fix it. The format:
 """
 from __future__ import annotations
 
+import errno
 import inspect
 import math
 import tomllib
@@ -93,10 +94,12 @@ def _path(name, what: str) -> Path:
 
 
 def _exists(path: Path, what: str) -> bool:
-    """Whether ``path`` exists; SceneError for a name the OS refuses (too long, ...)."""
+    """Whether ``path`` exists (a name too long for the OS does not); SceneError for a name the OS refuses."""
     try:
         return path.exists()
     except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            return False
         raise SceneError(f"cannot look up {what} {short(str(path))}: {exc.strerror or exc}; give a valid file name") \
             from None
 

@@ -46,14 +46,8 @@ class Mesh:
         label = f"mesh {short(self.name)}"
         vertices = _numeric(self.vertices, label, "vertex positions")
         faces = _numeric(self.faces, label, "faces")
-        if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
-            raise MeshError(f"{label} has no vertices; give a mesh with at least one triangle")
-        if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
-            raise MeshError(f"{label} has no triangles; give a mesh with at least one triangle")
-        rules.triangles(len(faces), f"{label} has", "use a coarser (decimated) mesh", error=MeshError)
         bounds = check_positions(vertices, label)
-        if not np.issubdtype(faces.dtype, np.integer) or faces.min() < 0 or faces.max() >= len(vertices):
-            raise MeshError(f"{label} has face indices out of range; repair the mesh file")
+        check_faces(faces, len(vertices), label)
         self.vertices = np.ascontiguousarray(vertices, dtype=np.float32)
         self.faces = np.ascontiguousarray(faces, dtype=np.int32)
         if normals_missing:
@@ -152,9 +146,20 @@ def _numeric(value, label: str, what: str) -> np.ndarray:
     return array
 
 
+def check_faces(faces: np.ndarray, vertex_count: int, label: str) -> None:
+    """MeshError unless ``faces`` is (M, 3) integers indexing ``vertex_count`` vertices, 1 <= M <= MAX_TRIANGLES."""
+    if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
+        raise MeshError(f"{label} has no triangles; give a mesh with at least one triangle")
+    rules.triangles(len(faces), f"{label} has", "use a coarser (decimated) mesh", error=MeshError)
+    if not np.issubdtype(faces.dtype, np.integer) or faces.min() < 0 or faces.max() >= vertex_count:
+        raise MeshError(f"{label} has face indices out of range; repair the mesh file")
+
+
 def check_positions(vertices: np.ndarray, label: str) -> np.ndarray:
     """The (2, 3) bounds of ``vertices``; MeshError unless every coordinate is finite and within
     +-rules.MAX_COORDINATE (min and max propagate NaN; per column, 8x faster than axis=0 on (N, 3))."""
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise MeshError(f"{label} has no vertices of three coordinates; give a mesh with at least one triangle")
     bounds = np.array([[vertices[:, k].min() for k in range(3)], [vertices[:, k].max() for k in range(3)]])
     if not np.all(np.isfinite(bounds)):
         raise MeshError(f"{label} has NaN or infinite vertex positions; repair the mesh file")
@@ -187,6 +192,13 @@ def load_mesh(path: str | Path) -> Mesh:
         raise MeshError(
             f"unsupported mesh format '{path.suffix}' for {path}; use one of {', '.join(SUPPORTED_MESH_SUFFIXES)}"
         )
+    if path.suffix.lower() in (".obj", ".off"):  # text formats: trimesh would guess an encoding
+        try:
+            path.read_bytes().decode("utf-8")
+        except UnicodeDecodeError:
+            raise MeshError(f"mesh file {path} is not UTF-8 text; save it as UTF-8 (or ASCII) {path.suffix}") from None
+        except OSError:
+            pass  # trimesh reports it below
     import trimesh
 
     try:
@@ -197,7 +209,7 @@ def load_mesh(path: str | Path) -> Mesh:
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"mesh file {path} holds no triangles; give a mesh with at least one triangle")
     check_positions(np.asarray(loaded.vertices, dtype=np.float64), f"mesh file {path}")
-    rules.triangles(len(loaded.faces), f"mesh file {path} has", "use a coarser (decimated) mesh", error=MeshError)
+    check_faces(np.asarray(loaded.faces), len(loaded.vertices), f"mesh file {path}")
     loaded.process()
     vertices = np.asarray(loaded.vertices)
     faces = np.asarray(loaded.faces)
