@@ -87,7 +87,7 @@ def test_corpus_is_complete():
     for case in CASES:
         for arg in case["args"]:
             if arg.startswith("{dir}/"):
-                used.add(arg[len("{dir}/"):])
+                used.add(arg[len("{dir}/"):].split("/")[0])  # ok.toml/x.png: a file as a parent
     text = "\n".join((BAD / name).read_text(errors="replace") for name in used if name.endswith(".toml"))
     referenced = {name for name in files if f'"{name}"' in text}
     assert len(files) >= 60

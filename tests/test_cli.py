@@ -233,30 +233,3 @@ def test_a_long_message_is_cut_to_one_short_line(capsys, monkeypatch):
     code, _, err = run_cli(["presets"], capsys)
     assert_one_line_error(code, err, "value 1.0")
     assert len(err.strip()) <= cli.MAX_MESSAGE + len("caustica: ")
-
-
-@pytest.mark.parametrize("args, fragment", [
-    (["--exposure", "nan"], "--exposure"), (["--exposure", "inf"], "--exposure"), (["--exposure", "1e6"], "[-64, 64]"),
-    (["--size", "-5x5"], "-5x5"), (["--size", "99999x99999"], "16384"), (["--spp", "1000000"], "[1, 4096]"),
-    (["--spp", "0"], "--spp"), (["--frames", "-1"], "--frames"), (["-p", "shadow_map_size=inf"], "shadow_map_size"),
-    (["-p", "shadow_map_size=nan"], "finite"), (["-p", "=4"], "name"),
-])
-def test_bad_render_option(args, fragment, tmp_path, capsys):
-    code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "o.png", *args], capsys)
-    assert_one_line_error(code, err, fragment)
-    assert list(tmp_path.iterdir()) == []
-
-
-@pytest.mark.parametrize("args, fragment", [
-    (["bench", "--frames", "0"], "--frames"), (["bench", "--sizes", "0,256"], "--sizes"),
-    (["bench", "--quality-size", "-8"], "--quality-size"), (["bench", "--max-spp", "0"], "--max-spp"),
-    (["bench", "--reference-spp", "-1"], "--reference-spp"), (["compare", "glass-sphere", "--spp", "-1"], "--spp"),
-    (["compare", "glass-sphere", "--reference-spp", "0"], "--reference-spp"),
-    (["compare", "glass-sphere", "--frames", "0"], "--frames"),
-    (["precompute", "m.obj", "--ior", "0", "-o", "t.npz"], "--ior"),
-    (["precompute", "m.obj", "--ior", "nan", "-o", "t.npz"], "--ior"),
-    (["precompute", "m.obj", "--ior", "1.5", "--max-depth", "0", "-o", "t.npz"], "--max-depth"),
-])
-def test_bad_bench_compare_precompute_option(args, fragment, capsys):
-    code, _, err = run_cli(args, capsys)
-    assert_one_line_error(code, err, fragment)

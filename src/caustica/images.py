@@ -17,6 +17,7 @@ from .atomic import write_atomic  # noqa: F401  (re-exported: every image output
 from .errors import EnvironmentImageError, OutputError, first_line
 
 READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
+MAX_READ_PIXELS = 1 << 28  # 16384 x 16384: the largest texture any GL takes; 3 GiB as float32 RGB
 WRITE_SUFFIXES = (".png", ".exr")
 
 
@@ -106,6 +107,10 @@ def _read_hdr(path: Path) -> np.ndarray:
     height, width = int(match.group(2)), int(match.group(3))
     if height == 0 or width == 0:
         raise ValueError("image has zero size")
+    if width * height > MAX_READ_PIXELS:
+        raise ValueError(f"its header says {width}x{height} pixels, above the {MAX_READ_PIXELS:,} caustica reads")
+    if len(data) - res_end - 1 < 4 * height:  # even run-length rows take 4 bytes each
+        raise ValueError(f"file ends before its {height} scanlines")
     rgbe = _decode_scanlines(memoryview(data)[res_end + 1 :], width, height)
     if match.group(1) == b"+":
         rgbe = rgbe[::-1]
