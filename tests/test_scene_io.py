@@ -367,3 +367,19 @@ def test_scene_file_not_utf8(tmp_path):
     (tmp_path / "bad.toml").write_bytes(b"name = '\xff\xfe'\n")
     with pytest.raises(SceneError, match="UTF-8"):
         load_scene(tmp_path / "bad.toml")
+
+
+def test_world_mesh_follows_a_transform_changed_in_place():
+    """SceneObject caches its world-space mesh; an edit of the transform or the mesh must not leave it stale."""
+    from caustica.scene import SceneObject
+    from caustica.scene.materials import Diffuse
+    from caustica.scene.shapes import sphere
+
+    obj = SceneObject("ball", sphere(1.0, 2), Diffuse())
+    first = obj.world_mesh()
+    assert obj.world_mesh() is first  # cached while nothing changes
+    obj.transform.position = np.array([5.0, 0.0, 0.0])
+    moved = obj.world_mesh()
+    assert np.allclose(moved.bounds.mean(axis=0), [5.0, 0.0, 0.0], atol=1e-5)
+    obj.mesh = sphere(2.0, 2)
+    assert np.isclose(obj.world_mesh().bounds[1, 1], 2.0, atol=1e-5)

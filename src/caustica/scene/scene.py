@@ -22,16 +22,20 @@ class SceneObject:
     mesh: Mesh
     material: Material
     transform: Transform = field(default_factory=Transform)
-    _world: Mesh | None = field(default=None, repr=False, compare=False)
+    _world: tuple | None = field(default=None, repr=False, compare=False)
 
     def world_from_object(self) -> np.ndarray:
         return self.transform.world_from_object()
 
     def world_mesh(self) -> Mesh:
-        """The mesh in world space (cached; reset by :meth:`moved`)."""
-        if self._world is None:
-            self._world = self.mesh.transformed(self.world_from_object())
-        return self._world
+        """The mesh in world space, cached until the mesh, its arrays or the transform change."""
+        matrix = self.world_from_object()
+        mesh = self.mesh
+        parts = (mesh, mesh.vertices, mesh.normals, mesh.faces)
+        cached = self._world
+        if cached is None or any(a is not b for a, b in zip(cached[0], parts)) or not np.array_equal(cached[1], matrix):
+            cached = self._world = (parts, matrix, mesh.transformed(matrix))
+        return cached[2]
 
     def validate(self, where: str = "object") -> None:
         """Check the mesh, material and transform (the loader's rules) and that the transformed mesh stays

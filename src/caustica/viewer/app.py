@@ -525,7 +525,7 @@ class Viewer:
         fresh = {o.name: o for o in self.scene_at(self.time).objects}
         for obj in self.scene.objects:
             if obj.name in fresh and fresh[obj.name].mesh is not obj.mesh:
-                obj.mesh, obj._world = fresh[obj.name].mesh, None
+                obj.mesh = fresh[obj.name].mesh
         prune_meshes(self.device, self.scene)
         self.changed()
 
