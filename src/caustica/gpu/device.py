@@ -1,75 +1,158 @@
-"""GpuDevice: the context and the pools every pass uses (shaders, targets, meshes)."""
+"""GpuDevice: the context and the pools every pass uses (shaders, targets, meshes).
+
+Every pool is bounded, so that a process rendering new scenes for ever keeps a flat footprint:
+render targets and meshes not used for ``IDLE_FRAMES`` frames are released (targets.py,
+meshes.py), environment textures are kept by image content for the ``ENVIRONMENT_TEXTURES``
+most recent images, and ``cache`` (results reused across frames) holds at most ``CACHE_ENTRIES``
+entries, least recently used first out. ``release`` frees all of it; the context stays (shared).
+"""
 from __future__ import annotations
+
+import hashlib
+import os
+import weakref
+from collections import OrderedDict
 
 import moderngl
 import numpy as np
 
-from .context import describe, shared_context
+from .context import collect_dropped, describe, is_inherited, shared_context
 from .meshes import MeshCache
 from .shaders import ShaderLibrary
 from .targets import TargetPool
 
 
+CACHE_ENTRIES = 128  # results kept across frames in GpuDevice.cache (a frame stores about ten)
+ENVIRONMENT_TEXTURES = 4  # environment images kept on the GPU, by content
+
+
+class LruCache(OrderedDict):
+    """A dict that keeps its ``max_entries`` most recently used entries; ``on_evict(value)`` frees the others."""
+
+    def __init__(self, max_entries: int, on_evict):
+        super().__init__()
+        self.max_entries, self.on_evict = int(max_entries), on_evict
+
+    def __getitem__(self, key):
+        value = super().__getitem__(key)
+        self.move_to_end(key)
+        return value
+
+    def get(self, key, default=None):
+        return self[key] if key in self else default
+
+    def __setitem__(self, key, value) -> None:
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > self.max_entries:
+            self.on_evict(self.popitem(last=False)[1])
+
+
 class GpuDevice:
     def __init__(self, ctx=None):
         self.ctx = ctx or shared_context()
+        self.pid = os.getpid()  # a forked child must not call into this device's (inherited) context
+        collect_dropped(self.ctx)
         self.shaders = ShaderLibrary(self.ctx)
         self.targets = TargetPool(self.ctx)
         self.meshes = MeshCache(self.ctx)
         self.info = describe(self.ctx)
-        self.cache: dict = {}  # results reused across frames (e.g. shadow maps), keyed by scene state
-        self._environments: dict[int, tuple] = {}
+        # Results reused across frames (e.g. shadow maps), keyed by scene state.
+        self.cache = LruCache(CACHE_ENTRIES, lambda value: release_all(value, self.targets))
+        self._environments = LruCache(ENVIRONMENT_TEXTURES, lambda texture: texture.release())
+        self._fullscreen: dict[int, object] = {}  # program GL name -> attribute-less vertex array
 
     @property
     def max_texture_size(self) -> int:
         return self.info["max_texture_size"]
 
     def environment_texture(self, environment):
-        """The environment image as an RGB32F texture: linear filter, wrap in x, clamp in y."""
-        key = id(environment.image)
-        entry = self._environments.get(key)
-        if entry is None or entry[0] is not environment.image:
-            if entry is not None:
-                entry[1].release()
+        """The environment image as an RGB32F texture: linear filter, wrap in x, clamp in y (kept by
+        the image's content, so that reloading a scene finds the texture of an equal image)."""
+        key = array_digest(environment.image)
+        texture = self._environments.get(key)
+        if texture is None:
             h, w = environment.image.shape[:2]
-            tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(environment.image, dtype="f4").tobytes(), dtype="f4")
-            tex.repeat_x, tex.repeat_y = True, False
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            entry = (environment.image, tex)
-            self._environments[key] = entry
-        return entry[1]
+            texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(environment.image, dtype="f4").tobytes(),
+                                       dtype="f4")
+            texture.repeat_x, texture.repeat_y = True, False
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self._environments[key] = texture
+        return texture
 
     def draw_fullscreen(self, program, vertices: int = 3) -> None:
         """Triangles whose vertex stage makes them from gl_VertexID (passes/fullscreen.vert: one
         triangle over the viewport) with ``program``; its attribute-less vertex array is kept."""
-        key = ("fullscreen", program.glo)
-        vao = self.cache.get(key)
-        if vao is None:
-            vao = self.cache[key] = self.ctx.vertex_array(program, [])
+        vao = self._fullscreen.get(program.glo)
+        if vao is None or vao.program is not program:  # a GL name is reused once its program is gone
+            if vao is not None:
+                vao.release()
+            vao = self._fullscreen[program.glo] = self.ctx.vertex_array(program, [])
         vao.render(moderngl.TRIANGLES, vertices=vertices)
 
     def finish(self) -> None:
+        """Wait for the GPU; end the frame: release what was dropped unreleased and what sat idle in the pools."""
         self.ctx.finish()
+        collect_dropped(self.ctx)
+        self.targets.end_frame()
+        self.meshes.end_frame()
+
+    def counts(self) -> dict[str, int]:
+        """How many entries each pool and cache holds (for leak checks; see also census.live_gl_names)."""
+        return {"programs": self.shaders.count(), **self.targets.counts(), "meshes": len(self.meshes),
+                "environments": len(self._environments), "cached": len(self.cache),
+                "fullscreen_arrays": len(self._fullscreen)}
 
     def release(self) -> None:
-        self.shaders.release()
-        self.targets.release()
-        self.meshes.release()
-        for _, tex in self._environments.values():
-            tex.release()
-        self._environments.clear()
-        release_all(list(self.cache.values()))
+        """Release every GL object the pools and caches hold. In a process forked after this device
+        was made, only forget them: the inherited context must not be called."""
+        if os.getpid() == self.pid and not is_inherited(self.ctx):
+            release_all(list(self.cache.values()), self.targets)
+            release_all([list(self._environments.values()), list(self._fullscreen.values())])
+            self.shaders.release()
+            self.targets.release()
+            self.meshes.release()
+        else:
+            self.ctx.gc_mode = None  # dropped wrappers must not release (gc_mode 'auto') or queue anything
         self.cache.clear()
+        self._environments.clear()
+        self._fullscreen.clear()
 
 
-def release_all(value) -> None:
-    """Release every GL object in a (nested) list, tuple, dict or dataclass of cached results."""
+def release_all(value, targets=None) -> None:
+    """Release every GL object in a (nested) list, tuple, dict or dataclass of cached results; with
+    ``targets`` (a TargetPool), give its lent textures back to it instead (``pooled()`` lists an
+    object's pooled textures, e.g. an ImpostorSet's atlases)."""
     if isinstance(value, (list, tuple)):
         for item in value:
-            release_all(item)
+            release_all(item, targets)
     elif isinstance(value, dict):
-        release_all(list(value.values()))
+        release_all(list(value.values()), targets)
     elif hasattr(value, "release") and hasattr(value, "glo"):
-        value.release()
+        if targets is not None and targets.is_lent(value):
+            targets.give_back(value)
+        else:
+            value.release()
+    elif hasattr(value, "pooled"):
+        release_all(value.pooled(), targets)
     elif hasattr(value, "__dataclass_fields__"):
-        release_all([getattr(value, name) for name in value.__dataclass_fields__])
+        release_all([getattr(value, name) for name in value.__dataclass_fields__], targets)
+
+
+_DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); an entry goes with its array
+
+
+def array_digest(array: np.ndarray) -> str:
+    """A hash of ``array``'s shape, type and bytes, computed once while the array lives (an
+    environment image is hashed when first seen, not each frame; change an image by assigning a
+    new array, not in place)."""
+    key = id(array)
+    entry = _DIGESTS.get(key)
+    if entry is not None and entry[0]() is array:
+        return entry[1]
+    data = np.ascontiguousarray(array)
+    h = hashlib.blake2b(f"{data.dtype.str}{data.shape}".encode(), digest_size=16)
+    h.update(memoryview(data).cast("B"))
+    digest = h.hexdigest()
+    _DIGESTS[key] = (weakref.ref(array, lambda _, k=key: _DIGESTS.pop(k, None)), digest)
+    return digest

@@ -1,7 +1,12 @@
 """Meshes on the GPU: one vertex/index buffer pair per mesh, one vertex array per program."""
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
+
+IDLE_FRAMES = 8  # frames a GPU mesh stays after its last use (an animation makes a new mesh each frame)
+MAX_MESHES = 4096  # GPU meshes kept at most, however recently used
 
 
 class GpuMesh:
@@ -15,6 +20,7 @@ class GpuMesh:
         self._arrays: dict[tuple, object] = {}
         self.attributes: dict[str, tuple[object, int]] = {}  # shader input name -> (buffer, components)
         self.vertex_count = len(mesh.vertices)
+        self.last_used = 0  # MeshCache's frame count when last handed out
 
     def set_attribute(self, name: str, values: np.ndarray) -> None:
         """An extra per-vertex float attribute (e.g. Wyman's d_N) bound to shader input ``name``."""
@@ -30,6 +36,9 @@ class GpuMesh:
         extra = tuple(name for name in self.attributes if name in program)
         key = (program.glo, extra)
         vao = self._arrays.get(key)
+        if vao is not None and vao.program is not program:  # a GL name is reused once its program is gone
+            vao.release()
+            vao = None
         if vao is None:
             layout = "3f 3f" if "in_normal" in program else "3f 12x"
             names = ["in_position", "in_normal"] if "in_normal" in program else ["in_position"]
@@ -71,17 +80,37 @@ def local_face_order(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class MeshCache:
-    """GpuMesh per mesh content, shared across frames."""
+    """GpuMesh per mesh content (vertices and faces), shared across frames; a mesh unused for
+    ``idle_frames`` frames (``end_frame`` counts them) is released, and at most ``max_meshes`` are kept."""
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, idle_frames: int = IDLE_FRAMES, max_meshes: int = MAX_MESHES):
         self.ctx = ctx
-        self._meshes: dict[str, GpuMesh] = {}
+        self.idle_frames, self.max_meshes = int(idle_frames), int(max_meshes)
+        self.frame = 0
+        self._meshes: OrderedDict[str, GpuMesh] = OrderedDict()  # least recently used first
 
     def get(self, mesh) -> GpuMesh:
         key = mesh.content_hash()
-        if key not in self._meshes:
-            self._meshes[key] = GpuMesh(self.ctx, mesh)
-        return self._meshes[key]
+        gpu_mesh = self._meshes.get(key)
+        if gpu_mesh is None:
+            gpu_mesh = self._meshes[key] = GpuMesh(self.ctx, mesh)
+            while len(self._meshes) > self.max_meshes:
+                self._drop(next(iter(self._meshes)))
+        self._meshes.move_to_end(key)
+        gpu_mesh.last_used = self.frame
+        return gpu_mesh
+
+    def end_frame(self) -> None:
+        """Count a frame; release the meshes not drawn in the last ``idle_frames`` frames."""
+        self.frame += 1
+        for key in [k for k, m in self._meshes.items() if self.frame - m.last_used > self.idle_frames]:
+            self._drop(key)
+
+    def _drop(self, key: str) -> None:
+        self._meshes.pop(key).release()
+
+    def __len__(self) -> int:
+        return len(self._meshes)
 
     def release(self) -> None:
         for m in self._meshes.values():
