@@ -1,7 +1,20 @@
-"""Headless OpenGL 4.3+ core context through EGL (NVIDIA when present, Mesa llvmpipe otherwise)."""
+"""Headless OpenGL 4.3+ core context through EGL (NVIDIA when present, Mesa llvmpipe otherwise).
+
+One context per process. A process forked after its parent used GL inherits the parent's
+context, whose driver threads did not survive the fork (Mesa's llvmpipe then waits for them
+forever at the first finish): the child must never call into it. ``shared_context`` notices the
+new process id, keeps the inherited context unreleased and untouched, and opens a fresh one on a
+new EGL display (Mesa's surfaceless platform: a new driver screen with its own threads). Where no
+fresh display is left (a fork of a fork that both rendered, or no Mesa EGL) it raises
+GLUnavailableError naming the fix: multiprocessing's 'spawn' start method.
+"""
 from __future__ import annotations
 
+import atexit
+import ctypes
+import functools
 import os
+from collections import deque
 
 from ..errors import GLUnavailableError, first_line
 
@@ -16,7 +29,18 @@ MATTERING_EXTENSIONS = (
     "GL_EXT_texture_filter_anisotropic",
 )
 
+FORK_HINT = ("use multiprocessing's 'spawn' start method (multiprocessing.get_context('spawn')), "
+             "or make the first Renderer inside each worker")
+EGL_PLATFORM_SURFACELESS_MESA = 0x31DD
+EGL_OPENGL_API = 0x30A2
+EGL_EXTENSIONS = 0x3055
+# eglCreateContext attributes: OpenGL 4.3 core profile, then EGL_NONE.
+EGL_CORE_43 = (0x3098, REQUIRED_GL // 100, 0x30FB, REQUIRED_GL % 100 // 10, 0x30FD, 1, 0x3038)
+
 _shared_context = None
+_shared_pid = None  # the process that made _shared_context
+_inherited: list = []  # contexts made before a fork, kept so that nothing releases them
+_displays: dict[str, int] = {}  # EGL display kind ("device", "surfaceless") -> pid that started its driver
 
 
 def create_context():
@@ -29,6 +53,8 @@ def create_context():
         import moderngl
     except ImportError as exc:  # pragma: no cover - a dependency of the package
         raise GLUnavailableError(f"moderngl is not installed ({exc}); run: pip install moderngl") from None
+    if _started_elsewhere("device"):
+        return _context_after_fork()
     kwargs = {"backend": "egl", "require": REQUIRED_GL}
     device = os.environ.get("CAUSTICA_EGL_DEVICE")
     if device is not None:
@@ -43,6 +69,12 @@ def create_context():
                 f"{APT_HINT}"
             ) from None
         raise GLUnavailableError(f"cannot create a headless OpenGL context ({reason}); {APT_HINT}") from None
+    _displays.setdefault("device", os.getpid())
+    return _checked_version(ctx)
+
+
+def _checked_version(ctx):
+    """``ctx``, or GLUnavailableError (the context released) when its GL is older than 4.3."""
     if ctx.version_code < REQUIRED_GL:
         version = ctx.info.get("GL_VERSION", "?")
         ctx.release()
@@ -51,16 +83,148 @@ def create_context():
 
 
 def shared_context():
-    """One context per process, created on first use."""
-    global _shared_context
+    """One context per process, created on first use (again in a forked child: see the module notes).
+
+    Its moderngl objects that are garbage collected unreleased are queued (gc_mode 'context_gc')
+    and released by :func:`collect_dropped`, in the thread that renders, at the end of each frame.
+    """
+    global _shared_context, _shared_pid
+    if _shared_context is not None and _shared_pid != os.getpid():
+        _shared_context.gc_mode = None  # its objects' finalizers must not queue or release anything
+        _inherited.append(_shared_context)
+        _shared_context = None
     if _shared_context is None:
-        _shared_context = create_context()
+        ctx = create_context()
+        ctx.gc_mode = "context_gc"
+        _shared_context, _shared_pid = ctx, os.getpid()
     return _shared_context
 
 
 def headless_context_exists() -> bool:
-    """Whether this process has made the shared headless (EGL) context."""
-    return _shared_context is not None
+    """Whether this process has made the shared headless (EGL) context (one inherited through a fork is not)."""
+    return _shared_context is not None and _shared_pid == os.getpid()
+
+
+def is_inherited(ctx) -> bool:
+    """Whether ``ctx`` is a shared context this process inherited through a fork (never call into it)."""
+    return any(ctx is old for old in _inherited) or (ctx is _shared_context and _shared_pid != os.getpid())
+
+
+def collect_dropped(ctx) -> int:
+    """Release the GL objects of ``ctx`` whose moderngl wrappers were garbage collected unreleased.
+
+    moderngl's own ``Context.gc`` stops at the placeholder an already released object leaves; this
+    skips those. Returns how many objects it released.
+    """
+    queue = getattr(ctx, "objects", None)
+    released = 0
+    while queue:
+        obj = queue.popleft()
+        if hasattr(obj, "release"):
+            obj.release()
+            released += 1
+    return released
+
+
+def _started_elsewhere(kind: str) -> bool:
+    """Whether another process (our parent, before a fork) started the driver of this EGL display."""
+    pid = _displays.get(kind)
+    return pid is not None and pid != os.getpid()
+
+
+@functools.cache
+def libegl():
+    """libEGL through ctypes with ``eglGetProcAddress`` typed, or None where it cannot be loaded."""
+    import ctypes.util
+
+    try:
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    except OSError:
+        return None
+    egl.eglGetProcAddress.restype = ctypes.c_void_p
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+    return egl
+
+
+def gl_function(name: str, restype, *argtypes):
+    """The GL (or EGL) entry point ``name`` through EGL's loader, or None; glvnd dispatches a GL
+    function to whichever context is current."""
+    egl = libegl()
+    address = egl.eglGetProcAddress(name.encode()) if egl is not None else None
+    return ctypes.CFUNCTYPE(restype, *argtypes)(address) if address else None
+
+
+class _SurfacelessLoader:
+    """moderngl's loader protocol over a new OpenGL 4.3 core context on Mesa's surfaceless EGL display."""
+
+    def __init__(self):
+        egl, pointer = libegl(), ctypes.c_void_p
+        extensions = b""
+        if egl is not None:
+            egl.eglQueryString.restype = ctypes.c_char_p
+            egl.eglQueryString.argtypes = [pointer, ctypes.c_int]
+            extensions = egl.eglQueryString(None, EGL_EXTENSIONS) or b""
+        if b"EGL_MESA_platform_surfaceless" not in extensions:
+            raise GLUnavailableError("this process was forked after OpenGL was used, and this EGL has no fresh "
+                                     f"display to start over on (no EGL_MESA_platform_surfaceless); {FORK_HINT}")
+        get_display = gl_function("eglGetPlatformDisplayEXT", pointer, ctypes.c_uint, pointer, pointer)
+        egl.eglInitialize.argtypes = [pointer, pointer, pointer]
+        egl.eglCreateContext.restype = pointer
+        egl.eglCreateContext.argtypes = [pointer, pointer, pointer, pointer]
+        egl.eglMakeCurrent.argtypes = [pointer, pointer, pointer, pointer]
+        egl.eglDestroyContext.argtypes = [pointer, pointer]
+        self.egl, self.pid = egl, os.getpid()
+        self.display = get_display(EGL_PLATFORM_SURFACELESS_MESA, None, None) if get_display else None
+        if not self.display or not egl.eglInitialize(self.display, None, None) or not egl.eglBindAPI(EGL_OPENGL_API):
+            raise GLUnavailableError(f"this process was forked after OpenGL was used, and a fresh EGL display "
+                                     f"could not be opened; {FORK_HINT}")
+        self.context = egl.eglCreateContext(self.display, None, None, (ctypes.c_int * len(EGL_CORE_43))(*EGL_CORE_43))
+        if not self.context:
+            raise GLUnavailableError(f"this process was forked after OpenGL was used, and no OpenGL 4.3 core "
+                                     f"context could be made on a fresh EGL display; {FORK_HINT}")
+        self.__enter__()
+
+    def load_opengl_function(self, name: str) -> int:
+        return self.egl.eglGetProcAddress(name.encode()) or 0
+
+    load = load_opengl_function
+
+    def __enter__(self):
+        self.egl.eglMakeCurrent(self.display, None, None, self.context)
+
+    def __exit__(self, *exc):
+        pass
+
+    def release(self) -> None:
+        self.egl.eglMakeCurrent(self.display, None, None, None)
+        self.egl.eglDestroyContext(self.display, self.context)
+
+    def terminate(self) -> None:
+        """Close the display while its driver threads run (at exit: Mesa's own exit handler, run
+        after them, waits forever on the threads of a display made in a forked child)."""
+        if self.pid != os.getpid():  # inherited through another fork: never call into it
+            return
+        self.egl.eglTerminate.argtypes = [ctypes.c_void_p]
+        self.egl.eglMakeCurrent(self.display, None, None, None)
+        self.egl.eglTerminate(self.display)
+
+
+def _context_after_fork():
+    """A moderngl context on a fresh EGL display, for a process forked after its parent used GL."""
+    import moderngl
+    from moderngl import mgl
+
+    if _started_elsewhere("surfaceless"):
+        raise GLUnavailableError("this process was forked from a process that was itself forked after OpenGL "
+                                 f"was used, and no fresh EGL display is left; {FORK_HINT}")
+    loader = _SurfacelessLoader()
+    atexit.register(loader.terminate)
+    ctx = moderngl.Context.__new__(moderngl.Context)
+    ctx.mglo, ctx.version_code = mgl.create_context(context=loader)
+    ctx._info = ctx._extensions = ctx.extra = ctx._gc_mode = ctx._screen = ctx.fbo = None  # as a standalone one
+    ctx._objects = deque()
+    _displays["surfaceless"] = os.getpid()
+    return _checked_version(ctx)
 
 
 def describe(ctx) -> dict:

@@ -98,6 +98,10 @@ class ShaderLibrary:
         except Exception as exc:  # moderngl.Error carries the driver log
             raise ShaderError(_translate_log(str(exc), tables)) from None
 
+    def count(self) -> int:
+        """Programs built (one per shader files and defines; kept while the library lives)."""
+        return len(self._programs)
+
     def release(self) -> None:
         for program in self._programs.values():
             program.release()
@@ -150,14 +154,7 @@ def run_compute(program, group_x: int, group_y: int = 1, group_z: int = 1) -> No
 def _gl_use_program():
     """glUseProgram through EGL's loader (glvnd dispatches it to whichever context is current), or None."""
     import ctypes
-    import ctypes.util
 
-    try:
-        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-    except OSError:
-        return None
-    egl.eglGetProcAddress.restype = ctypes.c_void_p
-    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-    address = egl.eglGetProcAddress(b"glUseProgram")
-    return ctypes.CFUNCTYPE(None, ctypes.c_uint)(address) if address else None
+    from .context import gl_function
 
+    return gl_function("glUseProgram", None, ctypes.c_uint)
