@@ -64,3 +64,7 @@ def short(value, limit: int = 60) -> str:
 
 class RenderOptionError(SceneError):
     """An invalid render option: image size, samples per pixel, or a frame too large for the GL."""
+
+
+class RendererClosedError(CausticaError, RuntimeError):
+    """A Renderer used after ``close()`` (or after its ``with`` block)."""

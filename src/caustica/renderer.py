@@ -1,11 +1,12 @@
 """Renderer: one entry point for every technique, headless."""
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import GLUnavailableError, RendererClosedError, SceneError
 from .scene import Scene
 from .techniques.base import check_spp, get_technique
 from . import frame_limits
@@ -21,12 +22,21 @@ class Renderer:
     The GL context is created on first use of a GPU technique, unless ``device``
     (a :class:`caustica.gpu.device.GpuDevice`, e.g. over a window's context) is given. With
     ``profile_passes``, ``last_pass_ms`` holds each pass's milliseconds.
+
+    A Renderer owns the GPU device it makes (its own pools of shaders, render targets, meshes and
+    cached results over the process's one context): ``close()``, or leaving ``with Renderer(size)
+    as r:``, releases all of it (a ``device`` given by the caller stays the caller's); a closed
+    Renderer raises RendererClosedError. One dropped unclosed leaks nothing either: its GL objects
+    are released at the end of the next frame any Renderer draws. In a process forked after this
+    Renderer drew, it starts over on the child's fresh context (see gpu/context.py).
     """
 
     def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False,
                  device=None):
         self.size = None if size is None else rules.image_size(size, "Renderer size", error=RenderOptionError)
         self._device = device
+        self._owns_device = device is None
+        self.closed = False
         self._keep = keep_channels
         self.channels: dict = {}
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
@@ -34,11 +44,36 @@ class Renderer:
 
     @property
     def device(self):
+        if self.closed:
+            raise RendererClosedError("this Renderer was closed; make a new Renderer (or render inside its with block)")
+        if self._device is not None and self._device.pid != os.getpid():
+            if not self._owns_device:
+                raise GLUnavailableError("this Renderer's GpuDevice was made before this process was forked and its "
+                                         "context cannot be used here; make the device in the worker, or use "
+                                         "multiprocessing's 'spawn' start method")
+            self._device.release()  # forgets the inherited objects without calling into them
+            self._device, self.channels = None, {}
         if self._device is None:
             from .gpu.device import GpuDevice
 
             self._device = GpuDevice()
         return self._device
+
+    def close(self) -> None:
+        """Release the GPU device this Renderer made (a caller's device is left as it is); idempotent."""
+        if self.closed:
+            return
+        if self._owns_device and self._device is not None:
+            self._device.release()
+        self._device, self.channels, self.closed = None, {}, True
+
+    def __enter__(self):
+        if self.closed:
+            raise RendererClosedError("this Renderer was closed; make a new Renderer")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def camera_for(self, scene: Scene):
         camera = scene.camera if self.size is None else scene.camera.with_size(*self.size)
@@ -51,6 +86,8 @@ class Renderer:
 
     def render_timed(self, scene: Scene, technique: str = "env-map", spp: int = 1, **params):
         """Render and return (image, milliseconds), the GPU finished before the clock stops."""
+        if self.closed:
+            raise RendererClosedError("this Renderer was closed; make a new Renderer (or render inside its with block)")
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
