@@ -18,7 +18,8 @@ from .base import Channel, Frame, Pass
 from .surfaces import draw_refractor_buffer
 
 DN_ATTRIBUTE = "in_dn"
-_MEMORY: dict[str, np.ndarray] = {}
+_MEMORY: dict[str, np.ndarray] = {}  # mesh geometry hash -> d_N, the MEMORY_ENTRIES most recent
+MEMORY_ENTRIES = 64
 
 
 def distance_along_normal(mesh) -> np.ndarray:
@@ -37,6 +38,8 @@ def distance_along_normal(mesh) -> np.ndarray:
         store_array(path, values)
     values.setflags(write=False)
     _MEMORY[key] = values
+    while len(_MEMORY) > MEMORY_ENTRIES:  # an animated refractor has new geometry each frame
+        _MEMORY.pop(next(iter(_MEMORY)))
     return values
 
 

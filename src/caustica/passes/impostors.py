@@ -276,11 +276,14 @@ class ReleaseImpostors(Pass):
 
 
 def _impostor_state_key(scene) -> tuple:
-    """What impostor textures depend on: geometry, placement, materials, lights, environment."""
+    """What impostor textures depend on: geometry, placement, materials, lights, environment, and
+    the objects themselves (an ImpostorSet names its scene's objects, which later passes match by
+    identity; the cached set holds them, so their ids stay theirs)."""
+    from ..gpu.device import array_digest
     from .lights import _scene_state_key
 
-    return (_scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), id(scene.environment.image),
-            scene.intensity_scale)
+    return (_scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), array_digest(scene.environment.image),
+            scene.intensity_scale, tuple(id(o) for o in scene.objects))
 
 
 def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None, params) -> None:

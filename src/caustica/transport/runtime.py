@@ -199,6 +199,8 @@ def _frames(mesh) -> np.ndarray:
     key = mesh.geometry_hash()
     if key not in _FRAMES:
         _FRAMES[key] = tangent_frames(mesh.normals)
+        while len(_FRAMES) > 64:  # an animated mesh has new geometry each frame
+            _FRAMES.pop(next(iter(_FRAMES)))
     return _FRAMES[key]
 
 
