@@ -22,9 +22,10 @@ outline. This module holds what they share:
   :class:`LightSurfaces` (position + distance and normal textures of chosen
   objects and faces: receivers, caster fronts, refractor backs),
   :class:`FitCausticViews`, :class:`SplatPhotons` (compute shader with
-  ``imageAtomicAdd`` on three r32f images where GL_NV_shader_atomic_float
-  exists, else Gaussian point sprites with additive blending into three r32f
-  targets: the same kernel, so both deposit the same flux),
+  integer atomics on fixed-point sums, ``passes/fixed_flux.py``, where
+  GL_NV_shader_atomic_float exists, else Gaussian point sprites with additive
+  blending into three r32f targets: the same kernel, so both deposit the same
+  flux; either way the bytes do not depend on thread scheduling),
   :class:`ResolveCausticMaps` (irradiance = flux / receiver area of the texel,
   alpha = the receiver's distance to the light, into the ``caustic_maps``
   contract of ``passes/caustics.py``), and :class:`CachedPasses`, which reruns
@@ -47,6 +48,7 @@ from ..gpu.shaders import run_compute
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .base import Channel, Frame, Pass, run_passes
 from .caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE, CausticMap
+from .fixed_flux import splat_fixed_point
 from .lights import (
     CUBE_FORWARD,
     CUBE_UP,
@@ -445,16 +447,20 @@ class FitCausticViews(Pass):
 
 
 def float_atomics(frame: Frame) -> bool:
-    """Whether this GL has imageAtomicAdd on r32f images (GL_NV_shader_atomic_float)."""
+    """Whether this GL has imageAtomicAdd on r32f images (GL_NV_shader_atomic_float): where
+    :class:`SplatPhotons`' 'auto' picks the compute splat (which itself needs only GL 4.3)."""
     return bool(frame.gpu.info.get("float_atomics"))
 
 
 class SplatPhotons(Pass):
     """Photons into per-texel flux (Shah et al. III-C and III-F: additive point splats, Gaussian fall-off).
 
-    ``mode`` 'compute' adds with float atomics (needs GL_NV_shader_atomic_float),
-    'points' draws additive Gaussian point sprites, 'auto' picks compute where
-    available. Both use the normalised kernel of caustic_light_space.glsl
+    ``mode`` 'compute' adds with integer atomics into 64-bit fixed-point sums
+    (``passes/fixed_flux.py``: order-independent, so the same photons give the
+    same bytes; core GL 4.3), 'points' draws additive Gaussian point sprites
+    (blending in primitive order: deterministic too), 'auto' picks compute
+    where GL_NV_shader_atomic_float exists (as before the compute splat went
+    fixed-point), else points. Both use the normalised kernel of caustic_light_space.glsl
     (radius ``radius`` texels, sigma = radius / 2), so a photon deposits
     exactly its flux whichever path runs. Writes three r32f textures per light.
     """
@@ -473,27 +479,24 @@ class SplatPhotons(Pass):
             if view is None or photons is None:
                 out.append(None)
                 continue
-            targets = [frame.gpu.targets.zeroed(view.atlas_size, "r32f") for _ in range(3)]
-            if mode == "compute":
-                self._compute(frame, view, photons, targets)
-            else:
-                self._points(frame, view, photons, targets)
-            out.append(targets)
+            out.append((self._compute if mode == "compute" else self._points)(frame, view, photons))
         frame.write("caustic_flux", out)
 
-    def _compute(self, frame: Frame, view: LightView, photons: Photons, targets) -> None:
-        program = frame.gpu.shaders.compute("passes/caustic_splat.comp")
-        view.bind(program)
-        set_uniform(program, "photon_count", int(photons.count))
-        set_uniform(program, "splat_radius", self.radius)
-        photons.buffer.bind_to_storage_buffer(0)
-        for unit, tex in enumerate(targets):
-            tex.bind_to_image(unit, read=True, write=True)
-        run_compute(program, (photons.count + 63) // 64)
-        frame.gpu.ctx.memory_barrier()
+    def _compute(self, frame: Frame, view: LightView, photons: Photons) -> list:
+        def dispatch(bind, bound: int) -> None:
+            program = frame.gpu.shaders.compute("passes/caustic_splat.comp", {"FLUX_BOUND": bound})
+            bind(program)
+            view.bind(program)
+            set_uniform(program, "photon_count", int(photons.count))
+            set_uniform(program, "splat_radius", self.radius)
+            photons.buffer.bind_to_storage_buffer(0)
+            run_compute(program, (photons.count + 63) // 64)
 
-    def _points(self, frame: Frame, view: LightView, photons: Photons, targets) -> None:
+        return splat_fixed_point(frame, view.atlas_size, dispatch)
+
+    def _points(self, frame: Frame, view: LightView, photons: Photons) -> list:
         ctx = frame.gpu.ctx
+        targets = [frame.gpu.targets.zeroed(view.atlas_size, "r32f") for _ in range(3)]
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
         fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
@@ -509,6 +512,7 @@ class SplatPhotons(Pass):
         ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.DEFAULT_BLENDING
         vao.release()
+        return targets
 
 
 class ResolveCausticMaps(Pass):

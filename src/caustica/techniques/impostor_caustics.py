@@ -12,8 +12,10 @@ Per light sample, each frame, no readback:
    occlude the light.
 2. Caustic textures (3.2, fig. 19c): a compute shader adds each photon's flux
    (intensity x the texel's solid angle x throughput) into texel (u, v) of
-   rectangle k's tile (``caustic_size`` a side) with float atomics; the paper's
-   glReadPixels path is replaced by this. Then the filter
+   rectangle k's tile (``caustic_size`` a side) with integer atomics on 64-bit
+   fixed-point sums (``passes/fixed_flux.py``: the bytes do not depend on the
+   order of the adds); the paper's glReadPixels path is replaced by this.
+   Then the filter
    c(u, v) = s sum_{i,j=-k..k} p(u+i, v+j) sqrt(1 + 2k^2 - (i^2 + j^2)) with
    ``filter_k`` and ``filter_s``; p is the flux per unit rectangle area. The
    paper's s = 0.01 scales photon counts to colours; ``filter_s`` None (ours,
@@ -42,7 +44,7 @@ buffer's resolution (the paper: 128^2 acceptable); no visibility test from the
 rectangle to the receiver (as in the paper: a part of a receiver facing the
 caster but hidden from it by the receiver itself takes its tile's caustic);
 Wyman's nearby planes seen through glass show no caustic; point lights
-inside the casters' bounding sphere make none; needs GL_NV_shader_atomic_float.
+inside the casters' bounding sphere make none.
 """
 from __future__ import annotations
 
@@ -50,13 +52,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import TechniqueError
 from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
 from ..passes.base import Channel, Frame, Pass
 from ..passes.impostors import BuildImpostors, ReleaseImpostors
 from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
-from ..passes.light_space import float_atomics
+from ..passes.fixed_flux import splat_fixed_point
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
 from .base import check_integers, check_numbers
@@ -132,7 +133,7 @@ class ImpostorPhotons(Pass):
 
 
 class CausticTextures(Pass):
-    """3.2: photons into per-rectangle flux tiles (float atomics), then the sqrt(1 + 2k^2 - (i^2 + j^2)) filter."""
+    """3.2: photons into per-rectangle flux tiles (fixed-point integer atomics), then the sqrt(1 + 2k^2 - (i^2 + j^2)) filter."""
 
     reads = ("impostors", "impostor_photons")
     writes = (Channel("caustic_textures", "rgba32f", "rectangles' caustic tiles side by side: irradiance across each axis"),)
@@ -141,21 +142,23 @@ class CausticTextures(Pass):
         self.params = params
 
     def run(self, frame: Frame) -> None:
-        if not float_atomics(frame):
-            raise TechniqueError("impostor-caustics needs GL_NV_shader_atomic_float (float image atomics)")
         impostors = frame.read("impostors").all()[:MAX_CAUSTIC_TILES]
         size = self.params.caustic_size
         width = size * max(len(impostors), 1)
-        flux = [frame.gpu.targets.zeroed((width, size), "r32f") for _ in range(3)]
-        program = frame.gpu.shaders.compute("passes/impostor_caustic_splat.comp")
-        set_uniform(program, "tile_size", size)
-        set_uniform(program, "tile_count", len(impostors))
-        set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale) or 1.0)
-        for entry in frame.read("impostor_photons"):
-            if entry is None or not impostors:
-                continue
-            throughput, record, camera, sample = entry
-            splat_photons(frame, program, throughput, record, camera, sample, flux)
+
+        def dispatch(bind, bound: int) -> None:
+            program = frame.gpu.shaders.compute("passes/impostor_caustic_splat.comp", {"FLUX_BOUND": bound})
+            bind(program)
+            set_uniform(program, "tile_size", size)
+            set_uniform(program, "tile_count", len(impostors))
+            set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale) or 1.0)
+            for entry in frame.read("impostor_photons"):
+                if entry is None or not impostors:
+                    continue
+                throughput, record, camera, sample = entry
+                splat_photons(frame, program, throughput, record, camera, sample)
+
+        flux = splat_fixed_point(frame, (width, size), dispatch)
         caustic = filter_tiles(frame, flux, size, [imp.texel_area(size) for imp in impostors], self.params.filter_k,
                                self.params.filter_s)
         for tex in flux:
@@ -163,8 +166,8 @@ class CausticTextures(Pass):
         frame.write("caustic_textures", caustic)
 
 
-def splat_photons(frame: Frame, program, throughput, record, camera, sample, flux) -> None:
-    """One light's photon buffer into the flux atlases (impostor_caustic_splat.comp)."""
+def splat_photons(frame: Frame, program, throughput, record, camera, sample) -> None:
+    """One light's photon buffer into the fixed-point flux sums (impostor_caustic_splat.comp)."""
     clip = camera.clip_from_world()
     intensity = np.asarray(sample.intensity, np.float64)
     if sample.type == LIGHT_DIRECTIONAL:
@@ -183,8 +186,6 @@ def splat_photons(frame: Frame, program, throughput, record, camera, sample, flu
     record.use(1)
     set_uniform(program, "throughput", 0)
     set_uniform(program, "record", 1)
-    for unit, tex in enumerate(flux):
-        tex.bind_to_image(unit, read=True, write=True)
     run_compute(program, (n + 7) // 8, (camera.size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
 

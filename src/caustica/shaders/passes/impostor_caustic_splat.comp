@@ -2,10 +2,14 @@
 // A photon buffer texel holds the throughput rgb (colour) and the record (u, v, k + 1, hit) of the
 // rectangle its refracted or reflected ray met (3.1). Its flux is the light's intensity times the
 // texel's solid angle (cos^3 fall-off off the axis; spot cone smoothstep) times the throughput, added
-// with float atomics at texel (k * C + u C, v C) of three r32f atlases of C x C tiles.
-// Host defines: none (needs GL_NV_shader_atomic_float).
+// with integer atomics at texel (k * C + u C, v C) of the fixed-point sums of fixed_point_flux.glsl
+// over an atlas of C x C tiles (order-independent). FLUX_BOUND 1 only raises the bound.
+// Host defines: FLUX_BOUND (0).
 #version 430 core
-#extension GL_NV_shader_atomic_float : require
+#ifndef FLUX_BOUND
+#define FLUX_BOUND 0
+#endif
+#include "passes/fixed_point_flux.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 uniform sampler2D throughput;
 uniform sampler2D record;
@@ -19,9 +23,6 @@ uniform float unit_area;          // texel area on the photon camera's image pla
 uniform float intensity_scale;    // the shading pass multiplied the throughput by this
 uniform int tile_size;
 uniform int tile_count;
-layout(r32f, binding = 0) uniform image2D flux_r;
-layout(r32f, binding = 1) uniform image2D flux_g;
-layout(r32f, binding = 2) uniform image2D flux_b;
 
 void main() {
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
@@ -41,7 +42,10 @@ void main() {
     }
     vec3 flux = texelFetch(throughput, t, 0).rgb / intensity_scale * intensity * unit_area * c * c * c;
     ivec2 texel = ivec2(clamp(rec.xy, 0.0, 0.999999) * float(tile_size)) + ivec2(k * tile_size, 0);
-    imageAtomicAdd(flux_r, texel, flux.r);
-    imageAtomicAdd(flux_g, texel, flux.g);
-    imageAtomicAdd(flux_b, texel, flux.b);
+#if FLUX_BOUND
+    flux_bound(flux);
+#else
+    int e = flux_step_exponent();
+    for (int channel = 0; channel < 3; ++channel) flux_add(channel, texel, flux[channel], e);
+#endif
 }
