@@ -42,8 +42,8 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``):
    landing points (III-F: frustum limitation; a point light whose footprint is
    wider than a frustum, or ``point_map='cube'``, gets the omnidirectional cube
    atlas), the receivers are rendered again in it and the photons retraced.
-   Splat (III-F): compute shader with float atomics, or additive Gaussian point
-   sprites (``splat``), radius ``splat_radius`` texels; irradiance = flux /
+   Splat (III-F): compute shader with fixed-point atomics, or additive Gaussian
+   point sprites (``splat``), radius ``splat_radius`` texels; irradiance = flux /
    receiver area of the texel; alpha = receiver distance to the light.
    The maps are rebuilt only when lights, objects or materials change.
 
@@ -97,7 +97,7 @@ class CausticMappingParams(ShadowedParams):
     iterations: int = 1  # intersection-estimate steps (III-D: one suffices for caustics)
     estimator: str = "iterate"  # 'iterate' (the paper's approximation) or 'newton' (appendix; bisection fallback)
     exit_iterations: int = 6  # regula falsi steps refining Wyman's d_V against the back faces (0: d_V alone)
-    splat: str = "auto"  # 'compute' (float atomics), 'points' (additive point sprites) or 'auto'
+    splat: str = "auto"  # 'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'
     splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2)
     point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)
 

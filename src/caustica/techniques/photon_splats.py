@@ -30,7 +30,7 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
 3. Caustic map ("Rendering the Caustic Map"): Gaussian splats of radius
    ``splat_radius`` caustic-map texels (sigma = radius / 2; the paper's 7 x 7
    splats are radius 3), additive point sprites as in the paper or a compute
-   shader with float atomics (``splat``). Energy: the paper's weights sum to
+   shader with fixed-point atomics (``splat``). Energy: the paper's weights sum to
    R = pixelsInCausticMap / totalPhotons, counting photons; ours carry
    physical flux (the light's intensity times the texel's solid angle, the
    per-photon weighting the paper notes it ignores, times exact Fresnel
@@ -83,7 +83,7 @@ class PhotonSplatsParams(ShadowedParams):
     photon_buffer_size: int = 512  # photons a side of the light's view of the refractors
     caustic_map_size: int = 256  # caustic-map texels a side (per cube face); the paper: photons at twice this
     splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2; the paper's 7x7: 3)
-    splat: str = "auto"  # 'points' (additive point sprites, the paper), 'compute' (float atomics) or 'auto'
+    splat: str = "auto"  # 'points' (additive point sprites, the paper), 'compute' (fixed-point atomics) or 'auto'
     tir_mode: str = "keep-t1"  # exit TIR: 'keep-t1', 'clamp', 'reflect' (as image-space) or 'drop'
     use_dn: bool = True  # d~ interpolates d_V and d_N (False: d~ = d_V)
     land_iterations: int = 2  # Newton-Raphson steps landing the photons on the fitted map's receivers

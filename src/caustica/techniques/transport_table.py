@@ -16,7 +16,7 @@ Every frame the object may move rigidly and the lights change freely:
    photons (``caustica.transport.runtime``).
 2. The shared caustic-map path (``passes/light_space.py``): a caustic view
    fitted around the photons, the receivers' positions from the light, the
-   splat (float atomics or point sprites) and the resolve into irradiance.
+   splat (fixed-point atomics or point sprites) and the resolve into irradiance.
 
 The maps are rebuilt only when lights, objects or materials change. As a
 caustic technique it composes with any view technique
@@ -74,7 +74,7 @@ class TransportTableParams(TableParams):
 
     map_size: int = 512  # caustic-map texels a side (per cube face)
     photon_budget: int = 1 << 18  # photons spread over the illumination volumes' footprints, per light sample
-    splat: str = "auto"  # 'compute' (float atomics), 'points' (additive point sprites) or 'auto'
+    splat: str = "auto"  # 'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'
     splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels
     point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube'
 
