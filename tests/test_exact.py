@@ -284,3 +284,16 @@ def test_dn_of_an_icosphere_has_no_slipped_rays():
 
     dn = distance_along_negative_normal(sphere(1.0, 5))
     np.testing.assert_allclose(dn, 2.0, atol=1e-4)
+
+
+def test_exact_image_does_not_depend_on_its_row_bands(monkeypatch):
+    """exact traces rows in bands of about one trace batch; bands of a few rows give the same bytes."""
+    import caustica
+    from caustica.techniques import exact
+
+    scene = caustica.load_scene("caustic-sphere")
+    renderer = caustica.Renderer((40, 28))
+    whole = renderer.render(scene, "exact", spp=4)
+    monkeypatch.setattr(exact, "BATCH_SIZE", 40 * 4 * 3)  # three rows a band, the last band shorter
+    banded = renderer.render(scene, "exact", spp=4)
+    assert np.array_equal(whole, banded)

@@ -93,19 +93,20 @@ class Camera:
             cached = self.__dict__["_cached_matrices"] = (key, matrices)
         return cached[1]
 
-    def primary_rays(self, spp: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def primary_rays(self, spp: int = 1, rows: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
         """World-space ray origins and unit directions, (H, W, spp, 3) each, row 0 at the top.
 
         Samples lie on a stratified sqrt(spp) grid inside each pixel (a box filter);
-        spp = 1 shoots through pixel centres.
+        spp = 1 shoots through pixel centres. ``rows`` (first, stop) gives only those image rows.
         """
         width, height = self.size
+        first, stop = (0, height) if rows is None else rows
         grid = max(1, int(round(math.sqrt(spp))))
         offsets = (np.arange(grid) + 0.5) / grid
         oy, ox = np.meshgrid(offsets, offsets, indexing="ij")
         ox, oy = ox.reshape(-1), oy.reshape(-1)
         px = np.arange(width)[None, :, None] + ox[None, None, :]
-        py = np.arange(height)[:, None, None] + oy[None, None, :]
+        py = np.arange(first, stop)[:, None, None] + oy[None, None, :]
         tan_half = math.tan(math.radians(self.fov_y) / 2.0)
         x_view = (2.0 * px / width - 1.0) * tan_half * self.aspect
         y_view = (1.0 - 2.0 * py / height) * tan_half

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..raytrace.embree_scene import ray_scene_for
-from ..raytrace.paths import trace
+from ..raytrace.paths import BATCH_SIZE, trace
 from .base import Technique, check_numbers
 
 
@@ -56,11 +56,22 @@ class Exact(Technique):
     uses_gl = False
 
     def render(self, renderer, scene, camera, params, spp: int) -> np.ndarray:
-        """Trace ``spp`` stratified samples per pixel and average them: (H, W, 3) float32."""
+        """Trace ``spp`` stratified samples per pixel and average them: (H, W, 3) float32.
+
+        Rows are made and traced in bands of about one trace batch (paths.BATCH_SIZE rays), so memory
+        stays bounded at any size and spp (the primary rays alone took 48 bytes a sample); each ray's
+        path is independent of the others, so the image does not depend on the bands."""
         params = params if params is not None else ExactParams()
-        origins, dirs = camera.primary_rays(spp)
-        height, width, samples = dirs.shape[:3]
-        radiance = trace(
-            ray_scene_for(scene), scene, origins.reshape(-1, 3), dirs.reshape(-1, 3), params.max_depth, params.min_weight
-        )
-        return radiance.reshape(height, width, samples, 3).mean(axis=2).astype(np.float32)
+        width, height = camera.size
+        rays_per_row = width * spp
+        band = max(1, BATCH_SIZE // rays_per_row)
+        rays = ray_scene_for(scene)
+        image = np.empty((height, width, 3), dtype=np.float32)
+        for first in range(0, height, band):
+            stop = min(height, first + band)
+            origins, dirs = camera.primary_rays(spp, rows=(first, stop))
+            radiance = trace(rays, scene, origins.reshape(-1, 3), dirs.reshape(-1, 3), params.max_depth,
+                             params.min_weight)
+            image[first:stop] = radiance.reshape(stop - first, width, -1, 3).mean(axis=2)
+        return image
+
