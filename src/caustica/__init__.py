@@ -1,5 +1,16 @@
 """caustica: real-time reflections, refractions and caustics on the GPU, measured against exact paths."""
-from .errors import CausticaError, GLUnavailableError, MeshError, OutputError, SceneError, TechniqueError
+from .errors import (
+    CausticaError,
+    EnvironmentImageError,
+    GLUnavailableError,
+    MeshError,
+    MissingExtraError,
+    OutputError,
+    RendererClosedError,
+    RenderOptionError,
+    SceneError,
+    TechniqueError,
+)
 
 __version__ = "0.1.0"
 
@@ -23,5 +34,6 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
-__all__ = ["load_scene", "Renderer", "show", "CausticaError", "GLUnavailableError", "MeshError", "OutputError",
-           "SceneError", "TechniqueError"]
+__all__ = ["load_scene", "Renderer", "show", "CausticaError", "EnvironmentImageError", "GLUnavailableError",
+           "MeshError", "MissingExtraError", "OutputError", "RendererClosedError", "RenderOptionError", "SceneError",
+           "TechniqueError"]

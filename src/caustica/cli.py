@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from .errors import CausticaError, OutputError, first_line
+from .frame_limits import MAX_SPP
 
 OUTPUT_SUFFIXES = (".png", ".exr")
 
@@ -74,11 +75,10 @@ def _number(low: float, high: float, low_open: bool = False):
 
 
 # Bounds of the numeric options: what a frame, a reference or a table can sensibly ask for.
-MAX_SPP = 4096
 MAX_FRAMES = 100_000
 MAX_REFERENCE_SPP = 1 << 16
 MAX_EXPOSURE = 64.0
-SPP = _integer(1, MAX_SPP)
+SPP = _integer(1, MAX_SPP)  # the renderer's own bound (frame_limits), said at parse time
 FRAMES = _integer(1, MAX_FRAMES)
 EXPOSURE = _number(-MAX_EXPOSURE, MAX_EXPOSURE)
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
