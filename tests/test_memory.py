@@ -230,3 +230,21 @@ def test_forked_child_renders_the_parents_image(technique, scene_name):
     assert child.exitcode == 0
     assert np.array_equal(renderer.render(load_scene(scene_name), technique), expected)  # the parent still renders
     renderer.close()
+
+
+def test_prepared_ray_geometry_of_animated_meshes_stays_under_its_byte_bound():
+    """d_N of a new water surface every reload (image-space on the animated pool) keeps at most
+    _GEOMETRY_CACHE_BYTES of Embree's prepared float64 triangles: 32 of them held 290 MB (the soak's
+    step between frames 5000 and 7000, where the d_N disk cache was cold). The newest stays cached."""
+    from caustica.raytrace import embree_scene
+    from caustica.raytrace.paths import distance_along_negative_normal
+    from caustica.scene.shapes import water_heightfield
+
+    embree_scene._GEOMETRY_CACHE.clear()
+    for step in range(12):
+        mesh = water_heightfield((4.0, 4.0), resolution=160, amplitude=0.08, waves=6, seed=3, time=0.1 * step)
+        distance_along_negative_normal(mesh)
+        kept = sum(g.nbytes for g in embree_scene._GEOMETRY_CACHE.values())
+        assert kept <= embree_scene._GEOMETRY_CACHE_BYTES
+        assert any(key[0] == mesh.content_hash() for key in embree_scene._GEOMETRY_CACHE)
+    assert 1 < len(embree_scene._GEOMETRY_CACHE) < 12

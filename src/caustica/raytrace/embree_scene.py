@@ -30,7 +30,10 @@ from .optics import dot
 
 CHUNK_SIZE = 1 << 20
 _GEOMETRY_CACHE: OrderedDict[tuple, "_Geometry"] = OrderedDict()
-_GEOMETRY_CACHE_SIZE = 32
+_GEOMETRY_CACHE_SIZE = 32  # entries kept at most
+# Bytes kept at most (the newest entry always stays): an animated mesh is new geometry every frame,
+# and 32 entries of the 160x160 pool water (9.1 MB each) held 290 MB (the soak's step, issue 17).
+_GEOMETRY_CACHE_BYTES = 64 << 20
 
 
 @dataclass
@@ -61,6 +64,11 @@ class _Geometry:
     face_normals: np.ndarray | None  # (M,3) float64 unit
     sphere: tuple[np.ndarray, float] | None  # world-space (center, radius)
     bounds: np.ndarray  # (2,3)
+
+    @property
+    def nbytes(self) -> int:
+        arrays = (self.vertices32, self.faces, self.triangles, self.corner_normals, self.face_normals, self.bounds)
+        return sum(a.nbytes for a in arrays if a is not None)
 
 
 def world_sphere(mesh: Mesh, world_from_object: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -95,7 +103,8 @@ def _prepare(mesh: Mesh, sphere) -> _Geometry:
 
 
 def _cached_geometry(mesh: Mesh, world_from_object: np.ndarray | None, world_mesh, analytic: bool) -> _Geometry:
-    """Prepared geometry, cached by mesh content and transform."""
+    """Prepared geometry, cached by mesh content and transform (the ``_GEOMETRY_CACHE_SIZE`` most
+    recently used entries, at most ``_GEOMETRY_CACHE_BYTES`` together)."""
     xform = np.eye(4) if world_from_object is None else np.asarray(world_from_object, dtype=np.float64)
     sphere = world_sphere(mesh, xform) if analytic else None
     key = (mesh.content_hash(), hash(mesh.normals.tobytes()), xform.tobytes(), sphere is not None)
@@ -103,8 +112,9 @@ def _cached_geometry(mesh: Mesh, world_from_object: np.ndarray | None, world_mes
     if geometry is None:
         geometry = _prepare(world_mesh() if sphere is None else None, sphere)
         _GEOMETRY_CACHE[key] = geometry
-        while len(_GEOMETRY_CACHE) > _GEOMETRY_CACHE_SIZE:
-            _GEOMETRY_CACHE.popitem(last=False)
+        total = sum(g.nbytes for g in _GEOMETRY_CACHE.values())
+        while len(_GEOMETRY_CACHE) > 1 and (len(_GEOMETRY_CACHE) > _GEOMETRY_CACHE_SIZE or total > _GEOMETRY_CACHE_BYTES):
+            total -= _GEOMETRY_CACHE.popitem(last=False)[1].nbytes
     else:
         _GEOMETRY_CACHE.move_to_end(key)
     return geometry
