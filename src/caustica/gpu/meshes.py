@@ -5,6 +5,8 @@ from collections import OrderedDict
 
 import numpy as np
 
+from ..scene.transform import normal_matrix
+
 IDLE_FRAMES = 8  # frames a GPU mesh stays after its last use (an animation makes a new mesh each frame)
 MAX_MESHES = 4096  # GPU meshes kept at most, however recently used
 
@@ -143,6 +145,12 @@ def set_uniform(program, name: str, value) -> None:
         member.write(np.ascontiguousarray((value.T if matrix else value).astype(dtype)).tobytes())
     else:
         member.value = value
+
+
+def set_object_transform(program, world_from_object: np.ndarray) -> None:
+    """Write the shared mesh vertex stage's object matrices: ``world_from_object`` and its normal matrix."""
+    set_uniform(program, "world_from_object", world_from_object)
+    set_uniform(program, "world_normal_from_object", normal_matrix(world_from_object))
 
 
 def write_uniform_array(program, name: str, values: np.ndarray) -> None:

@@ -43,7 +43,7 @@ import moderngl
 import numpy as np
 
 from ..cache import state_key
-from ..gpu.meshes import bind_samplers, set_uniform
+from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from ..gpu.shaders import run_compute
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .base import Channel, Frame, Pass, run_passes
@@ -387,9 +387,7 @@ class LightSurfaces(Pass):
                     continue
                 code = casters.index(obj) + 1 if obj in casters else 0
                 set_uniform(program, "object_code", float(code))
-                m = obj.world_from_object()
-                set_uniform(program, "world_from_object", m)
-                set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+                set_object_transform(program, obj.world_from_object())
                 gpu.meshes.get(obj.mesh).render(program)
         ctx.depth_func = "<"
         ctx.cull_face = "back"

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..cache import state_key
 from ..errors import TechniqueError
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import set_object_transform, set_uniform
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.transform import (
     look_at_view_from_world,
@@ -75,9 +75,7 @@ def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) ->
     """Draw objects with the shared mesh vertex stage."""
     set_uniform(program, "clip_from_world", clip_from_world)
     for obj in objects:
-        m = obj.world_from_object()
-        set_uniform(program, "world_from_object", m)
-        set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+        set_object_transform(program, obj.world_from_object())
         frame.gpu.meshes.get(obj.mesh).render(program)
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from ..gpu.meshes import bind_samplers, set_uniform
+from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import LightView, bind_views, dispatch_photons
@@ -112,9 +112,7 @@ class RefractFromLight(Pass):
             set_uniform(program, "object_sigma", np.asarray(material.absorption_coefficient, "f4"))
         if material.kind == "mirror":
             set_uniform(program, "object_color", np.asarray(material.color, "f4"))
-        m = obj.world_from_object()
-        set_uniform(program, "world_from_object", m)
-        set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+        set_object_transform(program, obj.world_from_object())
         gpu_mesh.render(program)
 
 

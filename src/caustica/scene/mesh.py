@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import MeshError, first_line, short
 from . import rules
+from .transform import normal_matrix
 
 SUPPORTED_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".off")
 
@@ -128,8 +129,7 @@ class Mesh:
         """This mesh in world space (normals by the inverse transpose)."""
         m = np.asarray(world_from_object, dtype=np.float64)
         v = self.vertices @ m[:3, :3].T + m[:3, 3]
-        normal_matrix = np.linalg.inv(m[:3, :3]).T
-        n = self.normals @ normal_matrix.T
+        n = self.normals @ normal_matrix(m).T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
         faces = self.faces if np.linalg.det(m[:3, :3]) > 0 else self.faces[:, ::-1]
         return Mesh(v, n, faces, name=self.name)

@@ -53,6 +53,12 @@ class Transform:
         return m
 
 
+def normal_matrix(world_from_object) -> np.ndarray:
+    """The 3x3 matrix that takes object-space normals to world space: the inverse transpose of the
+    linear part of ``world_from_object`` (normals stay perpendicular to surfaces under any scale)."""
+    return np.linalg.inv(np.asarray(world_from_object, dtype=np.float64)[:3, :3]).T
+
+
 def up_hint(direction) -> np.ndarray:
     """An up vector for looking along ``direction``: +Y, or +Z when ``direction`` is nearly vertical."""
     return np.array([0.0, 0.0, 1.0]) if abs(direction[1]) > 0.9 else np.array([0.0, 1.0, 0.0])

@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.lights import ShadowMaps
 from ..passes.offscreen import OffscreenCamera, render_offscreen, scene_subset
@@ -364,8 +364,7 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     for name, value in (("environment", 0), ("reflection_map", 1), ("zoom_map", 2),
                         ("intensity_scale", float(frame.scene.intensity_scale))):
         set_uniform(program, name, value)
-    set_uniform(program, "world_from_object", m)
-    set_uniform(program, "world_normal_from_object", np.linalg.inv(m[:3, :3]).T.astype("f4"))
+    set_object_transform(program, m)
     set_uniform(program, "clip_from_world", frame.camera.clip_from_world())
     set_uniform(program, "camera_position", np.asarray(frame.camera.position, dtype="f4"))
     ior = params.ior_rgb if params.ior_rgb is not None else getattr(obj.material, "ior_rgb", np.ones(3))

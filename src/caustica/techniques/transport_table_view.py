@@ -30,6 +30,7 @@ import numpy as np
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import ShadeSurfaces
 from ..raytrace.optics import dot, fresnel_dielectric, normalize
+from ..scene.transform import normal_matrix
 from .raster import RasterTechnique
 from .transport_table import TableParams
 
@@ -61,7 +62,7 @@ def view_exit(obj, eye: np.ndarray, params: TableParams, progress: bool = False)
     found = lookup(table, _frames(mesh), towards_eye @ np.linalg.inv(a).T)
     direction = normalize(found.exit_direction @ a.T)
     # The table's transmittance includes the entry's 1 - F; the fragment applies F per pixel.
-    normal = normalize(mesh.normals.astype(np.float64) @ np.linalg.inv(a))
+    normal = normalize(mesh.normals.astype(np.float64) @ normal_matrix(m).T)
     entry = 1.0 - fresnel_dielectric(np.clip(dot(normal, towards_eye), 0.0, 1.0), 1.0, obj.material.ior)
     after = np.clip(found.transmittance / np.maximum(entry, 1e-4), 0.0, 1.0)
     sigma = np.asarray(getattr(obj.material, "absorption_coefficient", np.zeros(3)), np.float64)
