@@ -292,3 +292,31 @@ def test_environment_wider_than_the_texture_limit():
     raises(EnvironmentImageError, "wide.exr is 64x2 pixels, above this GL's texture limit of 32; downsample it",
            lambda: frame_limits.check_environment_texture(environment, 32))
     frame_limits.check_environment_texture(environment, 64)
+
+
+def test_large_arrays_are_checked_once_per_array_object(renderer):
+    """A render validates the scene each frame; a mesh's or environment's arrays are read again only when
+    a new array is assigned (the GPU and ray caches read each array object once too)."""
+    scene = load_scene("caustic-sphere")
+    renderer.render(scene, "env-map", spp=1)
+    mesh = scene.objects[0].mesh
+    calls = []
+    original = type(mesh).validate
+    try:
+        type(mesh).validate = lambda self, *a, **k: (calls.append(self), original(self, *a, **k))[1]
+        scene.validate()
+        assert calls == []  # the same arrays passed at the render
+        good, vertices = mesh.vertices, mesh.vertices.copy()
+        vertices[0, 0] = np.nan
+        mesh.vertices = vertices
+        with pytest.raises(MeshError, match="NaN"):
+            scene.validate()
+        assert calls == [mesh]
+    finally:
+        type(mesh).validate = original
+    mesh.vertices = good
+    image = scene.environment.image.copy()
+    image[0, 0, 0] = np.inf
+    scene.environment.image = image
+    with pytest.raises(EnvironmentImageError, match="NaN or infinite"):
+        scene.validate()

@@ -78,6 +78,20 @@ def integer(value, name: str, low: int, high: int, hint: str = "", error=SceneEr
     return int(value)
 
 
+def once_per_arrays(owner, names: tuple[str, ...], check) -> None:
+    """Run ``check()`` unless the arrays ``owner.<name>`` are the very objects that passed it before.
+
+    Renders validate the scene every frame; scalars are checked each time, but a large array (mesh
+    vertices, an environment image) is read once per array object, as caustica's GPU and ray caches read
+    it: edit such an array by assigning a new one, not in place."""
+    current = tuple(getattr(owner, name) for name in names)
+    passed = getattr(owner, "_arrays_passed", None)
+    if passed is not None and all(a is b for a, b in zip(passed, current)):
+        return
+    check()
+    owner._arrays_passed = tuple(getattr(owner, name) for name in names)
+
+
 def flag(value, name: str, error=SceneError) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise error(f"{name} {short(value)} must be true or false")

@@ -43,7 +43,8 @@ class SceneObject:
         with rules.context(where, ("name", "mesh", "material", "transform")):
             if not isinstance(self.name, str):
                 raise SceneError(f"name {_type_name(self.name)} must be a string")
-            _part(self.mesh, (Mesh,), "mesh", "a caustica.scene.Mesh").validate()
+            mesh = _part(self.mesh, (Mesh,), "mesh", "a caustica.scene.Mesh")
+            rules.once_per_arrays(mesh, ("vertices", "normals", "faces"), mesh.validate)
         _validated(self.material, (Glass, Diffuse, Mirror), f"{where}.material", "a Glass, Diffuse or Mirror")
         _validated(self.transform, (Transform,), f"{where}.transform", "a Transform")
         # The object's world box: the corners of its object-space box through world_from_object.
@@ -81,7 +82,7 @@ class Scene:
         for i, light in enumerate(self.lights):
             _validated(light, (PointLight, DirectionalLight, SpotLight, LineLight), f"lights[{i}]",
                        "a PointLight, DirectionalLight, SpotLight or LineLight")
-        _validated(self.environment, (Environment,), "environment", "a caustica.scene.Environment")
+        _validated(self.environment, (Environment,), "environment", "a caustica.scene.Environment", arrays=("image",))
         self.intensity_scale = rules.intensity_scale(self.intensity_scale)
         if not isinstance(self.name, str):
             raise SceneError(f"name {_type_name(self.name)} must be a string")
@@ -110,11 +111,12 @@ def _part(value, kinds: tuple, where: str, what: str):
     return value
 
 
-def _validated(value, kinds: tuple, where: str, what: str) -> None:
-    """Type-check ``value`` and run its own validate, errors naming ``where`` (``where.field ...``)."""
+def _validated(value, kinds: tuple, where: str, what: str, arrays: tuple[str, ...] = ()) -> None:
+    """Type-check ``value`` and run its own validate, errors naming ``where`` (``where.field ...``); with
+    ``arrays``, only when those array fields are new objects (rules.once_per_arrays)."""
     _part(value, kinds, where, what)
     with rules.context(where, [f.name for f in dataclasses.fields(value)]):
-        value.validate()
+        rules.once_per_arrays(value, arrays, value.validate) if arrays else value.validate()
 
 
 def check_scene(scene) -> Scene:
