@@ -1,6 +1,7 @@
 """Pinhole camera, OpenGL convention: -Z forward, +Y up, vertical field of view."""
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -66,8 +67,26 @@ class Camera:
         return fov_x_from_fov_y(self.fov_y, *self.size)
 
     def with_size(self, width: int, height: int) -> "Camera":
-        """The same camera at another resolution (vertical field of view kept)."""
-        return Camera(self.position, self.look_at, self.up, self.fov_y, self.near, self.far, (width, height))
+        """The same camera at another resolution (vertical field of view kept). Only the size is checked
+        anew (the other fields are this camera's, checked already); the copy is kept for the next frame
+        while this camera's fields stay the same."""
+        size = rules.image_size((width, height), "size")
+        if size == self.size:
+            return self
+        state = self._state()
+        kept = self.__dict__.get("_resized")
+        if kept is None or kept[0] != (state, size):
+            resized = copy.copy(self)
+            resized.__dict__.pop("_resized", None)
+            resized.__dict__.pop("_cached_matrices", None)
+            resized.size = size
+            kept = self.__dict__["_resized"] = ((state, size), resized)
+        return kept[1]
+
+    def _state(self) -> tuple:
+        """The fields as a comparable key."""
+        return (np.asarray(self.position).tobytes(), np.asarray(self.look_at).tobytes(), np.asarray(self.up).tobytes(),
+                self.fov_y, self.near, self.far, self.size)
 
     def view_from_world(self) -> np.ndarray:
         return self._matrices()[0]
@@ -81,8 +100,7 @@ class Camera:
     def _matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(view_from_world, clip_from_view, clip_from_world), read-only, recomputed only when a field
         changed: the passes of one frame ask for them dozens of times."""
-        key = (self.position.tobytes(), self.look_at.tobytes(), self.up.tobytes(), self.fov_y, self.near,
-               self.far, self.size)
+        key = self._state()
         cached = self.__dict__.get("_cached_matrices")
         if cached is None or cached[0] != key:
             view = look_at_view_from_world(self.position, self.look_at, self.up)

@@ -100,6 +100,10 @@ def flag(value, name: str, error=SceneError) -> bool:
 
 def _array(value, name: str, count: int, what: str, error) -> np.ndarray:
     """``value`` as ``count`` finite float64 numbers, without numpy's conversion errors or overflow warnings."""
+    if isinstance(value, np.ndarray) and value.dtype.kind == "f" and value.size == count:  # the usual case, fast
+        array = value.astype(np.float64).reshape(-1)
+        if np.isfinite(array).all():
+            return array
     try:
         items = list(np.asarray(value, dtype=object).reshape(-1)) if not isinstance(value, (str, bytes)) else None
     except (TypeError, ValueError):

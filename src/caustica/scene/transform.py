@@ -47,10 +47,16 @@ class Transform:
         self.scale = rules.scale(self.scale)
 
     def world_from_object(self) -> np.ndarray:
-        m = np.eye(4)
-        m[:3, :3] = rotation_from_euler_degrees(self.rotation) @ np.diag(self.scale)
-        m[:3, 3] = self.position
-        return m
+        """The 4x4 matrix, kept until position, rotation or scale change (a copy is returned)."""
+        state = (np.asarray(self.position, dtype=np.float64).tobytes(), np.asarray(self.rotation, dtype=np.float64).tobytes(),
+                 np.asarray(self.scale, dtype=np.float64).tobytes())
+        memo = self.__dict__.get("_matrix")
+        if memo is None or memo[0] != state:
+            m = np.eye(4)
+            m[:3, :3] = rotation_from_euler_degrees(self.rotation) @ np.diag(self.scale)
+            m[:3, 3] = self.position
+            memo = self.__dict__["_matrix"] = (state, m)
+        return memo[1].copy()
 
 
 def normal_matrix(world_from_object) -> np.ndarray:
