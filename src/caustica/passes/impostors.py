@@ -32,6 +32,7 @@ import numpy as np
 from ..cache import state_key
 from ..errors import SceneError
 from ..gpu.meshes import set_uniform, write_uniform_array
+from ..parameters import Params, param
 from ..scene import rules
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
@@ -373,7 +374,7 @@ class NearbyView(Pass):
 
 
 @dataclass
-class NearbyParams:
+class NearbyParams(Params):
     """The ``nearby`` option of ``image-space`` and ``depth-search`` (Wyman, "intersecting T2 with other geometry").
 
     'none': the environment (their original behaviour); 'planes': the diffuse planar objects intersected
@@ -382,21 +383,14 @@ class NearbyParams:
     ``search_distance`` (0: the scene's diagonal), then ``search_refine_steps`` binary or secant steps.
     """
 
-    nearby: str = "none"
-    search_linear_steps: int = 32
-    search_refine_steps: int = 6
-    search_distance: float = 0.0
-
-    def __post_init__(self):
-        super().__post_init__()
-        if self.nearby not in NEARBY_MODES or self.nearby == "impostors":
-            raise ValueError(f"nearby {self.nearby!r} must be one of none, planes, search-linear, search-binary, "
-                             "search-secant (impostors: use the 'impostors' technique)")
-        for name, (low, high) in {"search_linear_steps": (1, 512), "search_refine_steps": (0, 32)}.items():
-            setattr(self, name, rules.integer(getattr(self, name), name, low, high))
-        # Scene units; 0: the scene's diagonal.
-        self.search_distance = rules.number(self.search_distance, "search_distance", 0.0, rules.MAX_COORDINATE)
-        self.search_distance = float(self.search_distance)
+    nearby: str = param("none", choices=tuple(m for m in NEARBY_MODES if m != "impostors"),
+                        hint=" (impostors: use the 'impostors' technique)", paper="Wyman, intersecting T2 with other geometry",
+                        help="what T2 meets after the glass: the environment, the diffuse planes, or a search of the scene")
+    search_linear_steps: int = param(32, range=(1, 512), paper="Wyman, intersecting T2 with other geometry",
+                                     help="search-*: uniform steps along T2 over search_distance")
+    search_refine_steps: int = param(6, range=(0, 32), help="search-binary / search-secant: refining steps after the hit")
+    search_distance: float = param(0.0, range=(0.0, rules.MAX_COORDINATE), unit="scene units", special={0.0: "the scene's diagonal"},
+                                   help="search-*: how far along T2 the search looks")
 
 
 @dataclass

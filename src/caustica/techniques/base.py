@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from ..errors import TechniqueError, closest_name, short
-from ..scene import rules
+from ..parameters import Params, param  # noqa: F401 (the techniques declare with these)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..renderer import Renderer
@@ -22,31 +22,8 @@ _REGISTRY: dict[str, type["Technique"]] = {}
 
 
 @dataclasses.dataclass
-class NoParams:
+class NoParams(Params):
     """A technique without parameters."""
-
-
-def check_integers(params, ranges: dict) -> None:
-    """Each field ``name: (low, high)`` of ``params`` must be an integer (not a bool, a string or inf) in
-    [low, high]; stored as int. A TechniqueError names the field otherwise (parameter dataclasses' __post_init__)."""
-    for name, (low, high) in ranges.items():
-        setattr(params, name, rules.integer(getattr(params, name), name, low, high, error=TechniqueError))
-
-
-def check_numbers(params, ranges: dict) -> None:
-    """Each field ``name: (low, high)`` or ``(low, high, ends)`` of ``params`` must be a finite number (not a
-    bool or a string) in the range, ``ends`` one of "[]" (the default), "(]", "[)", "()"; stored as float.
-    A TechniqueError names the field and its range otherwise."""
-    for name, (low, high, *ends) in ranges.items():
-        ends = ends[0] if ends else "[]"
-        setattr(params, name, rules.number(getattr(params, name), name, low, high, open_low=ends[0] == "(",
-                                           open_high=ends[1] == ")", error=TechniqueError))
-
-
-def check_flags(params, names) -> None:
-    """Each field in ``names`` must be true or false (not 'yes', not 1); stored as bool."""
-    for name in names:
-        setattr(params, name, rules.flag(getattr(params, name), name, error=TechniqueError))
 
 
 class Technique:

@@ -78,8 +78,8 @@ from ..passes.light_space import (
     bind_views,
     dispatch_photons,
 )
-from .composite import CausticTechnique
-from .base import check_integers, check_numbers
+from .composite import POINT_MAPS, SPLATS, CausticTechnique
+from .base import param
 from .env_map import ShadowedParams
 
 MAX_CASTERS = 32
@@ -92,28 +92,24 @@ COARSE_NEWTON_STEPS = 6  # the footprint pass converges (Newton-Raphson) so the 
 class CausticMappingParams(ShadowedParams):
     """Parameters of ``caustic-mapping`` (Shah et al.)."""
 
-    map_size: int = 512  # caustic-map texels a side (per cube face)
-    photon_grid: int = 0  # photons a side of the casters' grid; 0: map_size
-    iterations: int = 1  # intersection-estimate steps (III-D: one suffices for caustics)
-    estimator: str = "iterate"  # 'iterate' (the paper's approximation) or 'newton' (appendix; bisection fallback)
-    exit_iterations: int = 6  # regula falsi steps refining Wyman's d_V against the back faces (0: d_V alone)
-    splat: str = "auto"  # 'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'
-    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2)
-    point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)
+    map_size: int = param(512, range=(16, 4096), unit="texels", paper="Shah et al. III-F",
+                          help="caustic-map texels a side (per cube face)")
+    photon_grid: int = param(0, range=(8, 4096), special={0: "= map_size"}, unit="photons", paper="Shah et al. III-B",
+                             help="photons a side of the casters' grid")
+    iterations: int = param(1, range=(0, 64), paper="Shah et al. III-D",
+                            help="intersection-estimate steps (one suffices for caustics)")
+    estimator: str = param("iterate", choices=tuple(ESTIMATORS), paper="Shah et al. III-C, appendix",
+                           help="'iterate' (the paper's approximation) or 'newton' (the appendix; bisection fallback)")
+    exit_iterations: int = param(6, range=(0, 64), paper="Wyman, eq. 6.3.1",
+                                 help="regula falsi steps refining d_V against the back faces (0: d_V alone)")
+    splat: str = param("auto", choices=SPLATS, help="'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'")
+    splat_radius: float = param(1.5, range=(0.75, 8.0), unit="texels", paper="Shah et al. III-F",
+                                help="Gaussian splat radius in caustic-map texels (sigma = radius / 2)")
+    point_map: str = param("frustum", choices=POINT_MAPS, paper="Shah et al. III-F",
+                           help="point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)")
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, {"map_size": (16, 4096), "photon_grid": (0, 4096), "iterations": (0, 64),
-                              "exit_iterations": (0, 64)})
-        if 0 < self.photon_grid < 8:
-            raise ValueError(f"photon_grid {self.photon_grid} must be 0 (= map_size) or an integer in [8, 4096]")
-        if self.estimator not in ESTIMATORS:
-            raise ValueError(f"estimator '{self.estimator}' must be one of {', '.join(ESTIMATORS)}")
-        if self.splat not in ("auto", "compute", "points"):
-            raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
-        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
-        if self.point_map not in ("frustum", "cube"):
-            raise ValueError(f"point_map '{self.point_map}' must be 'frustum' or 'cube'")
         self.photon_grid = self.photon_grid or self.map_size
 
 

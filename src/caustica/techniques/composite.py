@@ -19,6 +19,8 @@ from ..passes.surfaces import ShadeSurfaces
 from .raster import RasterTechnique
 
 DEFAULT_VIEW = "depth-search"  # the most accurate view technique without preprocessing
+SPLATS = ("auto", "compute", "points")  # caustic techniques' splat: compute shader, point sprites, or the GL's best
+POINT_MAPS = ("frustum", "cube")  # point lights' caustic map: a fitted frustum (cube when too wide), or a cube
 
 
 def _defined_in(params_class: type, name: str) -> type:

@@ -92,9 +92,8 @@ from ..gpu.meshes import set_uniform
 from ..passes.impostors import NearbyParams, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
-from ..errors import short
 from ..scene.rules import MAX_COORDINATE
-from .base import check_flags, check_integers, check_numbers
+from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -106,24 +105,20 @@ BACK_ITERATIONS = ("sphere-secant", "secant", "depth-step")
 class DepthSearchParams(NearbyParams, ShadowedParams):
     """Parameters of ``depth-search``; defaults follow Hu and Qin (2.1.2, 2.1.3, section 4)."""
 
-    search_steps: int = 8  # binary-search steps for the silhouette point (2.1.2: eight suffice)
-    search_start: float = 0.75  # first test point, as a fraction of the buffer size (2.1.2: 75 percent)
-    iterations: int = 5  # dT corrections (section 4: "four or five iterations are enough")
-    tolerance: float = 1e-3  # stop correcting once dT moves less than this (scene units)
-    assume_back_first: bool = True  # section 4: iterate on the back faces first
-    # ours: secant steps from the chord of the sphere fitting d_V ("secant": from d_V); "depth-step": 2.1.3, fig. 8
-    back_iteration: str = "sphere-secant"
-    internal_bounces: int = 0  # our extension: internal reflections followed to further exits (0: the paper)
-
-    def __post_init__(self):
-        super().__post_init__()
-        # The paper: 8 search steps from 75 percent of the buffer, 2 to 5 iterations.
-        check_integers(self, {"search_steps": (1, 16), "iterations": (0, 32),
-                              "internal_bounces": (0, MAX_INTERNAL_BOUNCES)})
-        check_numbers(self, {"search_start": (0.0, 2.0, "(]"), "tolerance": (0.0, MAX_COORDINATE)})
-        check_flags(self, ("assume_back_first",))
-        if self.back_iteration not in BACK_ITERATIONS:
-            raise ValueError(f"back_iteration {short(self.back_iteration)} must be one of {', '.join(BACK_ITERATIONS)}")
+    search_steps: int = param(8, range=(1, 16), paper="Hu and Qin 2.1.2",
+                              help="binary-search steps for the silhouette point (eight suffice)")
+    search_start: float = param(0.75, range=(0.0, 2.0), ends="(]", unit="buffer sizes", paper="Hu and Qin 2.1.2",
+                                help="first test point, as a fraction of the buffer size (the paper: 75 percent)")
+    iterations: int = param(5, range=(0, 32), paper="Hu and Qin 2.1.3, section 4",
+                            help="dT corrections (\"four or five iterations are enough\")")
+    tolerance: float = param(1e-3, range=(0.0, MAX_COORDINATE), unit="scene units", paper="Hu and Qin 2.1.3",
+                             help="stop correcting once dT moves less than this")
+    assume_back_first: bool = param(True, paper="Hu and Qin section 4", help="iterate on the back faces first")
+    back_iteration: str = param("sphere-secant", choices=BACK_ITERATIONS, paper="Hu and Qin 2.1.3, fig. 8 (depth-step)",
+                                help="back-face steps: secant from the sphere fitting d_V, secant from d_V (ours), "
+                                     "or the paper's depth-step")
+    internal_bounces: int = param(0, range=(0, MAX_INTERNAL_BOUNCES),
+                                  help="our extension: internal reflections followed to further exits (0: the paper)")
 
 
 class DepthSearch(RasterTechnique):

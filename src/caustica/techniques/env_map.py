@@ -17,18 +17,16 @@ from dataclasses import dataclass
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
-from .base import check_integers
+from .base import Params, param
 from .raster import RasterTechnique
 
 
 @dataclass
-class ShadowedParams:
+class ShadowedParams(Params):
     """Parameters of techniques that light diffuse receivers with shadow maps."""
 
-    shadow_map_size: int = 1024
-
-    def __post_init__(self):
-        check_integers(self, {"shadow_map_size": (16, 8192)})
+    shadow_map_size: int = param(1024, range=(16, 8192), unit="texels",
+                                 help="shadow map texels a side (per cube face for point lights)")
 
 
 class EnvMap(RasterTechnique):

@@ -25,26 +25,19 @@ import numpy as np
 
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.paths import BATCH_SIZE, trace
-from .base import Technique, check_numbers
+from .base import Params, Technique, param
 
 
 @dataclass
-class ExactParams:
+class ExactParams(Params):
     """``max_depth``: most specular interactions per path; ``min_weight``: drop fainter branches.
 
     16, as deep as the Mitsuba reference goes: on the glass teapot 8 interactions
     scored 26.8 dB against Mitsuba and 16 scored 28.9 dB, for the same time (the
     branches below ``min_weight`` end first)."""
 
-    max_depth: int = 16
-    min_weight: float = 1e-4
-
-    def __post_init__(self):
-        if isinstance(self.max_depth, bool) or not isinstance(self.max_depth, (int, np.integer)):
-            raise ValueError(f"max_depth must be an integer, got {self.max_depth!r}")
-        if not 0 <= self.max_depth <= 64:
-            raise ValueError(f"max_depth {self.max_depth} must lie between 0 and 64")
-        check_numbers(self, {"min_weight": (0.0, 1.0, "[)")})
+    max_depth: int = param(16, range=(0, 64), unit="interactions", help="most specular interactions per path")
+    min_weight: float = param(1e-4, range=(0.0, 1.0), ends="[)", help="drop branches fainter than this throughput")
 
 
 class Exact(Technique):

@@ -35,12 +35,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..passes.image_space import FrontDistanceAlongNormal
 from ..passes.impostors import NearbyParams, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -56,22 +55,11 @@ class ImageSpaceParams(NearbyParams, ShadowedParams):
     sphere its exit directions are the closest of the three to the exact ones (tests/test_image_space.py).
     """
 
-    tir_mode: str = "clamp"
-    second_surface: str = "farthest"
-    use_dn: bool = True
-
-    def __post_init__(self):
-        super().__post_init__()
-        _check_choice("tir_mode", self.tir_mode, TIR_MODES)
-        _check_choice("second_surface", self.second_surface, SECOND_SURFACES)
-        if not isinstance(self.use_dn, (bool, np.bool_)):
-            raise ValueError(f"use_dn {self.use_dn!r} must be true or false")
-        self.use_dn = bool(self.use_dn)
-
-
-def _check_choice(name: str, value, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise ValueError(f"{name} {value!r} must be one of {', '.join(choices)}")
+    tir_mode: str = param("clamp", choices=TIR_MODES, paper="Wyman, Fixing Problem Cases",
+                          help="exit TIR: 'keep-t1' (T2 = T1), 'clamp' (T2 grazes the surface) or 'reflect'")
+    second_surface: str = param("farthest", choices=SECOND_SURFACES, paper="Wyman, Fixing Problem Cases",
+                                help="nonconvex refractors: the farthest back face (the authors') or the nearest")
+    use_dn: bool = param(True, paper="Wyman, eq. 6.3.1", help="d~ interpolates d_V and d_N (False: d~ = d_V)")
 
 
 class ImageSpace(RasterTechnique):

@@ -60,7 +60,7 @@ from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
 from ..passes.fixed_flux import splat_fixed_point
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
-from .base import check_integers, check_numbers
+from .base import param
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes
 
@@ -71,16 +71,13 @@ CELL = 4  # occupancy block size of the flux atlases (texels a side)
 class ImpostorCausticsParams(ImpostorParams):
     """Parameters of ``impostor-caustics`` (and the impostors it traces against)."""
 
-    photon_buffer: int = 256  # photon buffer texels a side (the paper: 128 acceptable; fig. 24e: larger)
-    caustic_size: int = 256  # caustic texture texels a side per rectangle
-    filter_k: int = 2  # filter half width (3.2)
-    filter_s: float | None = None  # filter scale; None: 1 / sum of the weights (energy conserving)
-
-    def __post_init__(self):
-        super().__post_init__()
-        check_integers(self, {"photon_buffer": (8, 4096), "caustic_size": (8, 4096), "filter_k": (0, 16)})
-        if self.filter_s is not None:  # None: energy conserving
-            check_numbers(self, {"filter_s": (0.0, 1e6, "(]")})
+    photon_buffer: int = param(256, range=(8, 4096), unit="texels", paper="Hu and Qin 3.1, fig. 24e",
+                               help="photon buffer texels a side (the paper: 128 acceptable; larger is finer)")
+    caustic_size: int = param(256, range=(8, 4096), unit="texels", paper="Hu and Qin 3.2",
+                              help="caustic texture texels a side per rectangle")
+    filter_k: int = param(2, range=(0, 16), unit="texels", paper="Hu and Qin 3.2", help="caustic filter half width")
+    filter_s: float | None = param(None, kind="float", range=(0.0, 1e6), ends="(]", paper="Hu and Qin 3.2",
+                                   special={None: "1 / sum of the weights, energy conserving"}, help="caustic filter scale")
 
 
 def filter_weights(k: int) -> np.ndarray:

@@ -52,7 +52,7 @@ from ..passes.impostors import (
     world_index,
 )
 from ..scene.rules import MAX_COORDINATE
-from .base import check_flags, check_integers, check_numbers
+from .base import param
 from .depth_search import DepthSearch, DepthSearchParams
 from .raster import RasterTechnique
 
@@ -61,27 +61,32 @@ from .raster import RasterTechnique
 class ImpostorParams(DepthSearchParams):
     """Parameters of ``impostors``; the refraction itself takes depth-search's."""
 
-    impostor_size: int = 512  # texels a side of each impostor texture
-    depth: int = 0  # recursion levels: reflectors' impostor textures rendered with impostors (fig. 24g: 1)
-    impostor_iterations: int = 4  # fig. 16 steps (section 4: four or five; 0: uncorrected)
-    impostor_tolerance: float = 1e-3  # stop once the hit distance moves less than this (scene units)
-    initial_samples: int = 8  # 2.2.2: points along the ray tried as the seed (0: Prect)
-    hit_tolerance: float = 0.05  # a final depth mismatch above this many bounding radii is a miss
-    rect_offset: float = 0.0  # rectangles moved towards the reflector by this many radii (fig. 17 RECT'_k)
-    distance_factor: float = 50.0  # the parallel projection's pinhole, in bounding radii behind the rectangle
-    max_impostors: int = MAX_IMPOSTORS  # nearest objects per reflector
-    reflections: bool = True  # reflected rays (mirrors, glass entry) see the impostors (fig. 24f); False: the environment
-    write_hits: bool = False  # exit_direction holds the nearby hit point (xyz, w = 1) instead (tests)
+    impostor_size: int = param(512, range=(16, 4096), unit="texels", paper="Hu and Qin 2.2.1",
+                               help="texels a side of each impostor texture")
+    depth: int = param(0, range=(0, 4), unit="levels", paper="Hu and Qin 2.2.1, fig. 24g",
+                       help="recursion: reflectors' impostor textures rendered with impostors (fig. 24g: 1)")
+    impostor_iterations: int = param(4, range=(0, 64), paper="Hu and Qin 2.2.2, fig. 16, section 4",
+                                     help="depth-correction steps (four or five; 0: the uncorrected lookup)")
+    impostor_tolerance: float = param(1e-3, range=(0.0, MAX_COORDINATE), unit="scene units", paper="Hu and Qin 2.2.2",
+                                      help="stop once the hit distance moves less than this")
+    initial_samples: int = param(8, range=(0, 64), paper="Hu and Qin 2.2.2",
+                                 help="points along the ray tried as the seed (0: Prect)")
+    hit_tolerance: float = param(0.05, range=(0.0, MAX_COORDINATE), unit="bounding radii",
+                                 help="a final depth mismatch above this is a miss")
+    rect_offset: float = param(0.0, range=(0.0, 1.0), unit="bounding radii", paper="Hu and Qin fig. 17",
+                               help="rectangles moved towards the reflector (RECT'_k)")
+    distance_factor: float = param(50.0, range=(4.0, MAX_COORDINATE), unit="bounding radii", paper="Hu and Qin 2.2.1",
+                                   help="the parallel projection's pinhole behind the rectangle")
+    max_impostors: int = param(MAX_IMPOSTORS, range=(1, MAX_IMPOSTORS), unit="objects",
+                               help="nearest objects per reflector")
+    reflections: bool = param(True, paper="Hu and Qin fig. 24f",
+                              help="reflected rays (mirrors, glass entry) see the impostors (False: the environment)")
+    write_hits: bool = param(False, help="exit_direction holds the nearby hit point (xyz, w = 1) instead (tests)")
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, {"impostor_size": (16, 4096), "depth": (0, 4), "impostor_iterations": (0, 64),
-                              "initial_samples": (0, 64), "max_impostors": (1, MAX_IMPOSTORS)})
-        check_numbers(self, {"impostor_tolerance": (0.0, MAX_COORDINATE), "hit_tolerance": (0.0, MAX_COORDINATE),
-                             "rect_offset": (0.0, 1.0), "distance_factor": (4.0, MAX_COORDINATE)})
         if self.nearby != "none":
             raise ValueError(f"nearby {self.nearby!r}: the impostors technique is its own nearby geometry; leave it 'none'")
-        check_flags(self, ("reflections", "write_hits"))
 
 
 def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, photon: bool = False) -> list:

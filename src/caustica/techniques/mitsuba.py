@@ -16,23 +16,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .base import Technique
+from .base import Params, Technique, param
 
 
 @dataclass
-class MitsubaParams:
+class MitsubaParams(Params):
     """``max_depth``: Mitsuba's path length limit; ``cache``: read and write the on-disk cache."""
 
-    max_depth: int = 16
-    cache: bool = True
-
-    def __post_init__(self):
-        if isinstance(self.max_depth, bool) or not isinstance(self.max_depth, (int, np.integer)):
-            raise ValueError(f"max_depth must be an integer, got {self.max_depth!r}")
-        if not (self.max_depth == -1 or 1 <= self.max_depth <= 1024):
-            raise ValueError(f"max_depth {self.max_depth} must be -1 (unbounded) or between 1 and 1024")
-        if not isinstance(self.cache, (bool, np.bool_)):
-            raise ValueError(f"cache must be true or false, got {self.cache!r}")
+    max_depth: int = param(16, range=(1, 1024), special={-1: "unbounded"}, unit="bounces",
+                           help="Mitsuba's path length limit")
+    cache: bool = param(True, help="read and write the on-disk cache of reference images")
 
 
 class MitsubaReference(Technique):

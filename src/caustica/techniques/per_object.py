@@ -18,11 +18,12 @@ shared by all (and with a caustic technique in ``per-object+caustic-mapping``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from ..errors import TechniqueError, closest_name
 from ..passes.base import Pass
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -36,9 +37,11 @@ class PerObjectParams(ShadowedParams):
     ``techniques`` may also be written ``"name=technique,name=technique"`` (the command line's ``-p``).
     """
 
-    techniques: dict[str, str] = field(default_factory=dict)
-    default: str = "depth-search"
-    technique_params: dict[str, dict] = field(default_factory=dict)  # view technique -> its parameters
+    techniques: dict[str, str] = param({}, kind="mapping", choices=VIEW_TECHNIQUES,
+                                       help="glass object name -> its view technique ('name=technique,...' on -p)")
+    default: str = param("depth-search", choices=VIEW_TECHNIQUES, help="view technique of the objects not named")
+    technique_params: dict[str, dict] = param({}, kind="mapping", choices=VIEW_TECHNIQUES,
+                                              help="view technique -> its parameters (-p technique.name=value)")
 
     def __post_init__(self):
         super().__post_init__()
@@ -46,8 +49,6 @@ class PerObjectParams(ShadowedParams):
             self.techniques = _parse_mapping(self.techniques)
         if not isinstance(self.techniques, dict):
             raise ValueError(f"techniques {self.techniques!r} must map object names to view techniques")
-        if self.default not in VIEW_TECHNIQUES:
-            raise ValueError(f"default {self.default!r} must be one of {', '.join(VIEW_TECHNIQUES)}")
         for name, technique in self.techniques.items():
             if technique not in VIEW_TECHNIQUES:
                 raise ValueError(f"technique {technique!r} of object '{name}' must be one of "

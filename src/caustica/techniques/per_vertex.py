@@ -63,9 +63,8 @@ from ..per_vertex.viewpoint import UP_MODES, Lines, ViewVolume, fit_view_volume,
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.optics import normalize
 from ..scene.scene import Scene
-from ..errors import TechniqueError, short
-from ..scene import rules
-from .base import check_flags, check_integers, check_numbers
+from ..scene.rules import IOR_RANGE
+from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
@@ -78,34 +77,27 @@ _CACHE_SIZE = 32
 class PerVertexParams(ShadowedParams):
     """Parameters of ``per-vertex``; defaults follow Kakimoto et al."""
 
-    map_size: int = 0  # reflection map texels a side (square, the paper's); 0: sized to the reflector on screen
-    map_density: float = 0.5  # map_size 0: map texels per screen pixel the reflector covers
-    depth: int = 1  # reflector levels rendered per vertex (4.4): 2 shows a mirror in a mirror
-    fov_threshold: float = 100.0  # split a reflector into patches while a frustum is wider (degrees, 4.1)
-    max_patches: int = 8  # at most this many patches per reflector
-    up: str = "auto"  # frustum up vector: 'principal' curvature direction (4.3), 'camera', or the smaller of both
-    zoom_region: bool = True  # reversed map for hits between a concave reflector and E (4.2)
-    ior_rgb: tuple | None = None  # lens IOR per channel (fig. 15: 1.60, 1.61, 1.62); None: the glass's
-    cache: bool = False  # keep refraction vectors while each lens is fixed relative to the eye (section 5)
-    lenses: bool = True  # glass objects refract per vertex (False: env-map shading)
-    max_interfaces: int = 4  # lens: interfaces followed inside (TIR reflects)
-
-    def __post_init__(self):
-        super().__post_init__()
-        check_integers(self, {"map_size": (0, 8192)})
-        if 0 < self.map_size < 16:
-            raise ValueError(f"map_size {self.map_size} must be 0 (sized to the reflector) or an integer in [16, 8192]")
-        check_integers(self, {"depth": (0, 8), "max_patches": (1, 256), "max_interfaces": (1, 32)})
-        # map_density: texels per covered pixel; fov_threshold: degrees.
-        check_numbers(self, {"map_density": (0.05, 64.0), "fov_threshold": (1.0, 179.0)})
-        if self.up not in UP_MODES:
-            raise ValueError(f"up '{self.up}' must be one of {', '.join(UP_MODES)}")
-        check_flags(self, ("zoom_region", "cache", "lenses"))
-        if self.ior_rgb is not None:
-            ior = rules.rgb(self.ior_rgb, "ior_rgb", rules.IOR_RANGE[1], error=TechniqueError)
-            for value in ior:
-                rules.ior(value, f"ior_rgb {short(self.ior_rgb)}: channel IOR", error=TechniqueError)
-            self.ior_rgb = tuple(float(x) for x in ior)
+    map_size: int = param(0, range=(16, 8192), special={0: "sized to the reflector"}, unit="texels",
+                          paper="Kakimoto et al. 3.4", help="reflection map texels a side (square, the paper's)")
+    map_density: float = param(0.5, range=(0.05, 64.0), unit="texels per pixel",
+                               help="map_size 0: map texels per screen pixel the reflector covers (ours)")
+    depth: int = param(1, range=(0, 8), unit="levels", paper="Kakimoto et al. 4.4",
+                       help="reflector levels rendered per vertex: 2 shows a mirror in a mirror")
+    fov_threshold: float = param(100.0, range=(1.0, 179.0), unit="degrees", paper="Kakimoto et al. 4.1",
+                                 help="split a reflector into patches while a frustum is wider")
+    max_patches: int = param(8, range=(1, 256), paper="Kakimoto et al. 4.1", help="at most this many patches per reflector")
+    up: str = param("auto", choices=UP_MODES, paper="Kakimoto et al. 4.3",
+                    help="frustum up vector: 'principal' curvature direction, 'camera', or the smaller of both")
+    zoom_region: bool = param(True, paper="Kakimoto et al. 4.2",
+                              help="reversed map for hits between a concave reflector and E")
+    ior_rgb: tuple | None = param(None, kind="rgb", range=IOR_RANGE, special={None: "the glass's"},
+                                  hint=" (glass is about 1.5, water 1.33, diamond 2.42; below 1 for an air bubble)",
+                                  paper="Kakimoto et al. fig. 15", help="lens IOR per channel (fig. 15: 1.60, 1.61, 1.62)")
+    cache: bool = param(False, paper="Kakimoto et al. section 5",
+                        help="keep refraction vectors while each lens is fixed relative to the eye")
+    lenses: bool = param(True, paper="Kakimoto et al. 4.5", help="glass objects refract per vertex (False: env-map shading)")
+    max_interfaces: int = param(4, range=(1, 32), paper="Kakimoto et al. 4.5",
+                                help="lens: interfaces followed inside (TIR reflects)")
 
 
 @dataclass

@@ -68,8 +68,8 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
-from .base import check_flags, check_integers, check_numbers
-from .composite import CausticTechnique
+from .base import param
+from .composite import SPLATS, CausticTechnique
 from .env_map import ShadowedParams
 
 COARSE_NEWTON_STEPS = 6  # the first landing converges, so the fitted caustic map holds the hits
@@ -80,24 +80,19 @@ COARSE_MAP_SIZE = 256
 class PhotonSplatsParams(ShadowedParams):
     """Parameters of ``photon-splats`` (Wyman)."""
 
-    photon_buffer_size: int = 512  # photons a side of the light's view of the refractors
-    caustic_map_size: int = 256  # caustic-map texels a side (per cube face); the paper: photons at twice this
-    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels (sigma = radius / 2; the paper's 7x7: 3)
-    splat: str = "auto"  # 'points' (additive point sprites, the paper), 'compute' (fixed-point atomics) or 'auto'
-    tir_mode: str = "keep-t1"  # exit TIR: 'keep-t1', 'clamp', 'reflect' (as image-space) or 'drop'
-    use_dn: bool = True  # d~ interpolates d_V and d_N (False: d~ = d_V)
-    land_iterations: int = 2  # Newton-Raphson steps landing the photons on the fitted map's receivers
-
-    def __post_init__(self):
-        super().__post_init__()
-        check_integers(self, {"photon_buffer_size": (8, 4096), "caustic_map_size": (16, 4096),
-                              "land_iterations": (0, 64)})
-        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
-        if self.splat not in ("auto", "compute", "points"):
-            raise ValueError(f"splat '{self.splat}' must be 'auto', 'compute' or 'points'")
-        if self.tir_mode not in TIR_MODES:
-            raise ValueError(f"tir_mode {self.tir_mode!r} must be one of {', '.join(TIR_MODES)}")
-        check_flags(self, ("use_dn",))
+    photon_buffer_size: int = param(512, range=(8, 4096), unit="photons", paper="Wyman, Rendering From the Light",
+                                    help="photons a side of the light's view of the refractors")
+    caustic_map_size: int = param(256, range=(16, 4096), unit="texels", paper="Wyman, Rendering the Caustic Map",
+                                  help="caustic-map texels a side (per cube face); the paper: photons at twice this")
+    splat_radius: float = param(1.5, range=(0.75, 8.0), unit="texels", paper="Wyman, Rendering the Caustic Map",
+                                help="Gaussian splat radius (sigma = radius / 2; the paper's 7x7: 3)")
+    splat: str = param("auto", choices=SPLATS, paper="Wyman, Rendering the Caustic Map",
+                       help="'points' (additive point sprites, the paper), 'compute' (fixed-point atomics) or 'auto'")
+    tir_mode: str = param("keep-t1", choices=TIR_MODES, paper="Wyman, Fixing Problem Cases",
+                          help="exit TIR: as image-space's, or 'drop' the photon")
+    use_dn: bool = param(True, paper="Wyman, eq. 6.3.1", help="d~ interpolates d_V and d_N (False: d~ = d_V)")
+    land_iterations: int = param(2, range=(0, 64), paper="Shah et al. appendix",
+                                 help="Newton-Raphson steps landing the photons on the fitted map's receivers")
 
 
 class PhotonSplats(CausticTechnique):

@@ -47,8 +47,8 @@ from ..passes.light_space import (
     SplatPhotons,
 )
 from ..transport.precompute import DirectionGrid
-from .base import check_flags, check_integers, check_numbers
-from .composite import CausticTechnique
+from .base import param
+from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .env_map import ShadowedParams
 
 
@@ -57,38 +57,28 @@ class TableParams(ShadowedParams):
     """The table settings shared by ``transport-table`` and ``transport-table-view`` (one declaration, so a
     ``view+caustics`` pair of them shares one value and one cached table)."""
 
-    directions: int = 129  # sampled incident directions per vertex (2 r^2 + 1; the paper: 129)
-    max_depth: int = 8  # glass interfaces followed in the precompute (internal reflections included)
-    quantized: bool = True  # use the 12-byte-a-sample table of section 6 (False: the float table, not cached)
+    directions: int = param(129, range=(3, 100000), paper="Iwasaki et al. 4", hint=" (2 r^2 + 1: 129 is r = 8)",
+                            help="sampled incident directions per vertex, 2 r^2 + 1 (the paper: 129)")
+    max_depth: int = param(8, range=(1, 64), unit="interfaces", paper="Iwasaki et al. 4",
+                           help="glass interfaces followed in the precompute (internal reflections included)")
+    quantized: bool = param(True, paper="Iwasaki et al. 6",
+                            help="the 12-byte-a-sample table (False: the float table, not cached)")
 
     def __post_init__(self):
         super().__post_init__()
-        check_integers(self, {"directions": (3, 100000), "max_depth": (1, 64)})
         DirectionGrid.of_count(self.directions)
-        check_flags(self, ("quantized",))
 
 
 @dataclass
 class TransportTableParams(TableParams):
     """Parameters of ``transport-table`` (Iwasaki et al.)."""
 
-    map_size: int = 512  # caustic-map texels a side (per cube face)
-    photon_budget: int = 1 << 18  # photons spread over the illumination volumes' footprints, per light sample
-    splat: str = "auto"  # 'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'
-    splat_radius: float = 1.5  # Gaussian splat radius in caustic-map texels
-    point_map: str = "frustum"  # point lights: 'frustum' (fitted, cube when too wide) or 'cube'
-
-    def __post_init__(self):
-        super().__post_init__()
-        check_integers(self, _INTEGER_RANGES)
-        for name, options in _CHOICES.items():
-            if getattr(self, name) not in options:
-                raise ValueError(f"{name} '{getattr(self, name)}' must be one of {', '.join(options)}")
-        check_numbers(self, {"splat_radius": (0.75, 8.0)})  # texels
-
-
-_INTEGER_RANGES = {"map_size": (16, 4096), "photon_budget": (1, 1 << 24)}
-_CHOICES = {"splat": ("auto", "compute", "points"), "point_map": ("frustum", "cube")}
+    map_size: int = param(512, range=(16, 4096), unit="texels", help="caustic-map texels a side (per cube face)")
+    photon_budget: int = param(1 << 18, range=(1, 1 << 24), unit="photons", paper="Iwasaki et al. 5.1",
+                               help="photons spread over the illumination volumes' footprints, per light sample")
+    splat: str = param("auto", choices=SPLATS, help="'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'")
+    splat_radius: float = param(1.5, range=(0.75, 8.0), unit="texels", help="Gaussian splat radius in caustic-map texels")
+    point_map: str = param("frustum", choices=POINT_MAPS, help="point lights: 'frustum' (fitted, cube when too wide) or 'cube'")
 
 
 def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
