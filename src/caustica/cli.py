@@ -198,7 +198,9 @@ def build_parser() -> argparse.ArgumentParser:
     pre.add_argument("--max-depth", type=_integer(1, 64), default=8, help="glass interfaces followed per ray (default 8)")
     pre.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    sub.add_parser("techniques", help="list the techniques")
+    techniques = sub.add_parser("techniques", help="list the techniques; NAME: its parameters")
+    techniques.add_argument("name", nargs="?", help="a technique (or view+caustics): its parameters as a table")
+    techniques.add_argument("--json", action="store_true", help="every technique (or NAME) with its parameters as JSON")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
     return parser
@@ -416,10 +418,16 @@ def cmd_precompute(args) -> int:
 
 
 def cmd_techniques(args) -> int:
+    from .docs_techniques import catalogue, table, technique_info, to_json
     from .techniques import get_technique, technique_names
 
-    for name in technique_names():
-        print(f"{name:16s} {get_technique(name).summary}")
+    if args.json:
+        print(to_json(technique_info(args.name) if args.name else catalogue()))
+    elif args.name:
+        print(table(technique_info(args.name)))
+    else:
+        for name in technique_names():
+            print(f"{name:16s} {get_technique(name).summary}")
     return 0
 
 
