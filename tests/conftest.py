@@ -6,6 +6,9 @@ from pathlib import Path
 
 import pytest
 
+# set_uniform fails on a uniform name the program's shaders do not declare (a misspelling).
+os.environ.setdefault("CAUSTICA_STRICT_UNIFORMS", "1")
+
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 

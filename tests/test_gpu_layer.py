@@ -58,6 +58,23 @@ def test_defines_injected_after_version_and_programs_cached(ctx, tmp_path):
     assert np.frombuffer(buffer.read(), "f4")[0] == 2.5
 
 
+def test_strict_uniforms_catch_a_misspelling_but_not_an_optimised_away_uniform(ctx, tmp_path, monkeypatch):
+    from caustica.gpu import meshes
+    from caustica.gpu.meshes import set_uniform, write_uniform_array
+
+    _write(tmp_path, "u.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n"
+           "uniform float used_value;\nuniform float unused_value, unused_list[4];  // optimised away\n"
+           "layout(std430, binding = 0) buffer Out { float result; };\nvoid main() { result = used_value; }\n")
+    program = ShaderLibrary(ctx, tmp_path).compute("u.comp")
+    monkeypatch.setattr(meshes, "STRICT_UNIFORMS", True)
+    set_uniform(program, "used_value", 1.0)
+    set_uniform(program, "unused_value", 1.0)  # declared: the driver dropped it, no error
+    write_uniform_array(program, "unused_list", np.zeros(4, "f4"))
+    with pytest.raises(ShaderError, match="'used_valeu'.*did you mean 'used_value'"):
+        set_uniform(program, "used_valeu", 1.0)
+    monkeypatch.setattr(meshes, "STRICT_UNIFORMS", False)
+    set_uniform(program, "used_valeu", 1.0)  # production: silent
+
 def test_target_pool_reuses_by_size_and_format(renderer):
     pool = renderer.device.targets
     a = pool.texture((32, 16), "r32f")

@@ -1,14 +1,21 @@
 """Meshes on the GPU: one vertex/index buffer pair per mesh, one vertex array per program."""
 from __future__ import annotations
 
+import os
+import re
 from collections import OrderedDict
 
 import numpy as np
 
+from ..errors import closest_name
 from ..scene.transform import normal_matrix
+from .shaders import ShaderError, declared_uniforms
 
 IDLE_FRAMES = 8  # frames a GPU mesh stays after its last use (an animation makes a new mesh each frame)
 MAX_MESHES = 4096  # GPU meshes kept at most, however recently used
+# Strict uniforms (the tests turn them on): writing a uniform that the program's source does not
+# declare is an error (a misspelling); one declared but optimised away by the driver stays silent.
+STRICT_UNIFORMS = os.environ.get("CAUSTICA_STRICT_UNIFORMS") == "1"
 
 
 class GpuMesh:
@@ -126,10 +133,15 @@ def mat4_bytes(m: np.ndarray) -> bytes:
 
 
 def _member(program, name: str):
-    """The program's uniform ``name``, or None (moderngl's ``in`` walks every member)."""
+    """The program's uniform ``name``, or None (moderngl's ``in`` walks every member); with
+    STRICT_UNIFORMS, a ShaderError when the program's source does not declare ``name``."""
     try:
         return program[name]
     except KeyError:
+        declared = declared_uniforms(program) if STRICT_UNIFORMS else None
+        base = re.split(r"[\[.]", name, maxsplit=1)[0]
+        if declared is not None and base not in declared:
+            raise ShaderError(f"uniform '{name}' is not declared in the program's shaders{closest_name(base, declared)}") from None
         return None
 
 

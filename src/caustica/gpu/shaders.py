@@ -6,12 +6,15 @@ number itself (file_id * LINE_STRIDE + line), because drivers disagree on
 reporting source-string numbers (Mesa mixes them up); compile errors are
 translated back to ``file:line``. The host injects
 ``#define`` lines right after ``#version``. Compiled programs are cached by
-(files, defines).
+(files, defines). Each program remembers the uniform names its source declares
+(``declared_uniforms``), so that a strict ``set_uniform`` can tell a misspelled name from
+one the driver optimised away.
 """
 from __future__ import annotations
 
 import functools
 import re
+import weakref
 from pathlib import Path
 
 from ..errors import CausticaError
@@ -22,6 +25,10 @@ _VERSION = re.compile(r"^\s*#version\b")
 # Mesa: "0:12(3): error: ..."; NVIDIA: "0(12) : error C...".
 LINE_STRIDE = 100000
 _ERROR_LOCATION = re.compile(r"\b(\d+)[:(](\d+)\)?(?:\(\d+\))?\s*:")
+_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
+_UNIFORM = re.compile(r"\buniform\b([^;{]*);")  # a block ("uniform Name {") is not a plain uniform
+_DECLARED_NAME = re.compile(r"(\w+)\s*(?:\[[^\]]*\]\s*)?(?:,|$)")
+_declared: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # program -> uniform names in its source
 
 
 class ShaderError(CausticaError, RuntimeError):
@@ -81,6 +88,7 @@ class ShaderLibrary:
                 if name:
                     sources[stage], tables[stage] = self.source(name, defines)
             self._programs[key] = self._build(lambda: self.ctx.program(**sources), tables)
+            _declared[self._programs[key]] = frozenset().union(*map(uniform_names, sources.values()))
         return self._programs[key]
 
     def compute(self, name: str, defines: dict | None = None):
@@ -89,6 +97,7 @@ class ShaderLibrary:
         if key not in self._programs:
             source, table = self.source(name, defines)
             self._programs[key] = self._build(lambda: self.ctx.compute_shader(source), {"compute_shader": table})
+            _declared[self._programs[key]] = uniform_names(source)
         return self._programs[key]
 
     @staticmethod
@@ -106,6 +115,21 @@ class ShaderLibrary:
         for program in self._programs.values():
             program.release()
         self._programs.clear()
+
+
+def uniform_names(source: str) -> frozenset[str]:
+    """The names of the plain uniforms that GLSL ``source`` declares (``uniform T a, b[N];``)."""
+    names: set[str] = set()
+    for match in _UNIFORM.finditer(_COMMENT.sub("", source)):
+        body = re.sub(r"=[^,]*", "", match.group(1)).strip()
+        names.update(_DECLARED_NAME.findall(body))
+    return frozenset(names)
+
+
+def declared_uniforms(program) -> frozenset[str] | None:
+    """The uniform names ``program``'s shader source declares (used or optimised away), or None
+    for a program the library did not build."""
+    return _declared.get(program)
 
 
 def _line_directive(file_id: int, line: int) -> str:
