@@ -281,9 +281,9 @@ def _impostor_state_key(scene) -> tuple:
     the objects themselves (an ImpostorSet names its scene's objects, which later passes match by
     identity; the cached set holds them, so their ids stay theirs)."""
     from ..gpu.device import array_digest
-    from .lights import _scene_state_key
+    from .lights import scene_state_key
 
-    return (_scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), array_digest(scene.environment.image),
+    return (scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), array_digest(scene.environment.image),
             scene.intensity_scale, tuple(id(o) for o in scene.objects))
 
 

@@ -55,7 +55,7 @@ from .lights import (
     LIGHT_DIRECTIONAL,
     LIGHT_POINT,
     LightSample,
-    _scene_state_key,
+    scene_state_key,
 )
 
 VIEW_PROJECTIVE, VIEW_CUBE = 0, 1
@@ -571,7 +571,7 @@ class CachedPasses(Pass):
         return f"{type(self).__name__}({self.tag})"
 
     def run(self, frame: Frame) -> None:
-        key = (self.tag, self.key, _scene_state_key(frame.scene), material_state_key(frame.scene))
+        key = (self.tag, self.key, scene_state_key(frame.scene), material_state_key(frame.scene))
         cached = frame.gpu.cache.get(key)
         if cached is None:
             evict_cached(frame.gpu.cache, self.tag)

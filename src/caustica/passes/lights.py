@@ -93,7 +93,7 @@ class ShadowMaps(Pass):
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
-        key = ("shadow_maps", self.size, _scene_state_key(frame.scene))
+        key = ("shadow_maps", self.size, scene_state_key(frame.scene))
         targets = frame.gpu.cache.get(key)
         if targets is None:
             _evict(frame.gpu.cache, "shadow_maps")
@@ -168,7 +168,7 @@ def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int
         program["shadow_map"].write(np.array(units, dtype="i4").tobytes())
 
 
-def _scene_state_key(scene) -> tuple:
+def scene_state_key(scene) -> tuple:
     """What shadow maps depend on: lights and object geometry and placement."""
     parts = [state_key(light) for light in scene.lights]
     for obj in scene.objects:

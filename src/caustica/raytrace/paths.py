@@ -38,8 +38,8 @@ from ..scene.mesh import Mesh
 from .embree_scene import RayScene
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
-_DIFFUSE, _MIRROR, _GLASS = 0, 1, 2
-_KIND_CODES = {"diffuse": _DIFFUSE, "mirror": _MIRROR, "glass": _GLASS}
+MATERIAL_DIFFUSE, MATERIAL_MIRROR, MATERIAL_GLASS = 0, 1, 2
+_KIND_CODES = {"diffuse": MATERIAL_DIFFUSE, "mirror": MATERIAL_MIRROR, "glass": MATERIAL_GLASS}
 BATCH_SIZE = 1 << 20
 
 
@@ -63,7 +63,7 @@ class TraceStats:
 
 
 @dataclass
-class _Materials:
+class Materials:
     """Per-object material tables, indexed by object index."""
 
     kind: np.ndarray  # (K+1,) int; the last entry, -1, is what object index -1 (a miss) reads
@@ -72,7 +72,7 @@ class _Materials:
     sigma: np.ndarray  # (K,3) absorption coefficient, 0 for non-glass
 
     @classmethod
-    def of(cls, scene) -> "_Materials":
+    def of(cls, scene) -> "Materials":
         mats = [o.material for o in scene.objects]
         kind = np.array([_KIND_CODES[m.kind] for m in mats] + [-1], dtype=np.int64)
         color = np.array([getattr(m, "color", np.ones(3)) for m in mats]).reshape(-1, 3)
@@ -86,7 +86,7 @@ class _Materials:
 
 
 @dataclass
-class _Interface:
+class Interface:
     """What happens where rays meet a glass surface: normals facing the ray, eta, Fresnel."""
 
     entering: np.ndarray  # (n,) bool
@@ -98,7 +98,7 @@ class _Interface:
     tir: np.ndarray  # (n,) bool
 
 
-def _facing(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray):
+def facing(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray):
     """Normals flipped to the side ``d`` comes from (decided by the geometric normal).
 
     Returns (front, shading, geometric): ``front`` is True where the ray hits the
@@ -111,15 +111,15 @@ def _facing(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray):
     return front, ns, ng
 
 
-def _reflect_above(d: np.ndarray, ns: np.ndarray, ng: np.ndarray) -> np.ndarray:
+def reflect_above(d: np.ndarray, ns: np.ndarray, ng: np.ndarray) -> np.ndarray:
     """Reflection about the shading normal, or the geometric one where that would enter the face."""
     r = reflect(d, ns)
     return np.where((dot(r, ng) > 0)[:, None], r, reflect(d, ng))
 
 
-def _interface(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray, ior: np.ndarray) -> _Interface:
+def interface(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray, ior: np.ndarray) -> Interface:
     """Reflection, refraction and Fresnel reflectance where rays ``d`` meet glass of index ``ior``."""
-    entering, ns, ng = _facing(d, normal, geometric)
+    entering, ns, ng = facing(d, normal, geometric)
     eta_i = np.where(entering, 1.0, ior)
     eta_t = np.where(entering, ior, 1.0)
     t, tir = refract(d, ns, eta_i / eta_t)
@@ -130,9 +130,9 @@ def _interface(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray, ior: np
         t[wrong_side], tir[wrong_side] = t_g, tir_g
     cos_i = -dot(d, ns)
     reflectance = np.where(tir, 1.0, fresnel_dielectric(cos_i, eta_i, eta_t))
-    reflected = _reflect_above(d, ns, ng)
+    reflected = reflect_above(d, ns, ng)
     t = np.where(tir[:, None], reflected, t)
-    return _Interface(entering, ns, ng, reflectance, reflected, t, tir)
+    return Interface(entering, ns, ng, reflectance, reflected, t, tir)
 
 
 def _accumulate(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
@@ -192,7 +192,7 @@ def trace(
     """
     origins = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     dirs = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
-    materials = _Materials.of(scene)
+    materials = Materials.of(scene)
     dropped = TraceStats(max_depth)
     # One pass, or one per colour channel for dispersive glass.
     if materials.dispersive:
@@ -235,28 +235,28 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
             _accumulate(out, pixel[miss], weight[miss] * scene.environment.lookup(d[miss]) * scale)
         kind = materials.kind[hits.object_index]
         # Diffuse surfaces: direct shading, end of the path.
-        diffuse = kind == _DIFFUSE
+        diffuse = kind == MATERIAL_DIFFUSE
         if diffuse.any():
-            _, ns, ng = _facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
+            _, ns, ng = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
             albedo = materials.color[hits.object_index[diffuse]]
             radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo)
             _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)
-        specular = (kind == _MIRROR) | (kind == _GLASS)
+        specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)
         if depth == max_depth:
             stats.by_depth_limit[depth + 1] += weight[specular].mean(axis=1).sum()
             break
         # Spawn the children of mirror and glass hits.
         children = []  # (pixel, origin, direction, weight, medium)
-        mirror = kind == _MIRROR
+        mirror = kind == MATERIAL_MIRROR
         if mirror.any():
-            _, ns, ng = _facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
+            _, ns, ng = facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
             color = materials.color[hits.object_index[mirror]]
-            r = _reflect_above(d[mirror], ns, ng)
+            r = reflect_above(d[mirror], ns, ng)
             children.append((pixel[mirror], hits.position[mirror], r, weight[mirror] * color, medium[mirror]))
-        glass = kind == _GLASS
+        glass = kind == MATERIAL_GLASS
         if glass.any():
             obj = hits.object_index[glass]
-            it = _interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
+            it = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
             w, p, f = weight[glass], hits.position[glass], it.reflectance[:, None]
             children.append((pixel[glass], p, it.reflected, w * f, medium[glass]))
             tr = ~it.tir
@@ -299,7 +299,7 @@ def follow_refraction(
     o = np.array(origins, dtype=np.float64).reshape(-1, 3)
     d = np.array(dirs, dtype=np.float64).reshape(-1, 3)
     n = len(o)
-    materials = _Materials.of(scene)
+    materials = Materials.of(scene)
     if channel is None:
         ior = np.array([getattr(obj.material, "ior", 1.0) for obj in scene.objects], dtype=np.float64)
     else:
@@ -312,7 +312,7 @@ def follow_refraction(
             break
         hits = ray_scene.intersect(o[active], d[active])
         kind = materials.kind[hits.object_index]
-        at_glass = kind == _GLASS
+        at_glass = kind == MATERIAL_GLASS
         # Finish rays that are outside glass and meet no more glass; inside ones leaked.
         done = ~at_glass | (step == max_interfaces)
         result.valid[active[done]] = ~inside[active[done]] & ~at_glass[done]
@@ -322,7 +322,7 @@ def follow_refraction(
             break
         h = ~done
         obj = hits.object_index[h]
-        it = _interface(d[go], hits.normal[h], hits.geometric_normal[h], ior[obj])
+        it = interface(d[go], hits.normal[h], hits.geometric_normal[h], ior[obj])
         result.path_length[go] += np.where(inside[go], hits.t[h], 0.0)
         result.transmittance[go] *= np.where(it.tir, 1.0, 1.0 - it.reflectance)
         result.interfaces[go] += 1

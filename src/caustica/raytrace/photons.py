@@ -54,13 +54,13 @@ from ..scene.lights import DirectionalLight, SpotLight
 from .embree_scene import ray_scene_for, world_sphere
 from .optics import dot, normalize
 from .paths import (
-    _DIFFUSE,
-    _GLASS,
-    _MIRROR,
-    _facing,
-    _interface,
-    _Materials,
-    _reflect_above,
+    MATERIAL_DIFFUSE,
+    MATERIAL_GLASS,
+    MATERIAL_MIRROR,
+    Materials,
+    facing,
+    interface,
+    reflect_above,
 )
 
 CHUNK_PHOTONS = 1 << 18
@@ -267,7 +267,7 @@ def trace_photons(scene, light_index: int | None = None, count: int = 1_000_000,
         # (a large floor would make the default one skip short chords near a sphere's rim).
         center, radius = emitters[0].center, emitters[0].radius
         tnear = min(ray_scene.epsilon, 1e-5 * (radius + float(np.abs(center).max())))
-        materials = _Materials.of(scene)
+        materials = Materials.of(scene)
         if materials.dispersive:
             passes = [(materials.ior_rgb[:, c], np.eye(3)[c]) for c in range(3)]
         else:
@@ -306,30 +306,30 @@ def _trace_chunk(ray_scene, materials, ior, o, d, flux, max_depth, branches, min
         tally.escaped += flux[~hits.hit].sum(axis=0)
         kind = materials.kind[hits.object_index]
         # Diffuse receivers end the path: a caustic hit after a specular interaction, else direct light.
-        diffuse = kind == _DIFFUSE
+        diffuse = kind == MATERIAL_DIFFUSE
         if diffuse.any():
             if depth == 0:
                 tally.direct += flux[diffuse].sum(axis=0)
             else:
-                _, ns, _ = _facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
+                _, ns, _ = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
                 tally.parts.append((hits.position[diffuse], flux[diffuse], hits.object_index[diffuse], ns,
                                     d[diffuse], np.full(int(diffuse.sum()), depth, np.int64)))
-        specular = (kind == _MIRROR) | (kind == _GLASS)
+        specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)
         if depth == max_depth:
             tally.dropped += flux[specular].sum(axis=0)
             break
         # Spawn the children of mirror and glass hits.
         children = []  # (origin, direction, flux, medium, reference)
-        mirror = kind == _MIRROR
+        mirror = kind == MATERIAL_MIRROR
         if mirror.any():
-            _, ns, ng = _facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
-            r = _reflect_above(d[mirror], ns, ng)
+            _, ns, ng = facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
+            r = reflect_above(d[mirror], ns, ng)
             color = materials.color[hits.object_index[mirror]]
             children.append((hits.position[mirror], r, flux[mirror] * color, medium[mirror], reference[mirror]))
-        glass = kind == _GLASS
+        glass = kind == MATERIAL_GLASS
         if glass.any():
             obj = hits.object_index[glass]
-            it = _interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
+            it = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
             p, w, f, ref = hits.position[glass], flux[glass], it.reflectance[:, None], reference[glass]
             if branches == "split":
                 children.append((p, it.reflected, w * f, medium[glass], ref))

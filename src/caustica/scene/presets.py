@@ -16,7 +16,7 @@ from .presets_impostors import IMPOSTOR_PRESETS
 from .presets_per_vertex import PER_VERTEX_PRESETS
 from .presets_transport import TRANSPORT_PRESETS
 from .scene import Scene, SceneObject
-from .shapes import _heightfield, box, plane, ring, sphere, water_heightfield
+from .shapes import heightfield, box, plane, ring, sphere, water_heightfield
 from .transform import Transform
 
 
@@ -103,7 +103,7 @@ def _shared_model(filename: str, preset: str) -> Mesh:
     return load_mesh(path)
 
 
-def _glass_model(filename: str, preset: str, size: float, ior: float) -> SceneObject:
+def glass_model(filename: str, preset: str, size: float, ior: float) -> SceneObject:
     """A shared model as glass, scaled so its largest side is ``size`` and centred at the origin."""
     mesh = _shared_model(filename, preset)
     low, high = mesh.bounds
@@ -117,7 +117,7 @@ def glass_teapot() -> Scene:
 
     Needs the shared data: ``models/teapot.obj`` under $CAUSTICA_DATA or ``../shared/data``.
     """
-    teapot = _glass_model("teapot.obj", "glass-teapot", 2.2, 1.5)
+    teapot = glass_model("teapot.obj", "glass-teapot", 2.2, 1.5)
     return _sky_checker_scene("glass-teapot", [0.0, 1.2, 4.0], [0.0, 0.0, 0.0], 40.0, [teapot])
 
 
@@ -126,7 +126,7 @@ def glass_bunny() -> Scene:
 
     Needs the shared data: ``models/stanford-bunny.obj`` under $CAUSTICA_DATA or ``../shared/data``.
     """
-    bunny = _glass_model("stanford-bunny.obj", "glass-bunny", 1.0, 1.5)
+    bunny = glass_model("stanford-bunny.obj", "glass-bunny", 1.0, 1.5)
     return _sky_checker_scene("glass-bunny", [0.0, 0.4, 2.2], [0.0, 0.0, 0.0], 40.0, [bunny])
 
 
@@ -137,14 +137,14 @@ def glass_bunny() -> Scene:
 CAUSTIC_SKY_SCALE = 0.2
 
 
-def _caustic_scene(name: str, position, look_at, fov_y: float, objects, lights) -> Scene:
+def caustic_scene(name: str, position, look_at, fov_y: float, objects, lights) -> Scene:
     """A 512x512 scene under the sky-checker dimmed to CAUSTIC_SKY_SCALE."""
     sky = Environment(sky_checker() * CAUSTIC_SKY_SCALE, source=f"procedural:sky-checker*{CAUSTIC_SKY_SCALE}")
     return Scene(camera=Camera(position=position, look_at=look_at, fov_y=fov_y, size=(512, 512)),
                  objects=list(objects), lights=list(lights), environment=sky, name=name)
 
 
-def _floor(size=(10.0, 10.0), height: float = 0.0, color=(0.7, 0.7, 0.7)) -> SceneObject:
+def floor_object(size=(10.0, 10.0), height: float = 0.0, color=(0.7, 0.7, 0.7)) -> SceneObject:
     return SceneObject("floor", plane(size), Diffuse(color=list(color)), Transform(position=[0.0, height, 0.0]))
 
 
@@ -164,7 +164,7 @@ def caustics_point() -> Scene:
     spot nearer) just above the floor, about 0.25 in front of the ball's foot, where the camera sees it.
     """
     light = PointLight(position=_BALL_LIGHT, intensity=[20.0, 20.0, 20.0])
-    return _caustic_scene("caustics-point", objects=[_ball(), _floor()], lights=[light], **_BALL_CAMERA)
+    return caustic_scene("caustics-point", objects=[_ball(), floor_object()], lights=[light], **_BALL_CAMERA)
 
 
 def caustics_spot() -> Scene:
@@ -176,7 +176,7 @@ def caustics_spot() -> Scene:
     direction = -np.asarray(_BALL_LIGHT) + [0.0, 0.95, 0.0]
     light = SpotLight(position=_BALL_LIGHT, direction=direction, intensity=[20.0, 20.0, 20.0],
                       inner_angle=12.0, outer_angle=18.0)
-    return _caustic_scene("caustics-spot", objects=[_ball(), _floor()], lights=[light], **_BALL_CAMERA)
+    return caustic_scene("caustics-spot", objects=[_ball(), floor_object()], lights=[light], **_BALL_CAMERA)
 
 
 def caustics_directional() -> Scene:
@@ -186,7 +186,7 @@ def caustics_directional() -> Scene:
     0.85 above the floor so that the floor cuts the beam near its narrowest.
     """
     light = DirectionalLight(direction=[0.0, -1.0, 0.3], intensity=[2.0, 2.0, 2.0])
-    return _caustic_scene("caustics-directional", objects=[_ball(height=0.85), _floor()], lights=[light],
+    return caustic_scene("caustics-directional", objects=[_ball(height=0.85), floor_object()], lights=[light],
                           **_BALL_CAMERA)
 
 
@@ -196,12 +196,12 @@ def caustics_bunny() -> Scene:
     The absorption colour [0.95, 0.6, 0.3] after 0.3 units tints the caustic by the path length through
     the body. Needs the shared data: ``models/stanford-bunny.obj`` under $CAUSTICA_DATA or ``../shared/data``.
     """
-    bunny = _glass_model("stanford-bunny.obj", "caustics-bunny", 1.2, 1.5)
+    bunny = glass_model("stanford-bunny.obj", "caustics-bunny", 1.2, 1.5)
     bunny.material = Glass(ior=1.5, absorption_color=[0.95, 0.6, 0.3], absorption_distance=0.3)
     low = bunny.world_mesh().bounds[0]
-    floor = _floor(height=float(low[1]) - 1e-3)
+    floor = floor_object(height=float(low[1]) - 1e-3)
     light = PointLight(position=[0.5, 3.0, -1.5], intensity=[30.0, 30.0, 30.0])
-    return _caustic_scene("caustics-bunny", [0.0, 1.6, 3.2], [0.0, -0.2, 0.3], 40.0, [bunny, floor], [light])
+    return caustic_scene("caustics-bunny", [0.0, 1.6, 3.2], [0.0, -0.2, 0.3], 40.0, [bunny, floor], [light])
 
 
 def caustics_ring() -> Scene:
@@ -215,7 +215,7 @@ def caustics_ring() -> Scene:
     ring_object = SceneObject("ring", ring(1.0, 1.05, 0.7, segments=256), Mirror(color=[0.95, 0.9, 0.8]),
                               Transform(position=[0.0, 0.35, 0.0]))
     light = DirectionalLight(direction=[0.0, -np.sin(elevation), -np.cos(elevation)], intensity=[3.0, 3.0, 3.0])
-    return _caustic_scene("caustics-ring", [0.0, 3.4, 2.4], [0.0, 0.0, -0.2], 40.0, [ring_object, _floor()], [light])
+    return caustic_scene("caustics-ring", [0.0, 3.4, 2.4], [0.0, 0.0, -0.2], 40.0, [ring_object, floor_object()], [light])
 
 
 POOL_SIZE = 3.0  # side of the square pool
@@ -242,7 +242,7 @@ def pool_scene(time: float = 0.0) -> Scene:
     surface = SceneObject("water", water_heightfield((POOL_SIZE, POOL_SIZE), resolution=160, amplitude=0.08,
                                                      waves=6, seed=3, time=float(time)),
                           water(absorption_color=[0.85, 0.95, 0.97], absorption_distance=1.0))
-    bottom = SceneObject("pool-floor", _heightfield((POOL_SIZE, POOL_SIZE), 96, _pool_floor_height, "pool-floor"),
+    bottom = SceneObject("pool-floor", heightfield((POOL_SIZE, POOL_SIZE), 96, _pool_floor_height, "pool-floor"),
                          Diffuse(color=[0.6, 0.75, 0.8]))
     wall_height, thickness = POOL_DEEP + 0.2, 0.1
     walls = []
@@ -253,7 +253,7 @@ def pool_scene(time: float = 0.0) -> Scene:
         walls.append(SceneObject(f"wall-{i}", box((sx, wall_height, sz)), Diffuse(color=[0.75, 0.75, 0.7]),
                                  Transform(position=[x, 0.1 - wall_height / 2, z])))
     sun = DirectionalLight(direction=[0.25, -1.0, 0.15], intensity=[3.0, 3.0, 3.0])
-    return _caustic_scene("caustics-pool", [0.0, 3.6, 3.6], [0.0, -0.8, 0.0], 42.0, [surface, bottom] + walls, [sun])
+    return caustic_scene("caustics-pool", [0.0, 3.6, 3.6], [0.0, -0.8, 0.0], 42.0, [surface, bottom] + walls, [sun])
 
 
 def caustics_pool() -> Scene:
@@ -299,14 +299,14 @@ def caustics_prism() -> Scene:
     incoming = np.array([np.cos(np.radians(14.0)), -np.sin(np.radians(14.0)), 0.0])
     light = SpotLight(position=center - 3.0 * incoming, direction=incoming, intensity=[150.0, 150.0, 150.0],
                       inner_angle=1.0, outer_angle=1.5)
-    return _caustic_scene("caustics-prism", [1.4, 1.9, 3.0], [0.35, 0.62, 0.0], 40.0, [prism, _floor()], [light])
+    return caustic_scene("caustics-prism", [1.4, 1.9, 3.0], [0.35, 0.62, 0.0], 40.0, [prism, floor_object()], [light])
 
 
 def caustics_two_lights() -> Scene:
     """``caustics-point`` lit by two point lights, a warm and a cool one: two caustics side by side."""
     lights = [PointLight(position=[-1.2, 3.7, -1.0], intensity=[22.0, 16.0, 10.0]),
               PointLight(position=[1.2, 3.7, -1.0], intensity=[10.0, 16.0, 22.0])]
-    return _caustic_scene("caustics-two-lights", objects=[_ball(), _floor()], lights=lights, **_BALL_CAMERA)
+    return caustic_scene("caustics-two-lights", objects=[_ball(), floor_object()], lights=lights, **_BALL_CAMERA)
 
 
 PRESETS: dict[str, Callable[[], Scene]] = {

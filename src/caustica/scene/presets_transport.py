@@ -17,19 +17,19 @@ from .transform import Transform
 
 
 def _caustic_scene(*args, **kwargs) -> Scene:
-    from .presets import _caustic_scene as make  # presets.py imports this module: import its helpers late
+    from .presets import caustic_scene as make  # presets.py imports this module: import its helpers late
 
     return make(*args, **kwargs)
 
 
 def _floor(**kwargs) -> SceneObject:
-    from .presets import _floor as make
+    from .presets import floor_object as make
 
     return make(**kwargs)
 
 
 def _glass_model(*args) -> SceneObject:
-    from .presets import _glass_model as make
+    from .presets import glass_model as make
 
     return make(*args)
 

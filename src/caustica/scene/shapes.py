@@ -150,10 +150,10 @@ def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
 
 def plane(size=(2.0, 2.0), resolution: int = 1) -> Mesh:
     """A ``size`` = (width along X, depth along Z) rectangle at y = 0 facing +Y, ``resolution`` cells a side."""
-    return _heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane")
+    return heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane")
 
 
-def _heightfield(size, resolution: int, height, name: str) -> Mesh:
+def heightfield(size, resolution: int, height, name: str) -> Mesh:
     """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz)."""
     width, depth = _dims(size, 2)
     n = _count("resolution", resolution, 1) + 1
@@ -367,7 +367,7 @@ def water_heightfield(size=(4.0, 4.0), resolution: int = 128, amplitude: float =
         s, c = np.sin(arg), np.cos(arg)
         return (s * weight).sum(-1), (c * weight * kx).sum(-1), (c * weight * kz).sum(-1)
 
-    return _heightfield(size, resolution, height, "water")
+    return heightfield(size, resolution, height, "water")
 
 
 SHAPES = {

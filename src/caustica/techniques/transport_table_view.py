@@ -51,7 +51,7 @@ class ViewExit:
 
 def view_exit(obj, eye: np.ndarray, params: TableParams, progress: bool = False) -> ViewExit:
     """The table lookup (5.3) for the viewing rays from ``eye`` to every vertex of glass ``obj``."""
-    from ..transport.runtime import _frames, lookup, table_for
+    from ..transport.runtime import vertex_frames, lookup, table_for
 
     mesh = obj.mesh
     table = table_for(mesh, obj.material.ior, params.directions, params.max_depth, params.quantized, progress)
@@ -59,7 +59,7 @@ def view_exit(obj, eye: np.ndarray, params: TableParams, progress: bool = False)
     a, t = m[:3, :3], m[:3, 3]
     world = mesh.vertices.astype(np.float64) @ a.T + t
     towards_eye = normalize(np.asarray(eye, np.float64)[None] - world)
-    found = lookup(table, _frames(mesh), towards_eye @ np.linalg.inv(a).T)
+    found = lookup(table, vertex_frames(mesh), towards_eye @ np.linalg.inv(a).T)
     direction = normalize(found.exit_direction @ a.T)
     # The table's transmittance includes the entry's 1 - F; the fragment applies F per pixel.
     normal = normalize(mesh.normals.astype(np.float64) @ normal_matrix(m).T)

@@ -178,7 +178,7 @@ def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
     a, t = m[:3, :3], m[:3, 3]
     world = mesh.vertices.astype(np.float64) @ a.T + t
     towards, _ = _incident(sample, world)
-    found = lookup(table, _frames(mesh), towards @ np.linalg.inv(a).T)
+    found = lookup(table, vertex_frames(mesh), towards @ np.linalg.inv(a).T)
     origin = found.exit_position.astype(np.float64) @ a.T + t
     direction = normalize(found.exit_direction @ a.T)
     sigma = np.asarray(getattr(obj.material, "absorption_coefficient", np.zeros(3)), np.float64)
@@ -195,7 +195,7 @@ def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
 _FRAMES: dict[str, np.ndarray] = {}
 
 
-def _frames(mesh) -> np.ndarray:
+def vertex_frames(mesh) -> np.ndarray:
     key = mesh.geometry_hash()
     if key not in _FRAMES:
         _FRAMES[key] = tangent_frames(mesh.normals)
