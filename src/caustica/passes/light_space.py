@@ -61,6 +61,9 @@ from .lights import (
 VIEW_PROJECTIVE, VIEW_CUBE = 0, 1
 MAX_PROJECTIVE_HALF_ANGLE = 60.0  # degrees: wider footprints of a point light go to the cube atlas
 PHOTON_BYTES = 32  # vec4 position + vec4 flux
+# The fewest Newton-Raphson steps of the first landing, on the coarse views: it converges, so the caustic
+# view fitted around the landed photons holds the caustic (caustic-mapping's footprint pass, photon-splats).
+COARSE_NEWTON_STEPS = 6
 
 
 @dataclass

@@ -37,7 +37,7 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``):
    a converged guess against the fine receiver texture. The final position is
    a bilinear lookup of the receiver texture (sub-texel on smooth receivers).
 5. Caustic map: the photons land first on a coarse receiver view over the
-   whole scene (footprint pass: Newton-Raphson, COARSE_NEWTON_STEPS steps,
+   whole scene (footprint pass: Newton-Raphson, light_space.COARSE_NEWTON_STEPS steps,
    first guess the receiver behind the origin); the caustic map's view is then fitted tightly around the
    landing points (III-F: frustum limitation; a point light whose footprint is
    wider than a frustum, or ``point_map='cube'``, gets the omnidirectional cube
@@ -68,6 +68,7 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.light_space import (
+    COARSE_NEWTON_STEPS,
     CachedPasses,
     FitCasterViews,
     FitCausticViews,
@@ -85,7 +86,6 @@ from .env_map import ShadowedParams
 MAX_CASTERS = 32
 CASTER_NONE, CASTER_MIRROR, CASTER_SOLID, CASTER_SURFACE = 0, 1, 2, 3
 ESTIMATORS = {"iterate": 0, "newton": 1}
-COARSE_NEWTON_STEPS = 6  # the footprint pass converges (Newton-Raphson) so the fitted map holds the caustic
 
 
 @dataclass

@@ -59,6 +59,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..passes.light_space import (
+    COARSE_NEWTON_STEPS,
     CachedPasses,
     FitCasterViews,
     FitCausticViews,
@@ -72,7 +73,6 @@ from .base import param
 from .composite import SPLATS, CausticTechnique
 from .env_map import ShadowedParams
 
-COARSE_NEWTON_STEPS = 6  # the first landing converges, so the fitted caustic map holds the hits
 COARSE_MAP_SIZE = 256
 
 
