@@ -24,11 +24,10 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
+from .casters import CASTER_DEFINES, CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import LightView, bind_views, dispatch_photons
 
-MAX_CASTERS = 32
-KIND_OCCLUDER, KIND_MIRROR, KIND_SOLID, KIND_SURFACE = 0, 1, 2, 3
 TIR_MODES = ("keep-t1", "clamp", "reflect", "drop")
 ESTIMATOR_NEWTON = 1  # estimate_distance's Newton-Raphson with bisection fallback
 
@@ -36,21 +35,6 @@ ESTIMATOR_NEWTON = 1  # estimate_distance's Newton-Raphson with bisection fallba
 def dispersive(scene) -> bool:
     """Whether some glass has different IORs per channel (then one photon per channel)."""
     return any(np.ptp(o.material.ior_rgb) > 0 for o in scene.objects_of("glass"))
-
-
-def casters(scene) -> list:
-    """The objects that make caustics (glass and mirrors), at most MAX_CASTERS, in scene order."""
-    return [o for o in scene.objects if o.material.kind in ("glass", "mirror")][:MAX_CASTERS]
-
-
-def caster_kind(obj) -> int:
-    """How the photon pass treats an object (an open glass mesh is a single refracting surface)."""
-    kind = obj.material.kind
-    if kind == "mirror":
-        return KIND_MIRROR
-    if kind == "glass":
-        return KIND_SURFACE if obj.mesh.is_open() else KIND_SOLID
-    return KIND_OCCLUDER
 
 
 class RefractFromLight(Pass):
@@ -82,7 +66,8 @@ class RefractFromLight(Pass):
         fbo = gpu.targets.framebuffer(targets, depth)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
+        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode),
+                   **CASTER_DEFINES}
         program = gpu.shaders.program("passes/image_space.vert", "passes/photon_refract.frag", defines)
         view.bind(program)
         bind_samplers(program, ("back_position", "back_normal"), back)
@@ -100,9 +85,9 @@ class RefractFromLight(Pass):
         return tuple(targets)
 
     def _draw(self, frame: Frame, program, obj, makers: list) -> None:
-        kind = caster_kind(obj) if obj in makers else KIND_OCCLUDER
+        kind = caster_code(obj) if obj in makers else CASTER_NONE
         gpu_mesh = frame.gpu.meshes.get(obj.mesh)
-        if kind == KIND_SOLID and self.use_dn and DN_ATTRIBUTE not in gpu_mesh.attributes:
+        if kind == CASTER_SOLID and self.use_dn and DN_ATTRIBUTE not in gpu_mesh.attributes:
             gpu_mesh.set_attribute(DN_ATTRIBUTE, distance_along_normal(obj.mesh))
         material = obj.material
         set_uniform(program, "object_kind", kind)

@@ -67,6 +67,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
+from ..passes.casters import CASTER_DEFINES, MAX_CASTERS, caster_code, casters
 from ..passes.light_space import (
     COARSE_NEWTON_STEPS,
     CachedPasses,
@@ -83,8 +84,6 @@ from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
 from .env_map import ShadowedParams
 
-MAX_CASTERS = 32
-CASTER_NONE, CASTER_MIRROR, CASTER_SOLID, CASTER_SURFACE = 0, 1, 2, 3
 ESTIMATORS = {"iterate": 0, "newton": 1}
 
 
@@ -129,20 +128,20 @@ class TracePhotons(Pass):
 
     def run(self, frame: Frame) -> None:
         scene, p = frame.scene, self.params
-        casters = [o for o in scene.objects if o.material.kind in ("glass", "mirror")][:MAX_CASTERS]
         types, iors, sigmas, colors = (np.zeros(MAX_CASTERS, "i4"), np.ones((MAX_CASTERS, 3), "f4"),
                                        np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
         dispersive = False
-        for i, obj in enumerate(casters):
+        for i, obj in enumerate(casters(scene)):
             material = obj.material
+            types[i] = caster_code(obj)
             if material.kind == "mirror":
-                types[i], colors[i] = CASTER_MIRROR, material.color
+                colors[i] = material.color
             else:
-                types[i] = CASTER_SURFACE if obj.mesh.is_open() else CASTER_SOLID
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
         channels = 3 if dispersive else 1
-        program = frame.gpu.shaders.compute("passes/caustic_trace.comp", {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS})
+        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, **CASTER_DEFINES}
+        program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
         set_uniform(program, "caster_type", types)
         set_uniform(program, "caster_ior", iors)
         set_uniform(program, "caster_sigma", sigmas)

@@ -6,7 +6,7 @@
 // lands where the intersection estimate against the receivers' position texture (view 1) puts it.
 // The first guess of the estimate is the distance to the receiver behind the origin (Shah et al. use
 // d = 1), or, in a second pass, to where the first pass landed the photon.
-// Host defines: VIEW_COUNT (2), MAX_CASTERS (32).
+// Host defines: VIEW_COUNT (2), MAX_CASTERS (32), CASTER_NONE, _MIRROR, _SOLID, _SURFACE (passes/casters.py).
 #version 430 core
 #ifndef MAX_CASTERS
 #define MAX_CASTERS 32
@@ -14,11 +14,6 @@
 #include "common/optics.glsl"
 #include "passes/caustic_light_space.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-
-#define CASTER_NONE 0
-#define CASTER_MIRROR 1
-#define CASTER_SOLID 2
-#define CASTER_SURFACE 3
 
 struct Photon { vec4 position; vec4 flux; };  // position.w = 1 where the photon landed
 layout(std430, binding = 0) writeonly buffer Photons { Photon photons[]; };

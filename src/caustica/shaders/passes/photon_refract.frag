@@ -9,7 +9,8 @@
 // Open meshes (water) refract once (Beer-Lambert to the receiver is left to the landing pass);
 // mirrors reflect once; diffuse objects occlude (no photon).
 // Host defines: CHANNELS (1: one RGB photon; 3: one photon per channel), USE_DN (1),
-// TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2, TIR_DROP 3), VIEW_COUNT (1: the photon buffer's view).
+// TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2, TIR_DROP 3), VIEW_COUNT (1: the photon buffer's view),
+// CASTER_NONE, _MIRROR, _SOLID, _SURFACE (passes/casters.py: object_kind's codes).
 #version 430 core
 #ifndef CHANNELS
 #define CHANNELS 1
@@ -24,16 +25,12 @@
 #ifndef TIR_MODE
 #define TIR_MODE TIR_CLAMP
 #endif
-#define KIND_OCCLUDER 0
-#define KIND_MIRROR 1
-#define KIND_SOLID 2
-#define KIND_SURFACE 3
 #include "common/optics.glsl"
 #include "passes/caustic_light_space.glsl"
 
 uniform sampler2D back_position;  // view 0: farthest back faces of the glass, world xyz + light distance (0: none)
 uniform sampler2D back_normal;    // view 0: their outward normals
-uniform int object_kind;          // KIND_* of the object being drawn
+uniform int object_kind;          // CASTER_* of the object being drawn
 uniform int object_index;         // its index among the casters (single surfaces: the landing pass absorbs)
 uniform vec3 object_ior;          // per channel
 uniform vec3 object_sigma;        // Beer-Lambert absorption coefficient
@@ -111,7 +108,7 @@ void main() {
 #if CHANNELS == 3
     out_origin1 = out_direction1 = out_origin2 = out_direction2 = vec4(0.0);
 #endif
-    if (object_kind == KIND_OCCLUDER) return;
+    if (object_kind == CASTER_NONE) return;
     // The photon this texel holds: the light's flux through the texel.
     vec3 p1 = world_position;
     vec3 l = light_ray(p1);
@@ -120,7 +117,7 @@ void main() {
     vec3 n1 = normalize(world_normal);
     if (dot(n1, l) > 0.0) n1 = -n1;  // face the light (open meshes seen from below)
 
-    if (object_kind == KIND_MIRROR) {
+    if (object_kind == CASTER_MIRROR) {
         out_origin0 = vec4(p1 + 1e-4 * n1, 1.0);
         out_direction0 = vec4(reflect_direction(l, n1), 0.0);
         out_flux = vec4(flux * object_color, 0.0);
@@ -129,7 +126,7 @@ void main() {
 
     vec4 origins[3], directions[3];
     vec3 through = vec3(0.0);
-    if (object_kind == KIND_SURFACE) {
+    if (object_kind == CASTER_SURFACE) {
         // One interface: the photon goes on to the receiver inside the medium.
         for (int c = 0; c < CHANNELS; ++c) {
             vec3 t1 = refract_direction(l, n1, 1.0 / object_ior[c]);
