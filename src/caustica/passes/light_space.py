@@ -10,8 +10,9 @@ outline. This module holds what they share:
 
 - :class:`LightView`: a light-space view, projective (perspective or
   orthographic, any ``clip_from_world``) or a six-face cube atlas (6N x N, the
-  layout of ``passes/lights.py``), with its texel measure (solid angle or
-  perpendicular area) and ``bind`` for ``shaders/passes/caustic_light_space.glsl``.
+  layout of ``passes/lights.py``), with its texels' area at unit distance (the shaders'
+  ``texel_measure``: solid angle or perpendicular area) and ``bind`` for
+  ``shaders/passes/caustic_light_space.glsl``.
 - Fitting (III-F, "view frustum limitation"): :func:`fit_view` fits a view
   tightly around world points as seen from the light (the casters' vertices for
   the photon grid; the photons' landing points for the caustic map, trimmed of
@@ -96,27 +97,6 @@ class LightView:
             return CausticMap(texture, CAUSTIC_CUBE, None)
         return CausticMap(texture, CAUSTIC_PROJECTIVE, self.clips[0].astype("f4"))
 
-    def texel_measure(self, points: np.ndarray) -> np.ndarray:
-        """Solid angle (perspective, cube) or perpendicular area (orthographic) of the texels seeing ``points``."""
-        if self.ortho:
-            return np.full(len(points), self.unit_area)
-        rays = points - self.sample.position
-        rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-        face = _cube_face(rays) if self.kind == VIEW_CUBE else np.zeros(len(points), dtype=int)
-        cos = np.einsum("ij,ij->i", rays, self.forwards[face])
-        return self.unit_area * cos**3
-
-    def pixels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Continuous atlas pixel coordinates (N, 2) of world points and whether each lies inside."""
-        rays = points - self.sample.position
-        face = _cube_face(rays) if self.kind == VIEW_CUBE else np.zeros(len(points), dtype=int)
-        clip = np.einsum("nij,nj->ni", self.clips[face], np.c_[points, np.ones(len(points))])
-        w = clip[:, 3]
-        ndc = clip[:, :2] / np.where(np.abs(w) > 1e-30, w, 1e-30)[:, None]
-        inside = (w > 0) & np.all(np.abs(ndc) <= 1.0, axis=1)
-        px = np.c_[(face + ndc[:, 0] * 0.5 + 0.5) * self.size, (ndc[:, 1] * 0.5 + 0.5) * self.size]
-        return px, inside
-
     def bind(self, program) -> None:
         """Set this view as view 0 of caustic_light_space.glsl, and its light."""
         bind_views(program, [self])
@@ -146,14 +126,6 @@ def bind_views(program, views: list) -> None:
     set_uniform(program, "ls_light_direction", np.asarray(light.direction, "f4"))
     set_uniform(program, "ls_light_intensity", np.asarray(light.intensity, "f4"))
     set_uniform(program, "ls_light_cone", np.asarray(light.cone_cos, "f4"))
-
-
-def _cube_face(rays: np.ndarray) -> np.ndarray:
-    """Face of the CUBE_FORWARD atlas each direction falls on (as cube_atlas_uv in lighting.glsl)."""
-    a = np.abs(rays)
-    axis = np.where((a[:, 0] >= a[:, 1]) & (a[:, 0] >= a[:, 2]), 0, np.where(a[:, 1] >= a[:, 2], 1, 2))
-    positive = rays[np.arange(len(rays)), axis] > 0
-    return 2 * axis + np.where(positive, 0, 1)
 
 
 def _scene_depth_range(sample: LightSample, scene) -> tuple[float, float]:
