@@ -58,6 +58,22 @@ def test_defines_injected_after_version_and_programs_cached(ctx, tmp_path):
     assert np.frombuffer(buffer.read(), "f4")[0] == 2.5
 
 
+def test_library_defines_the_codes_in_every_program_and_keeps_them(ctx, tmp_path):
+    from caustica.scene.codes import CODE_DEFINES, LIGHT_SPOT, MATERIAL_GLASS
+
+    _write(tmp_path, "codes.comp", "#version 430 core\nlayout(local_size_x = 1) in;\n"
+           "layout(std430, binding = 0) buffer Out { int result[2]; };\n"
+           "void main() { result[0] = MATERIAL_GLASS; result[1] = LIGHT_SPOT; }\n")
+    library = ShaderLibrary(ctx, tmp_path)
+    assert library.defines == CODE_DEFINES
+    buffer = ctx.buffer(reserve=8)
+    buffer.bind_to_storage_buffer(0)
+    library.compute("codes.comp").run(1)
+    assert np.frombuffer(buffer.read(), "i4").tolist() == [MATERIAL_GLASS, LIGHT_SPOT]
+    with pytest.raises(ShaderError, match="LIGHT_SPOT is set by the shader library"):
+        library.source("codes.comp", {"LIGHT_SPOT": 7})
+
+
 def test_strict_uniforms_catch_a_misspelling_but_not_an_optimised_away_uniform(ctx, tmp_path, monkeypatch):
     from caustica.gpu import meshes
     from caustica.gpu.meshes import set_uniform, write_uniform_array

@@ -5,7 +5,8 @@ unknown file fails loudly). ``#line`` directives encode the file in the line
 number itself (file_id * LINE_STRIDE + line), because drivers disagree on
 reporting source-string numbers (Mesa mixes them up); compile errors are
 translated back to ``file:line``. The host injects
-``#define`` lines right after ``#version``. Compiled programs are cached by
+``#define`` lines right after ``#version``: the library's own (every program: the
+material and light codes of ``scene.codes``), then the program's. Compiled programs are cached by
 (files, defines). Each program remembers the uniform names its source declares
 (``declared_uniforms``), so that a strict ``set_uniform`` can tell a misspelled name from
 one the driver optimised away.
@@ -18,6 +19,7 @@ import weakref
 from pathlib import Path
 
 from ..errors import CausticaError
+from ..scene.codes import CODE_DEFINES
 
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "shaders"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
@@ -36,9 +38,10 @@ class ShaderError(CausticaError, RuntimeError):
 
 
 class ShaderLibrary:
-    def __init__(self, ctx, root: Path = SHADER_ROOT):
+    def __init__(self, ctx, root: Path = SHADER_ROOT, defines: dict | None = None):
         self.ctx = ctx
         self.root = Path(root)
+        self.defines = dict(CODE_DEFINES if defines is None else defines)  # defined in every program
         self._programs: dict = {}
 
     def source(self, name: str, defines: dict | None = None) -> tuple[str, list[str]]:
@@ -48,7 +51,11 @@ class ShaderLibrary:
         header = "#version 430 core\n"
         if lines and _VERSION.match(lines[0]):
             header = lines.pop(0) + "\n"
-        define_lines = "".join(f"#define {k} {_glsl_value(v)}\n" for k, v in sorted((defines or {}).items()))
+        shared = sorted(set(self.defines) & set(defines or {}))
+        if shared:
+            raise ShaderError(f"{name}: define {', '.join(shared)} is set by the shader library in every program")
+        define_lines = "".join(f"#define {k} {_glsl_value(v)}\n"
+                               for k, v in [*sorted(self.defines.items()), *sorted((defines or {}).items())])
         return header + define_lines + "\n".join(lines) + "\n", files
 
     def _expand(self, name: str, files: list[str], stack: tuple) -> list[str]:

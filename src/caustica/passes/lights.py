@@ -16,6 +16,7 @@ import numpy as np
 from ..cache import state_key
 from ..errors import TechniqueError
 from ..gpu.meshes import set_object_transform, set_uniform
+from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.transform import (
     look_at_view_from_world,
@@ -26,7 +27,6 @@ from ..scene.transform import (
 from .base import Channel, Frame, Pass
 
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
-LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT = 0, 1, 2
 CUBE_FORWARD = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
 CUBE_UP = np.array([[0, 1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1], [0, 1, 0], [0, 1, 0]], dtype=np.float64)
 

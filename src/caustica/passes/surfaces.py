@@ -7,11 +7,11 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
+from ..scene.codes import MATERIAL_CODES
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
-MATERIAL_CODES = {"diffuse": 0, "mirror": 1, "glass": 2}
 DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
 MAX_DEFERRED = 255  # G-buffer ids 1..255 keyed as depth id / 256
 SECOND_STAGE_KEY = 1.0 / 512.0  # a staged object's second-stage pixels: depth id / 256 + this, between the ids

@@ -33,13 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..scene.codes import MATERIAL_CODES, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.mesh import Mesh
 from .embree_scene import RayScene
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
-MATERIAL_DIFFUSE, MATERIAL_MIRROR, MATERIAL_GLASS = 0, 1, 2
-_KIND_CODES = {"diffuse": MATERIAL_DIFFUSE, "mirror": MATERIAL_MIRROR, "glass": MATERIAL_GLASS}
 BATCH_SIZE = 1 << 20
 
 
@@ -74,7 +73,7 @@ class Materials:
     @classmethod
     def of(cls, scene) -> "Materials":
         mats = [o.material for o in scene.objects]
-        kind = np.array([_KIND_CODES[m.kind] for m in mats] + [-1], dtype=np.int64)
+        kind = np.array([MATERIAL_CODES[m.kind] for m in mats] + [-1], dtype=np.int64)
         color = np.array([getattr(m, "color", np.ones(3)) for m in mats]).reshape(-1, 3)
         ior = np.array([m.ior_rgb if m.kind == "glass" else np.ones(3) for m in mats]).reshape(-1, 3)
         sigma = np.array([m.absorption_coefficient if m.kind == "glass" else np.zeros(3) for m in mats]).reshape(-1, 3)

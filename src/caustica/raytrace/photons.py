@@ -50,18 +50,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..scene.codes import MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
 from ..scene.lights import DirectionalLight, SpotLight
 from .embree_scene import ray_scene_for, world_sphere
 from .optics import dot, normalize
-from .paths import (
-    MATERIAL_DIFFUSE,
-    MATERIAL_GLASS,
-    MATERIAL_MIRROR,
-    Materials,
-    facing,
-    interface,
-    reflect_above,
-)
+from .paths import Materials, facing, interface, reflect_above
 
 CHUNK_PHOTONS = 1 << 18
 

@@ -45,10 +45,10 @@ import numpy as np
 from ..cache import atomic_write_bytes, cache_dir
 from ..raytrace.embree_scene import RayScene
 from ..raytrace.optics import dot, normalize
+from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from .compress import TransportTableError, dequantize, load_table, quantize, table_bytes
 from .precompute import DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, precompute_table, tangent_frames
 
-LIGHT_POINT, LIGHT_DIRECTIONAL, LIGHT_SPOT = 0, 1, 2  # as passes/lights.py
 MAX_SUBDIVISION = 256
 _TABLES: dict[tuple, TransportTable] = {}
 

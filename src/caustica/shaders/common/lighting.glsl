@@ -1,11 +1,10 @@
 // Direct light on diffuse receivers with shadow maps, plus unoccluded ambient from the
-// environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone).
+// environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone);
+// LIGHT_POINT, _DIRECTIONAL, _SPOT (scene/codes.py: light_type's codes; the shader library sets them
+// in every program).
 #ifndef MAX_LIGHTS
 #define MAX_LIGHTS 8
 #endif
-#define LIGHT_POINT 0
-#define LIGHT_DIRECTIONAL 1
-#define LIGHT_SPOT 2
 
 uniform int light_count;
 uniform int light_type[MAX_LIGHTS];

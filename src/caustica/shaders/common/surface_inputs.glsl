@@ -3,6 +3,8 @@
 //     vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_direction)
 // for glass (v: unit view direction towards the surface, n: outward unit normal facing the
 // eye), then includes "common/surface_main.glsl", which shades every material.
+// Host defines: MATERIAL_DIFFUSE, _MIRROR, _GLASS (scene/codes.py: material_kind's and SURFACE_KIND's
+// codes; the shader library sets them in every program).
 #include "common/optics.glsl"
 #include "common/environment.glsl"
 #include "common/lighting.glsl"
@@ -12,9 +14,9 @@
 #define DISPERSION 1  // 1: one IOR per channel; ShadeSurfaces sets 0 for glass with a single IOR
 #endif
 
-#define MATERIAL_DIFFUSE 0
-#define MATERIAL_MIRROR 1
-#define MATERIAL_GLASS 2
+#if !defined(MATERIAL_DIFFUSE) || !defined(MATERIAL_MIRROR) || !defined(MATERIAL_GLASS)
+#error "MATERIAL_* come from the host (scene/codes.py); surface_main.glsl's #if would read them as 0"
+#endif
 
 uniform sampler2D environment;
 uniform vec3 camera_position;

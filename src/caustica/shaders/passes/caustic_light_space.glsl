@@ -3,14 +3,12 @@
 // the order of CUBE_FORWARD / CUBE_UP). View v has view_kind[v] (0 projective, 1 cube), view_ortho[v],
 // view_clip[6 v + face] (clip_from_world), view_forward[6 v + face], view_unit_area[v] (texel area on the
 // image plane at unit distance; the absolute texel area for orthographic views) and view_size[v] (N).
-// The light: ls_light_type (0 point, 1 directional, 2 spot), position, direction, intensity, cone cosines.
-// Host defines: VIEW_COUNT (1).
+// The light: ls_light_type (LIGHT_POINT, _DIRECTIONAL or _SPOT), position, direction, intensity, cone cosines.
+// Host defines: VIEW_COUNT (1); LIGHT_POINT, _DIRECTIONAL, _SPOT (scene/codes.py; the shader library sets
+// them in every program).
 #ifndef VIEW_COUNT
 #define VIEW_COUNT 1
 #endif
-#define LS_POINT 0
-#define LS_DIRECTIONAL 1
-#define LS_SPOT 2
 #define VIEW_PROJECTIVE 0
 #define VIEW_CUBE 1
 
@@ -29,18 +27,18 @@ uniform vec2 ls_light_cone;
 
 // Direction light travels from the light to p.
 vec3 light_ray(vec3 p) {
-    return ls_light_type == LS_DIRECTIONAL ? ls_light_direction : normalize(p - ls_light_position);
+    return ls_light_type == LIGHT_DIRECTIONAL ? ls_light_direction : normalize(p - ls_light_position);
 }
 
 // Distance of p from the light as every map stores it (along the direction for directional lights).
 float light_distance(vec3 p) {
-    return ls_light_type == LS_DIRECTIONAL ? dot(p - ls_light_position, ls_light_direction)
-                                           : length(p - ls_light_position);
+    return ls_light_type == LIGHT_DIRECTIONAL ? dot(p - ls_light_position, ls_light_direction)
+                                              : length(p - ls_light_position);
 }
 
 // Spot cone falloff of the light travelling along `ray` (1 for other lights), as lighting.glsl.
 float light_falloff(vec3 ray) {
-    if (ls_light_type != LS_SPOT) return 1.0;
+    if (ls_light_type != LIGHT_SPOT) return 1.0;
     float c = dot(ray, ls_light_direction);
     float t = clamp((c - ls_light_cone.y) / max(ls_light_cone.x - ls_light_cone.y, 1e-9), 0.0, 1.0);
     return t * t * (3.0 - 2.0 * t);
