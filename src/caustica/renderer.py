@@ -110,7 +110,7 @@ class Renderer:
         if width < 1 or height < 1:
             raise SceneError(f"image size {width}x{height} must be at least 1x1")
         if uses_gl:
-            from .techniques.raster import supersampling_factor
+            from .gpu.readback import supersampling_factor
 
             k = supersampling_factor(spp)
             limit = self.device.max_texture_size
@@ -132,7 +132,7 @@ class Renderer:
 
         Defined for techniques whose passes write the ``exit_direction`` channel.
         """
-        from .techniques.raster import read_rgba
+        from .gpu.readback import read_rgba
 
         keep, self._keep = self._keep, True
         try:

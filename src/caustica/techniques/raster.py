@@ -1,27 +1,13 @@
-"""Shared driver for rasterized techniques: supersampling, pass wiring, readback."""
+"""Shared driver for rasterized techniques: pass wiring, supersampling (averaged on the GPU), readback of the colour."""
 from __future__ import annotations
-
-import math
 
 import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..gpu.readback import box_downsample, read_rgb, read_rgba, supersampling_factor  # noqa: F401 (re-exported)
 from ..passes.base import Frame, run_passes
 from .base import Technique
-
-
-def supersampling_factor(spp: int) -> int:
-    """Samples per pixel become a k x k grid (k = round(sqrt(spp)))."""
-    return max(1, int(round(math.sqrt(max(1, spp)))))
-
-
-def box_downsample(image: np.ndarray, k: int) -> np.ndarray:
-    """Average k x k blocks: the box pixel filter of the reference renderers."""
-    if k == 1:
-        return image
-    h, w, c = image.shape
-    return image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
 
 
 def gpu_box_downsample(frame: Frame, texture, k: int):
@@ -36,18 +22,6 @@ def gpu_box_downsample(frame: Frame, texture, k: int):
     set_uniform(program, "source", 0)
     gpu.draw_fullscreen(program)
     return out
-
-
-def read_rgba(texture) -> np.ndarray:
-    """A float texture as a (H, W, components) float32 array, row 0 at the top."""
-    w, h = texture.size
-    data = np.frombuffer(texture.read(), dtype="f4").reshape(h, w, texture.components)
-    return np.ascontiguousarray(data[::-1])
-
-
-def read_rgb(texture) -> np.ndarray:
-    """An RGBA32F texture as a (H, W, 3) float32 image, row 0 at the top."""
-    return np.ascontiguousarray(read_rgba(texture)[:, :, :3])
 
 
 class RasterTechnique(Technique):

@@ -535,7 +535,7 @@ class Viewer:
     # Screenshots: the rendered image (as 'caustica render' writes it) or the whole window.
     def image(self) -> np.ndarray:
         """The main view's last frame as a float32 linear (H, W, 3) image, row 0 at the top."""
-        from ..techniques.raster import box_downsample, read_rgb
+        from ..gpu.readback import box_downsample, read_rgb
 
         if self.main.pending:
             self.live.wait("main")

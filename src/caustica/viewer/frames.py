@@ -19,7 +19,8 @@ from ..errors import first_line
 from ..passes.base import Frame, run_passes
 from ..renderer import Renderer
 from ..techniques import get_technique
-from ..techniques.raster import RasterTechnique, supersampling_factor
+from ..gpu.readback import supersampling_factor
+from ..techniques.raster import RasterTechnique
 
 
 @dataclass
