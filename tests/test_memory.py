@@ -54,6 +54,7 @@ def test_scene_reloads_keep_every_cache_bounded():
     from caustica.gpu.targets import FRAMEBUFFERS
 
     gl_or_skip()
+    gc.collect()  # GL objects that earlier tests dropped go now (released at the next frame), not mid-count
     with Renderer(SIZE) as renderer:
         for _ in range(6):  # two frames a reload: past the pools' IDLE_FRAMES
             render_both(renderer, load_scene("caustics-pool"))
