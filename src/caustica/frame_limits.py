@@ -10,9 +10,9 @@ figure; on a GPU with more memory raise ``caustica.frame_limits.MEMORY_BUDGET``.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from .errors import EnvironmentImageError, RenderOptionError
+from .gpu.readback import supersampling_factor
 from .scene import rules
 
 MAX_SPP = 4096
@@ -27,11 +27,6 @@ MAP_BYTES_PER_TEXEL = {"shadow_map_size": 8, "map_size": 16, "caustic_map_size":
 def check_spp(spp) -> int:
     """Samples per pixel: an integer in [1, MAX_SPP] (not a bool, not a string)."""
     return rules.integer(spp, "samples per pixel (spp)", 1, MAX_SPP, error=RenderOptionError)
-
-
-def supersampled(spp: int) -> int:
-    """The k of the k x k sample grid (as techniques.raster.supersampling_factor)."""
-    return max(1, int(round(math.sqrt(max(1, spp)))))
 
 
 def _gib(nbytes: float) -> str:
@@ -63,7 +58,7 @@ def check_frame_memory(size: tuple[int, int], spp: int, params, scene, budget: i
     """RenderOptionError when the frame's render targets and maps would need more than the budget."""
     budget = MEMORY_BUDGET if budget is None else budget
     width, height = size
-    k = supersampled(spp)
+    k = supersampling_factor(spp)
     targets = width * height * k * k * BYTES_PER_SAMPLE
     if targets > budget:
         raise RenderOptionError(

@@ -6,13 +6,12 @@ import time
 
 import numpy as np
 
-from .errors import GLUnavailableError, RendererClosedError, SceneError
-from .scene import Scene
-from .techniques.base import check_spp, get_technique
 from . import frame_limits
-from .errors import RenderOptionError
-from .scene import rules
+from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
+from .gpu.readback import read_rgba, supersampling_factor
+from .scene import Scene, rules
 from .scene.scene import check_scene
+from .techniques.base import check_spp, get_technique
 
 
 class Renderer:
@@ -42,10 +41,13 @@ class Renderer:
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
         self.last_pass_ms: dict[str, float] = {}
 
-    @property
-    def device(self):
+    def _check_open(self) -> None:
         if self.closed:
             raise RendererClosedError("this Renderer was closed; make a new Renderer (or render inside its with block)")
+
+    @property
+    def device(self):
+        self._check_open()
         if self._device is not None and self._device.pid != os.getpid():
             if not self._owns_device:
                 raise GLUnavailableError("this Renderer's GpuDevice was made before this process was forked and its "
@@ -68,8 +70,7 @@ class Renderer:
         self._device, self.channels, self.closed = None, {}, True
 
     def __enter__(self):
-        if self.closed:
-            raise RendererClosedError("this Renderer was closed; make a new Renderer")
+        self._check_open()
         return self
 
     def __exit__(self, *exc) -> None:
@@ -86,8 +87,7 @@ class Renderer:
 
     def render_timed(self, scene: Scene, technique: str = "env-map", spp: int = 1, **params):
         """Render and return (image, milliseconds), the GPU finished before the clock stops."""
-        if self.closed:
-            raise RendererClosedError("this Renderer was closed; make a new Renderer (or render inside its with block)")
+        self._check_open()  # exact never touches the device
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
@@ -106,12 +106,8 @@ class Renderer:
 
     def _check_size(self, size, spp: int, uses_gl: bool) -> None:
         frame_limits.check_spp(spp)
-        width, height = size
-        if width < 1 or height < 1:
-            raise SceneError(f"image size {width}x{height} must be at least 1x1")
+        width, height = size  # at least 1x1: checked with the camera (rules.image_size)
         if uses_gl:
-            from .gpu.readback import supersampling_factor
-
             k = supersampling_factor(spp)
             limit = self.device.max_texture_size
             if max(width, height) * k > limit:
@@ -132,8 +128,6 @@ class Renderer:
 
         Defined for techniques whose passes write the ``exit_direction`` channel.
         """
-        from .gpu.readback import read_rgba
-
         keep, self._keep = self._keep, True
         try:
             self.render(scene, technique, spp=1, **params)
