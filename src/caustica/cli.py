@@ -11,6 +11,7 @@ from pathlib import Path
 
 from .errors import CausticaError, OutputError, first_line
 from .frame_limits import MAX_SPP
+from .scene.rules import IOR_RANGE
 
 OUTPUT_SUFFIXES = (".png", ".exr")
 
@@ -57,18 +58,17 @@ def _integer(low: int, high: int):
     return parse
 
 
-def _number(low: float, high: float, low_open: bool = False):
-    """An argparse type: a finite number in [low, high] (or (low, high] with ``low_open``)."""
+def _number(low: float, high: float):
+    """An argparse type: a finite number in [low, high]."""
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"'{_shown(text)}' is not a number") from None
-        inside = (value > low if low_open else value >= low) and value <= high
-        if not inside:  # NaN fails both comparisons
-            interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
-            raise argparse.ArgumentTypeError(f"{_shown(text)} is out of range; give a finite number in {interval}")
+        if not low <= value <= high:  # NaN fails the comparison
+            raise argparse.ArgumentTypeError(f"{_shown(text)} is out of range; give a finite number in "
+                                             f"[{low:g}, {high:g}]")
         return value
 
     return parse
@@ -192,7 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     pre = sub.add_parser("precompute", help="light transport table of a glass mesh (Iwasaki et al.), quantized, to .npz")
     pre.add_argument("mesh", help="a mesh file (.obj, .ply, .stl, .glb, .gltf, .off), in object space")
-    pre.add_argument("--ior", type=_number(0.0, 10.0, low_open=True), required=True, help="index of refraction of the glass (e.g. 1.5)")
+    pre.add_argument("--ior", type=_number(*IOR_RANGE), required=True,
+                     help="index of refraction of the glass (e.g. 1.5), in the range scenes take")
     pre.add_argument("-o", "--output", required=True, help="output table, .npz")
     pre.add_argument("--directions", type=_integer(1, 1 << 20), default=129, help="sampled incident directions, 2 r^2 + 1 (default 129)")
     pre.add_argument("--max-depth", type=_integer(1, 64), default=8, help="glass interfaces followed per ray (default 8)")
