@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomic  # noqa: F401  (re-exported: every image output goes through it)
+from .atomic import write_atomic
 from .errors import EnvironmentImageError, OutputError, first_line
 
 READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")

@@ -11,8 +11,6 @@ needs to match the technique's error give the speed ratio.
 from __future__ import annotations
 
 import time
-from pathlib import Path
-
 
 from ..atomic import write_atomic
 from ..renderer import Renderer
@@ -115,6 +113,6 @@ def plot(rows: list[dict], quality: list[dict], path) -> None:
         ax.legend(fontsize=7)
     fig.tight_layout()
     try:
-        write_atomic(Path(path), lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     finally:
         plt.close(fig)

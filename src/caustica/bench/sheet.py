@@ -45,8 +45,6 @@ def contact_sheet(rows: list[tuple[str, np.ndarray, np.ndarray | None]], referen
 
 def save_sheet(sheet: Image.Image, path) -> None:
     """Write atomically (temp file, then rename) so no half-written PNG remains."""
-    from pathlib import Path
+    from ..atomic import write_atomic
 
-    from ..images import write_atomic
-
-    write_atomic(Path(path), lambda tmp: sheet.save(tmp, format="PNG"))
+    write_atomic(path, lambda tmp: sheet.save(tmp, format="PNG"))

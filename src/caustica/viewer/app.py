@@ -78,10 +78,9 @@ class Viewer:
     def __init__(self, scene: Scene, technique: str = "env-map", params: dict | None = None, size=None,
                  spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
                  title: str | None = None, fixed_step: bool = False):
-        from ..techniques import get_technique
-
-        get_technique(technique).make_params(**(params or {}))  # fail on bad input before opening a window
-        check_spp(get_technique(technique), int(spp))
+        chosen = get_technique(technique)
+        chosen.make_params(**(params or {}))  # fail on bad input before opening a window
+        check_spp(chosen, int(spp))
         self.scene = scene
         self.orbit = OrbitCamera(scene.camera)
         self.technique, self.params = technique, dict(params or {})
@@ -365,7 +364,6 @@ class Viewer:
 
     def set_technique(self, name: str) -> None:
         """Switch technique, keeping the parameters the new one also has."""
-        from ..techniques import get_technique
         from .params import param_specs
 
         technique = get_technique(name)
@@ -379,8 +377,6 @@ class Viewer:
 
     def set_param(self, name: str, value, second: bool = False) -> None:
         """Set a technique parameter; a rejected value is reported in the panel and not applied."""
-        from ..techniques import get_technique
-
         technique = self.second if second else self.technique
         params = dict(self.second_params if second else self.params, **{name: value})
         try:
@@ -423,7 +419,6 @@ class Viewer:
         if target.material.kind != "glass":
             self.error = f"{target.name} is {target.material.kind}; only glass objects choose a technique"
             return
-        from ..techniques import get_technique
         from ..techniques.composite import CausticTechnique
 
         view, plus, caustics = self.technique.partition("+")
@@ -448,8 +443,6 @@ class Viewer:
 
     @staticmethod
     def _per_object_params(**values):
-        from ..techniques import get_technique
-
         return get_technique("per-object").make_params(**values)
 
     def _object(self, obj):
@@ -504,8 +497,6 @@ class Viewer:
     def set_side_by_side(self, technique: str | None, difference: bool = False) -> None:
         """Show ``technique`` beside the main one (None: back to one view); ``difference`` shows |a - b| instead."""
         if technique is not None:
-            from ..techniques import get_technique
-
             get_technique(technique)
         was = bool(self.second) and not self.difference
         self.second, self.second_params, self.difference = technique, {}, bool(difference and technique)
@@ -562,14 +553,12 @@ class Viewer:
         return self._save_window(path)
 
     def _save_window(self, path) -> str:
-        from pathlib import Path
-
         from PIL import Image
 
         from ..atomic import write_atomic
 
         pixels = self.last_window
-        return str(write_atomic(Path(path), lambda tmp: Image.fromarray(pixels).save(tmp, format="PNG")))
+        return str(write_atomic(path, lambda tmp: Image.fromarray(pixels).save(tmp, format="PNG")))
 
     # Input callbacks: ImGui first; the view gets what the panel does not want.
     def _on_char(self, window, char) -> None:
