@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import errno
 import inspect
-import math
 import tomllib
 from pathlib import Path
 
@@ -176,7 +175,8 @@ class _Table:
 
 
 def _is_number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+    """A TOML int or float that is finite as a float (rules.finite: an int too big for a float is not)."""
+    return isinstance(x, (int, float)) and rules.finite(x)
 
 
 def _convert(value, kind: str):

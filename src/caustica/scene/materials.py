@@ -9,8 +9,6 @@ from ..errors import SceneError, short
 from . import rules
 
 
-
-
 @dataclass
 class Diffuse:
     """Lambertian receiver with albedo ``color``."""

@@ -116,7 +116,10 @@ def _validated(value, kinds: tuple, where: str, what: str, arrays: tuple[str, ..
     ``arrays``, only when those array fields are new objects (rules.once_per_arrays)."""
     _part(value, kinds, where, what)
     with rules.context(where, [f.name for f in dataclasses.fields(value)]):
-        rules.once_per_arrays(value, arrays, value.validate) if arrays else value.validate()
+        if arrays:
+            rules.once_per_arrays(value, arrays, value.validate)
+        else:
+            value.validate()
 
 
 def check_scene(scene) -> Scene:
