@@ -27,9 +27,10 @@ ENVIRONMENT_TEXTURES = 4  # environment images kept on the GPU, by content
 
 
 class LruCache(OrderedDict):
-    """A dict that keeps its ``max_entries`` most recently used entries; ``on_evict(value)`` frees the others."""
+    """A dict that keeps its ``max_entries`` most recently used entries; ``on_evict(value)``, when
+    given, frees the others."""
 
-    def __init__(self, max_entries: int, on_evict):
+    def __init__(self, max_entries: int, on_evict=None):
         super().__init__()
         self.max_entries, self.on_evict = int(max_entries), on_evict
 
@@ -45,7 +46,9 @@ class LruCache(OrderedDict):
         super().__setitem__(key, value)
         self.move_to_end(key)
         while len(self) > self.max_entries:
-            self.on_evict(self.popitem(last=False)[1])
+            evicted = self.popitem(last=False)[1]
+            if self.on_evict is not None:
+                self.on_evict(evicted)
 
 
 class GpuDevice:

@@ -112,8 +112,9 @@ class MeshCache:
     def end_frame(self) -> None:
         """Count a frame; release the meshes not drawn in the last ``idle_frames`` frames."""
         self.frame += 1
-        for key in [k for k, m in self._meshes.items() if self.frame - m.last_used > self.idle_frames]:
-            self._drop(key)
+        # Least recently used first, so last_used only grows along the dict: stop at the first recent one.
+        while self._meshes and self.frame - next(iter(self._meshes.values())).last_used > self.idle_frames:
+            self._drop(next(iter(self._meshes)))
 
     def _drop(self, key: str) -> None:
         self._meshes.pop(key).release()
@@ -139,9 +140,10 @@ def _member(program, name: str):
         return program[name]
     except KeyError:
         declared = declared_uniforms(program) if STRICT_UNIFORMS else None
-        base = re.split(r"[\[.]", name, maxsplit=1)[0]
-        if declared is not None and base not in declared:
-            raise ShaderError(f"uniform '{name}' is not declared in the program's shaders{closest_name(base, declared)}") from None
+        if declared is not None:
+            base = re.split(r"[\[.]", name, maxsplit=1)[0]
+            if base not in declared:
+                raise ShaderError(f"uniform '{name}' is not declared in the program's shaders{closest_name(base, declared)}") from None
         return None
 
 

@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..gpu.device import LruCache
 from ..gpu.meshes import set_uniform
 from .base import Channel, Frame, Pass
 from .surfaces import draw_refractor_buffer
 
 DN_ATTRIBUTE = "in_dn"
-_MEMORY: dict[str, np.ndarray] = {}  # mesh geometry hash -> d_N, the MEMORY_ENTRIES most recent
-MEMORY_ENTRIES = 64
+MEMORY_ENTRIES = 64  # an animated refractor has new geometry each frame
+_MEMORY: LruCache = LruCache(MEMORY_ENTRIES)  # mesh geometry hash -> d_N, the MEMORY_ENTRIES most recently used
 
 
 def distance_along_normal(mesh) -> np.ndarray:
@@ -38,8 +39,6 @@ def distance_along_normal(mesh) -> np.ndarray:
         store_array(path, values)
     values.setflags(write=False)
     _MEMORY[key] = values
-    while len(_MEMORY) > MEMORY_ENTRIES:  # an animated refractor has new geometry each frame
-        _MEMORY.pop(next(iter(_MEMORY)))
     return values
 
 
