@@ -1,19 +1,16 @@
-"""The casters of caustics (glass and mirrors) and the codes that say what each does to light.
+"""The casters of caustics (glass and mirrors) and the code that says what each does to light.
 
-One table for Python and the shaders: ``caustic-mapping``'s caster table (``caustic_trace.comp``'s
-``caster_type``) and ``photon-splats``' object kind (``photon_refract.frag``'s ``object_kind``) hold
-these codes, and the shaders get their names as defines (:data:`CASTER_DEFINES`).
+caustic-mapping's caster table (``caustic_trace.comp``'s ``caster_type``) and photon-splats' object kind
+(``photon_refract.frag``'s ``object_kind``) hold the ``CASTER_*`` codes of :mod:`caustica.scene.codes`,
+which the shader library defines in every program.
 """
 from __future__ import annotations
 
-MAX_CASTERS = 32
-CASTER_NONE = 0  # not a caster: occludes the light
-CASTER_MIRROR = 1  # reflects once
-CASTER_SOLID = 2  # closed glass: refracts in, and out through the back faces
-CASTER_SURFACE = 3  # open glass mesh (water): one refracting surface
-CASTER_DEFINES = {"CASTER_NONE": CASTER_NONE, "CASTER_MIRROR": CASTER_MIRROR,
-                  "CASTER_SOLID": CASTER_SOLID, "CASTER_SURFACE": CASTER_SURFACE}
+from ..scene.codes import CASTER_MIRROR, CASTER_NONE, CASTER_SOLID, CASTER_SURFACE
 
+__all__ = ["MAX_CASTERS", "CASTER_NONE", "CASTER_MIRROR", "CASTER_SOLID", "CASTER_SURFACE", "casters", "caster_code"]
+
+MAX_CASTERS = 32
 
 def casters(scene) -> list:
     """The objects that make caustics (glass and mirrors), at most MAX_CASTERS, in scene order."""

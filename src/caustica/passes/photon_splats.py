@@ -24,7 +24,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
-from .casters import CASTER_DEFINES, CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
+from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import LightView, bind_views, dispatch_photons
 
@@ -66,8 +66,7 @@ class RefractFromLight(Pass):
         fbo = gpu.targets.framebuffer(targets, depth)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode),
-                   **CASTER_DEFINES}
+        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
         program = gpu.shaders.program("passes/image_space.vert", "passes/photon_refract.frag", defines)
         view.bind(program)
         bind_samplers(program, ("back_position", "back_normal"), back)

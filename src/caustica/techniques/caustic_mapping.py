@@ -67,7 +67,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
-from ..passes.casters import CASTER_DEFINES, MAX_CASTERS, caster_code, casters
+from ..passes.casters import MAX_CASTERS, caster_code, casters
 from ..passes.light_space import (
     COARSE_NEWTON_STEPS,
     CachedPasses,
@@ -140,7 +140,7 @@ class TracePhotons(Pass):
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
         channels = 3 if dispersive else 1
-        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, **CASTER_DEFINES}
+        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS}
         program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
         set_uniform(program, "caster_type", types)
         set_uniform(program, "caster_ior", iors)

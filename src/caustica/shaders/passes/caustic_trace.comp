@@ -6,7 +6,7 @@
 // lands where the intersection estimate against the receivers' position texture (view 1) puts it.
 // The first guess of the estimate is the distance to the receiver behind the origin (Shah et al. use
 // d = 1), or, in a second pass, to where the first pass landed the photon.
-// Host defines: VIEW_COUNT (2), MAX_CASTERS (32), CASTER_NONE, _MIRROR, _SOLID, _SURFACE (passes/casters.py).
+// Host defines: VIEW_COUNT (2), MAX_CASTERS (32), CASTER_NONE, _MIRROR, _SOLID, _SURFACE (scene/codes.py, in every program).
 #version 430 core
 #ifndef MAX_CASTERS
 #define MAX_CASTERS 32

@@ -10,7 +10,7 @@
 // mirrors reflect once; diffuse objects occlude (no photon).
 // Host defines: CHANNELS (1: one RGB photon; 3: one photon per channel), USE_DN (1),
 // TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2, TIR_DROP 3), VIEW_COUNT (1: the photon buffer's view),
-// CASTER_NONE, _MIRROR, _SOLID, _SURFACE (passes/casters.py: object_kind's codes).
+// CASTER_NONE, _MIRROR, _SOLID, _SURFACE (scene/codes.py, in every program: object_kind's codes).
 #version 430 core
 #ifndef CHANNELS
 #define CHANNELS 1
