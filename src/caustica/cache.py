@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -81,3 +82,28 @@ def state_key(value):
     except TypeError:
         return repr(value)
     return value
+
+
+class LruCache(OrderedDict):
+    """A dict that keeps its ``max_entries`` most recently used entries; ``on_evict(value)``, when
+    given, frees the others."""
+
+    def __init__(self, max_entries: int, on_evict=None):
+        super().__init__()
+        self.max_entries, self.on_evict = int(max_entries), on_evict
+
+    def __getitem__(self, key):
+        value = super().__getitem__(key)
+        self.move_to_end(key)
+        return value
+
+    def get(self, key, default=None):
+        return self[key] if key in self else default
+
+    def __setitem__(self, key, value) -> None:
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > self.max_entries:
+            evicted = self.popitem(last=False)[1]
+            if self.on_evict is not None:
+                self.on_evict(evicted)

@@ -11,11 +11,11 @@ from __future__ import annotations
 import hashlib
 import os
 import weakref
-from collections import OrderedDict
 
 import moderngl
 import numpy as np
 
+from ..cache import LruCache
 from .context import collect_dropped, describe, is_inherited, shared_context
 from .meshes import MeshCache
 from .shaders import ShaderLibrary
@@ -24,31 +24,6 @@ from .targets import TargetPool
 
 CACHE_ENTRIES = 128  # results kept across frames in GpuDevice.cache (a frame stores about ten)
 ENVIRONMENT_TEXTURES = 4  # environment images kept on the GPU, by content
-
-
-class LruCache(OrderedDict):
-    """A dict that keeps its ``max_entries`` most recently used entries; ``on_evict(value)``, when
-    given, frees the others."""
-
-    def __init__(self, max_entries: int, on_evict=None):
-        super().__init__()
-        self.max_entries, self.on_evict = int(max_entries), on_evict
-
-    def __getitem__(self, key):
-        value = super().__getitem__(key)
-        self.move_to_end(key)
-        return value
-
-    def get(self, key, default=None):
-        return self[key] if key in self else default
-
-    def __setitem__(self, key, value) -> None:
-        super().__setitem__(key, value)
-        self.move_to_end(key)
-        while len(self) > self.max_entries:
-            evicted = self.popitem(last=False)[1]
-            if self.on_evict is not None:
-                self.on_evict(evicted)
 
 
 class GpuDevice:

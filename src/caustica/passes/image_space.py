@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..gpu.device import LruCache
+from ..cache import LruCache
 from ..gpu.meshes import set_uniform
 from .base import Channel, Frame, Pass
 from .surfaces import draw_refractor_buffer

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cache import atomic_write_bytes, cache_dir
+from ..cache import LruCache, atomic_write_bytes, cache_dir
 from ..raytrace.embree_scene import RayScene
 from ..raytrace.optics import dot, normalize
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
@@ -50,7 +50,7 @@ from .compress import TransportTableError, dequantize, load_table, quantize, tab
 from .precompute import DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, precompute_table, tangent_frames
 
 MAX_SUBDIVISION = 256
-_TABLES: dict[tuple, TransportTable] = {}
+_TABLES: LruCache = LruCache(8)  # the tables most recently used
 
 
 # Tables -----------------------------------------------------------------------
@@ -85,8 +85,6 @@ def table_for(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth:
     if len(table.exit_position) != len(mesh.vertices):
         raise TransportTableError(f"transport table has {len(table.exit_position)} vertices, the mesh {len(mesh.vertices)}")
     _TABLES[key] = table
-    while len(_TABLES) > 8:
-        _TABLES.pop(next(iter(_TABLES)))
     return table
 
 
@@ -192,15 +190,13 @@ def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
     return ExitRays(origin, direction, weight, irradiance * projected[:, None])
 
 
-_FRAMES: dict[str, np.ndarray] = {}
+_FRAMES: LruCache = LruCache(64)  # an animated mesh has new geometry each frame
 
 
 def vertex_frames(mesh) -> np.ndarray:
     key = mesh.geometry_hash()
     if key not in _FRAMES:
         _FRAMES[key] = tangent_frames(mesh.normals)
-        while len(_FRAMES) > 64:  # an animated mesh has new geometry each frame
-            _FRAMES.pop(next(iter(_FRAMES)))
     return _FRAMES[key]
 
 
