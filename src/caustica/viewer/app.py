@@ -4,11 +4,13 @@ Every frame runs the technique's passes on a :class:`GpuDevice` built over the
 window's own GL context, draws the ``color`` texture into the view (no
 readback), then the panel and the frame-time overlay. Input arrives from the
 mouse and keyboard or from a script of events (:meth:`Viewer.apply`), so
-tests and ``--script`` runs drive it exactly as a person would.
+tests and ``--script`` runs drive it exactly as a person would. What they edit
+is the headless :class:`~caustica.viewer.state.ViewerState` (``viewer.state``).
 """
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import time
 from collections import deque
@@ -17,7 +19,6 @@ import numpy as np
 
 from ..errors import CausticaError
 from ..scene import Scene
-from ..techniques.base import check_spp, get_technique
 from .frames import (
     LiveImage,
     LiveRenderer,
@@ -25,7 +26,7 @@ from .frames import (
     prune_meshes,
     release_device,
 )
-from .orbit import OrbitCamera
+from .state import ViewerState, animated_variant  # noqa: F401 (animated_variant: imported from here too)
 
 PANEL_WIDTH = 340  # pixels at the window's right edge while the panel is open
 NO_DISPLAY = "no display found (DISPLAY is not set); use 'caustica render' for headless images"
@@ -43,26 +44,6 @@ def check_display() -> None:
         raise ViewerError(NO_DISPLAY)
 
 
-def animated_variant(scene_name: str):
-    """``f(time) -> Scene`` for an animated preset, or None.
-
-    A presets module may list them in ``ANIMATED`` ({name: f}); otherwise a
-    function ``<last word>_scene(time)`` (``caustics-pool`` -> ``pool_scene``) counts.
-    """
-    import inspect
-
-    from ..scene import presets
-
-    table = getattr(presets, "ANIMATED", None)
-    if isinstance(table, dict) and scene_name in table:
-        return table[scene_name]
-    candidate = getattr(presets, scene_name.split("-")[-1].replace("-", "_") + "_scene", None)
-    if (callable(candidate) and scene_name in getattr(presets, "PRESETS", {})
-            and "time" in inspect.signature(candidate).parameters):
-        return candidate
-    return None
-
-
 @dataclasses.dataclass
 class CloseReport:
     """What closing left behind: the last GL error and GL objects still alive (both should be empty)."""
@@ -72,32 +53,66 @@ class CloseReport:
     earlier_errors: list = dataclasses.field(default_factory=list)  # GL errors collected while running
 
 
+class _StateField:
+    """A Viewer attribute that is its editing model's (``viewer.state.<name>``), read and written."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, viewer, owner=None):
+        return self if viewer is None else getattr(viewer.state, self.name)
+
+    def __set__(self, viewer, value):
+        setattr(viewer.state, self.name, value)
+
+
+def _forward(method):
+    """A Viewer method that runs ``method`` of its editing model (same name, signature and docstring)."""
+    @functools.wraps(method)
+    def forward(self, *args, **kwargs):
+        return method(self.state, *args, **kwargs)
+    return forward
+
+
 class Viewer:
-    """An interactive window over ``scene``. Use :meth:`run`, or :meth:`step` frame by frame, then :meth:`close`."""
+    """An interactive window over ``scene``. Use :meth:`run`, or :meth:`step` frame by frame, then :meth:`close`.
+
+    The scene, camera, technique and other edits live in ``self.state`` (a :class:`ViewerState`); the
+    viewer reads and writes them under the same names (``viewer.technique``, ``viewer.orbit_by``...).
+    """
+
+    scene = _StateField()
+    orbit = _StateField()
+    technique = _StateField()
+    params = _StateField()
+    spp = _StateField()
+    exposure = _StateField()
+    second = _StateField()
+    second_params = _StateField()
+    difference = _StateField()
+    difference_gain = _StateField()
+    inspect = _StateField()
+    inspect_mode = _StateField()
+    inspect_range = _StateField()
+    inspect_auto = _StateField()
+    scene_at = _StateField()
+    time = _StateField()
+    playing = _StateField()
+    show_panel = _StateField()
+    show_overlay = _StateField()
+    error = _StateField()
+    state_version = _StateField()
 
     def __init__(self, scene: Scene, technique: str = "env-map", params: dict | None = None, size=None,
                  spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
                  title: str | None = None, fixed_step: bool = False):
-        chosen = get_technique(technique)
-        chosen.make_params(**(params or {}))  # fail on bad input before opening a window
-        check_spp(chosen, int(spp))
-        self.scene = scene
-        self.orbit = OrbitCamera(scene.camera)
-        self.technique, self.params = technique, dict(params or {})
-        self.spp, self.exposure = int(spp), float(exposure)
-        self.show_panel, self.show_overlay, self.profile = panel, overlay, False
-        self.second: str | None = None  # side-by-side technique ("mitsuba" is the cached reference)
-        self.second_params: dict = {}
-        self.difference, self.difference_gain = False, 4.0
-        self.inspect: str | None = None  # channel name shown instead of the final image
-        self.inspect_mode, self.inspect_range, self.inspect_auto = "auto", (0.0, 1.0), True
-        self.scene_at = animated_variant(scene.name)
-        self.time, self.playing, self.fixed_step = 0.0, False, fixed_step
-        self.error: str | None = None
+        # Validates the technique, parameters and spp before a window opens.
+        self.state = ViewerState(scene, technique, params, spp, exposure, panel, overlay,
+                                 viewport=lambda: self.layout()[0][2:])
+        self.profile, self.fixed_step = False, fixed_step
         self.pass_gl_errors: set[str] = set()  # GL errors the technique's passes left (reported, not raised)
         self.frame_index, self.frame_ms = 0, deque(maxlen=60)
         self.main = self.other = LiveImage(technique)
-        self.state_version = 0  # bumped on every change: CPU techniques re-render on it
         self._drag = {"button": None, "pos": (0.0, 0.0), "shift": False}
         self._cursor_over_panel = False
         self.overlay_rect = None  # where ImGui last drew the overlay (x, y, w, h from the lower left)
@@ -183,21 +198,10 @@ class Viewer:
         """View rectangles (x, y, w, h) from the window's lower left: one, or two side by side."""
         width, height = self.glfw.get_framebuffer_size(self.window)
         usable = max(1, width - (PANEL_WIDTH if self.show_panel else 0))
-        if self.second and not self.difference:
+        if self.state.side_by_side:
             half = usable // 2
             return [(0, 0, half, height), (half, 0, half, height)]
         return [(0, 0, usable, height)]
-
-    def camera(self, size=None):
-        """The scene camera the first view renders (its current orbit), at ``size`` or the view's size."""
-        if size is None:
-            _, _, width, height = self.layout()[0]
-            size = (width, height)
-        return self.orbit.camera(size)
-
-    def scene_view(self, size=None) -> Scene:
-        """The scene as the first view sees it: for headless renders of the same frame."""
-        return dataclasses.replace(self.scene, camera=self.camera(size))
 
     # One frame: input, animation, render, draw, panel, swap.
     def step(self) -> None:
@@ -338,190 +342,46 @@ class Viewer:
         self._script.popleft()
         self.apply(event)
 
-    def changed(self) -> None:
-        self.state_version += 1
-
-    def orbit_by(self, dx: float, dy: float) -> None:
-        self.orbit.orbit(dx, dy)
-        self.changed()
-
-    def pan_by(self, dx: float, dy: float) -> None:
-        self.orbit.pan(dx, dy, self.layout()[0][3])
-        self.changed()
-
-    def zoom_by(self, steps: float) -> None:
-        self.orbit.zoom(steps)
-        self.changed()
-
-    def frame_scene(self) -> None:
-        _, _, width, height = self.layout()[0]
-        self.orbit.frame(self.scene.bounds(), width / max(1, height))
-        self.changed()
-
-    def reset_camera(self) -> None:
-        self.orbit.reset()
-        self.changed()
-
-    def set_technique(self, name: str) -> None:
-        """Switch technique, keeping the parameters the new one also has."""
-        from .params import param_specs
-
-        technique = get_technique(name)
-        known = {spec.name for spec in param_specs(technique)}
-        # per-object (alone or under caustics) also keeps its techniques' qualified parameters.
-        kept = {k: v for k, v in self.params.items()
-                if k in known or k.rpartition(".")[0] in technique.qualified_prefixes}
-        self.technique, self.params, self.inspect = name, kept, None
-        self.error = None
-        self.changed()
-
-    def set_param(self, name: str, value, second: bool = False) -> None:
-        """Set a technique parameter; a rejected value is reported in the panel and not applied."""
-        technique = self.second if second else self.technique
-        params = dict(self.second_params if second else self.params, **{name: value})
-        try:
-            get_technique(technique).make_params(**params)
-        except CausticaError as exc:
-            self.error = str(exc)
-            return
-        if second:
-            self.second_params = params
-        else:
-            self.params = params
-        self.error = None
-        self.changed()
-
-    def set_material(self, obj, field: str, value) -> None:
-        """Change a material field (``ior``, ``absorption_color``...) of an object given by index or name."""
-        target = self._object(obj)
-        try:
-            target.material = dataclasses.replace(target.material, **{field: value})
-        except (TypeError, ValueError) as exc:
-            self.error = f"{target.name}: {exc}"
-            return
-        self.error = None
-        self.changed()
-
-    def object_technique(self, obj) -> str:
-        """The view technique that shows glass object ``obj`` (index or name) now."""
-        from ..techniques.per_object import VIEW_TECHNIQUES
-
-        view = self.technique.split("+")[0]
-        if view == "per-object":
-            params = {k: self.params[k] for k in ("techniques", "default") if k in self.params}
-            return self._per_object_params(**params).technique_of(self._object(obj))
-        return view if view in VIEW_TECHNIQUES else self._per_object_params().default
-
-    def set_object_technique(self, obj, technique: str) -> None:
-        """Show glass object ``obj`` (index or name) with view ``technique``: switches to ``per-object``
-        (``per-object+<caustics>`` when caustics were on), the other objects keeping what they showed."""
-        target = self._object(obj)
-        if target.material.kind != "glass":
-            self.error = f"{target.name} is {target.material.kind}; only glass objects choose a technique"
-            return
-        from ..techniques.composite import CausticTechnique
-
-        view, plus, caustics = self.technique.partition("+")
-        if not plus and isinstance(get_technique(view), CausticTechnique):  # a caustic technique named alone
-            plus, caustics = "+", view
-        mapping = {o.name: self.object_technique(o.name) for o in self.scene.objects_of("glass")}
-        mapping[target.name] = technique
-        default = self.object_technique(target.name) if view != "per-object" else self.params.get(
-            "default", self._per_object_params().default)
-        try:
-            self._per_object_params(techniques=mapping, default=default)
-        except CausticaError as exc:
-            self.error = str(exc)
-            return
-        name = "per-object" + plus + caustics
-        if name != self.technique:
-            self.set_technique(name)
-        self.params = {**self.params, "techniques": {k: v for k, v in mapping.items() if v != default},
-                       "default": default}
-        self.error = None
-        self.changed()
-
-    @staticmethod
-    def _per_object_params(**values):
-        return get_technique("per-object").make_params(**values)
-
-    def _object(self, obj):
-        if isinstance(obj, str):
-            found = [o for o in self.scene.objects if o.name == obj]
-            if not found:
-                raise CausticaError(f"no object named '{obj}'; objects: {', '.join(o.name for o in self.scene.objects)}")
-            return found[0]
-        return self.scene.objects[int(obj)]
-
-    def move_light(self, index: int, delta=None, position=None) -> None:
-        """Move light ``index`` by ``delta`` or to ``position``; a directional light turns its direction instead."""
-        light = self.scene.lights[int(index)]
-        if hasattr(light, "position"):
-            new = np.asarray(position if position is not None else light.position + np.asarray(delta, float), float)
-            self.scene.lights[int(index)] = dataclasses.replace(light, position=new)
-        else:
-            new = np.asarray(position if position is not None else light.direction + np.asarray(delta, float), float)
-            self.scene.lights[int(index)] = dataclasses.replace(light, direction=new)
-        self.changed()
-
-    def drag_light(self, dx: float, dy: float, index: int = 0) -> None:
-        """Move a light in the view plane by a drag of (dx, dy) pixels (shift + left drag)."""
-        if not self.scene.lights:
-            return
-        camera = self.camera()
-        forward = camera.look_at - camera.position
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, camera.up)
-        right /= np.linalg.norm(right)
-        up = np.cross(right, forward)
-        scale = 2.0 * self.orbit.distance * np.tan(np.radians(camera.fov_y) / 2.0) / camera.size[1]
-        delta = scale * (dx * right - dy * up)
-        light = self.scene.lights[index]
-        self.move_light(index, delta if hasattr(light, "position") else 0.2 * delta / max(self.orbit.distance, 1e-6))
+    # Edits: the editing model's, plus what they change in the window (its size, the GPU's meshes).
+    changed = _forward(ViewerState.changed)
+    camera = _forward(ViewerState.camera)
+    scene_view = _forward(ViewerState.scene_view)
+    orbit_by = _forward(ViewerState.orbit_by)
+    pan_by = _forward(ViewerState.pan_by)
+    zoom_by = _forward(ViewerState.zoom_by)
+    frame_scene = _forward(ViewerState.frame_scene)
+    reset_camera = _forward(ViewerState.reset_camera)
+    set_technique = _forward(ViewerState.set_technique)
+    set_param = _forward(ViewerState.set_param)
+    set_spp = _forward(ViewerState.set_spp)
+    set_material = _forward(ViewerState.set_material)
+    object_technique = _forward(ViewerState.object_technique)
+    set_object_technique = _forward(ViewerState.set_object_technique)
+    move_light = _forward(ViewerState.move_light)
+    drag_light = _forward(ViewerState.drag_light)
+    play = _forward(ViewerState.play)
 
     def set_inspect(self, channel: str | None, mode: str = "auto") -> None:
-        """Show a channel of the main technique by name (``back_surface``, ``shadow_maps[0]``...), None for the image."""
-        self.inspect, self.inspect_mode, self.inspect_auto = channel, mode, True
-        if channel is not None and self.main.color is not None:
-            names = channel_textures(self.main.channels)
-            if channel not in names:
-                self.error = f"no channel '{channel}' in {self.technique}; channels: {', '.join(names)}"
-                self.inspect = None
-                return
-            from .display import auto_mode, value_range
-
-            texture = names[channel]
-            if (mode if mode != "auto" else auto_mode(channel, texture)) == "range":
-                self.inspect_range = value_range(texture)
+        """:meth:`ViewerState.set_inspect`, the name checked against the last frame's channels."""
+        channels = channel_textures(self.main.channels) if self.main.color is not None else None
+        self.state.set_inspect(channel, mode, channels)
 
     def set_side_by_side(self, technique: str | None, difference: bool = False) -> None:
-        """Show ``technique`` beside the main one (None: back to one view); ``difference`` shows |a - b| instead."""
-        if technique is not None:
-            get_technique(technique)
-        was = bool(self.second) and not self.difference
-        self.second, self.second_params, self.difference = technique, {}, bool(difference and technique)
-        if (bool(self.second) and not self.difference) != was:
+        """:meth:`ViewerState.set_side_by_side`; the window refits when the number of views changes."""
+        was = self.state.side_by_side
+        self.state.set_side_by_side(technique, difference)
+        if self.state.side_by_side != was:
             self._fit_window()
-        self.changed()
 
     def toggle_panel(self) -> None:
-        self.show_panel = not self.show_panel
+        self.state.toggle_panel()
         self._fit_window()
 
     def set_time(self, value: float) -> None:
-        """Scene time of an animated preset: its meshes move, edited materials and lights stay."""
-        if self.scene_at is None:
-            return
-        self.time = float(value)
-        fresh = {o.name: o for o in self.scene_at(self.time).objects}
-        for obj in self.scene.objects:
-            if obj.name in fresh and fresh[obj.name].mesh is not obj.mesh:
-                obj.mesh = fresh[obj.name].mesh
-        prune_meshes(self.device, self.scene)
-        self.changed()
-
-    def play(self, on: bool = True) -> None:
-        self.playing = bool(on) and self.scene_at is not None
+        """Scene time of an animated preset: its meshes move (the dropped ones leave the GPU), edits stay."""
+        self.state.set_time(value)
+        if self.scene_at is not None:
+            prune_meshes(self.device, self.scene)
 
     # Screenshots: the rendered image (as 'caustica render' writes it) or the whole window.
     def image(self) -> np.ndarray:
@@ -696,8 +556,7 @@ EVENTS = {
     "light": Viewer.move_light, "drag_light": Viewer.drag_light,
     "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
     "exposure": lambda v, value: setattr(v, "exposure", float(value)),
-    "spp": lambda v, value: (check_spp(get_technique(v.technique), int(value)), setattr(v, "spp", int(value)),
-                             v.changed()),
+    "spp": Viewer.set_spp,
     "overlay": lambda v, on=True: setattr(v, "show_overlay", bool(on)),
     "time": Viewer.set_time, "play": Viewer.play, "panel": lambda v, on=True: on != v.show_panel and v.toggle_panel(),
     "screenshot": Viewer.screenshot, "screenshot_window": Viewer.screenshot_window,

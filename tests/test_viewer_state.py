@@ -1,0 +1,263 @@
+"""The viewer's editing model (``ViewerState``) with no display, no window and no GL context."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import caustica
+from caustica.errors import CausticaError, TechniqueError
+from caustica.techniques import get_technique
+from caustica.viewer.state import ViewerState
+
+
+def state_of(name: str, technique: str = "env-map", **kwargs) -> ViewerState:
+    return ViewerState(caustica.load_scene(name), technique, **kwargs)
+
+
+def test_the_state_module_needs_no_window_packages():
+    code = ("import sys, caustica.viewer.state\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('glfw', 'imgui_bundle', 'OpenGL')))")
+    done = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "[]"
+
+
+def test_bad_input_is_refused_before_a_window_opens(monkeypatch):
+    from caustica.viewer import Viewer
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    scene = caustica.load_scene("glass-sphere")
+    with pytest.raises(TechniqueError, match="tir_mode 'bogus' must be one of") as state_error:
+        ViewerState(scene, "image-space", {"tir_mode": "bogus"})
+    with pytest.raises(TechniqueError) as viewer_error:  # the state's error, not "no display found"
+        Viewer(scene, "image-space", {"tir_mode": "bogus"})
+    assert str(viewer_error.value) == str(state_error.value)
+    with pytest.raises(TechniqueError, match="spp 3 is not a square"):
+        ViewerState(scene, spp=3)
+
+
+def test_a_rejected_parameter_is_reported_and_not_applied():
+    state = state_of("glass-sphere", "image-space", params={"tir_mode": "reflect"})
+    with pytest.raises(TechniqueError) as refused:
+        get_technique("image-space").make_params(tir_mode="bogus")
+    state.set_param("tir_mode", "bogus")
+    assert state.error == str(refused.value)
+    assert state.params == {"tir_mode": "reflect"} and state.state_version == 0
+    state.set_param("tir_mode", "keep-t1")
+    assert state.params == {"tir_mode": "keep-t1"} and state.error is None and state.state_version == 1
+
+
+def test_set_technique_keeps_only_the_parameters_the_new_one_has():
+    state = state_of("glass-sphere", "image-space", params={"tir_mode": "reflect", "nearby": "planes",
+                                                           "shadow_map_size": 512})
+    state.inspect, state.error = "back_surface", "old"
+    state.set_technique("depth-search")
+    assert state.technique == "depth-search"
+    assert state.params == {"nearby": "planes", "shadow_map_size": 512}  # depth-search has no tir_mode
+    assert state.inspect is None and state.error is None and state.state_version == 1
+    with pytest.raises(TechniqueError, match="unknown technique 'nope'"):
+        state.set_technique("nope")
+    assert state.technique == "depth-search" and state.state_version == 1
+
+
+def test_the_second_technique_takes_its_own_parameters():
+    state = state_of("glass-sphere")
+    state.set_side_by_side("image-space")
+    assert state.side_by_side and state.second == "image-space"
+    state.set_param("tir_mode", "reflect", second=True)
+    assert state.second_params == {"tir_mode": "reflect"} and state.params == {}
+    state.set_param("tir_mode", "bogus", second=True)
+    assert "tir_mode 'bogus'" in state.error and state.second_params == {"tir_mode": "reflect"}
+    state.set_side_by_side("env-map", difference=True)  # a new second starts from its defaults
+    assert not state.side_by_side and state.difference and state.second_params == {}
+    state.set_side_by_side(None, difference=True)
+    assert state.second is None and not state.difference
+    with pytest.raises(TechniqueError):
+        state.set_side_by_side("nope")
+    assert state.second is None
+
+
+def test_orbit_pan_zoom_frame_and_reset_move_the_camera():
+    state = state_of("glass-sphere")
+    home = state.camera()
+    assert home.size == state.scene.camera.size  # no window: the scene camera's size
+    np.testing.assert_allclose(home.position, state.scene.camera.position, atol=1e-9)
+    distance = np.linalg.norm(home.position - home.look_at)
+    state.orbit_by(40, -15)
+    moved = state.camera()
+    assert np.linalg.norm(moved.position - home.position) > 0.1
+    assert np.linalg.norm(moved.position - moved.look_at) == pytest.approx(distance)
+    state.zoom_by(2)
+    assert state.orbit.distance == pytest.approx(0.81 * distance)
+    state.pan_by(20, 0)
+    assert not np.allclose(state.camera().look_at, home.look_at)
+    state.frame_scene()
+    np.testing.assert_allclose(state.camera().look_at, state.scene.bounds().mean(axis=0), atol=1e-9)
+    state.reset_camera()
+    np.testing.assert_allclose(state.camera().position, home.position, atol=1e-9)
+    assert state.state_version == 5
+
+
+def test_the_viewport_sets_the_camera_size_and_the_pan_scale():
+    scene = caustica.load_scene("glass-sphere")
+    shifts = []
+    for height in (50, 500):
+        state = ViewerState(scene, viewport=lambda height=height: (100, height))
+        assert state.camera().size == (100, height) and state.camera((8, 6)).size == (8, 6)
+        target = state.orbit.target.copy()
+        state.pan_by(10, 0)
+        shifts.append(np.linalg.norm(state.orbit.target - target))
+    assert shifts[0] == pytest.approx(10 * shifts[1])  # a pixel of a 10x smaller view covers 10x more
+
+
+def test_scene_view_is_the_scene_under_the_current_camera():
+    state = state_of("caustic-sphere")
+    state.orbit_by(30, 0)
+    version = state.state_version
+    view = state.scene_view((64, 48))
+    assert view.camera.size == (64, 48)
+    np.testing.assert_allclose(view.camera.position, state.camera().position)
+    assert view.objects is state.scene.objects and view.lights is state.scene.lights
+    assert state.scene.camera.size == (512, 512)  # the edited scene keeps its own camera
+    state.object_technique("ball")
+    assert not state.side_by_side
+    assert state.state_version == version  # reads are not edits
+
+
+def test_set_material_changes_the_named_object_or_reports_why_not():
+    state = state_of("caustic-sphere")
+    state.set_material("ball", "ior", 1.33)
+    state.set_material(1, "color", np.array([0.2, 0.3, 0.4]))
+    assert state.scene.objects[0].material.ior == pytest.approx(1.33)
+    np.testing.assert_allclose(state.scene.objects[1].material.color, [0.2, 0.3, 0.4])
+    assert state.state_version == 2
+    state.set_material("ball", "shininess", 3.0)
+    assert state.error.startswith("ball: ") and "shininess" in state.error and state.state_version == 2
+    with pytest.raises(CausticaError, match="no object named 'lamp'; objects: ball, floor"):
+        state.set_material("lamp", "ior", 1.5)
+
+
+def test_set_object_technique_switches_to_per_object_with_the_override():
+    state = state_of("tvcg-fig11", "depth-search")
+    assert [state.object_technique(o.name) for o in state.scene.objects_of("glass")] == ["depth-search"] * 3
+    state.set_object_technique("sphere-0", "env-map")
+    assert state.technique == "per-object" and state.error is None
+    assert state.params == {"techniques": {"sphere-0": "env-map"}, "default": "depth-search"}
+    assert [state.object_technique(i) for i in range(3)] == ["env-map", "depth-search", "depth-search"]
+    assert state.state_version == 2  # the switch to per-object, then the override
+    state.set_object_technique("floor", "env-map")
+    assert state.error == "floor is diffuse; only glass objects choose a technique"
+    assert state.params["techniques"] == {"sphere-0": "env-map"} and state.state_version == 2
+
+
+def test_a_per_object_choice_keeps_the_caustics_on():
+    state = state_of("tvcg-fig11", "caustic-mapping")
+    state.set_object_technique("sphere-1", "image-space")
+    assert state.technique == "per-object+caustic-mapping"
+    assert state.object_technique("sphere-1") == "image-space"
+    state.set_param("depth-search.iterations", 0)
+    state.set_technique("per-object")  # caustics off: the qualified parameter stays
+    assert state.params["depth-search.iterations"] == 0
+
+
+def test_move_and_drag_light():
+    state = state_of("caustic-sphere")
+    start = state.scene.lights[0].position.copy()
+    state.move_light(0, delta=(0.0, 1.0, 0.0))
+    np.testing.assert_allclose(state.scene.lights[0].position, start + [0.0, 1.0, 0.0])
+    state.move_light(0, position=start)
+    np.testing.assert_allclose(state.scene.lights[0].position, start)
+    camera = state.camera()
+    forward = camera.look_at - camera.position
+    state.drag_light(30, 0)  # right in the view plane
+    moved = state.scene.lights[0].position - start
+    assert np.linalg.norm(moved) > 1e-3
+    assert abs(moved @ forward) < 1e-9 * np.linalg.norm(forward)
+    assert moved @ np.cross(forward, camera.up) > 0
+    before = state.scene.lights[0].position.copy()
+    state.drag_light(0, -30)  # up the screen
+    assert (state.scene.lights[0].position - before) @ camera.up > 0
+    assert state.state_version == 4
+
+
+def test_dragging_a_directional_light_turns_it():
+    state = state_of("caustics-pool")
+    start = state.scene.lights[0].direction.copy()
+    state.drag_light(25, 0)
+    assert not np.allclose(state.scene.lights[0].direction, start)
+    assert not hasattr(state.scene.lights[0], "position")
+    empty = state_of("glass-sphere")  # no lights: nothing to drag
+    empty.drag_light(25, 0)
+    assert empty.state_version == 0
+
+
+class _Texture:
+    """What set_inspect reads of a moderngl texture."""
+
+    depth, components, dtype, size = False, 1, "f4", (4, 1)
+
+    def read(self) -> bytes:
+        return np.array([0.0, 1.0, 2.0, 3.0], "f4").tobytes()
+
+
+def test_set_inspect_checks_the_channel_and_measures_its_range():
+    state = state_of("glass-sphere")
+    channels = {"depth": _Texture()}
+    state.set_inspect("nothing", channels=channels)
+    assert state.inspect is None and state.error == "no channel 'nothing' in env-map; channels: depth"
+    state.set_inspect("depth", "color", channels=channels)  # not a range view: the range stays
+    assert state.inspect == "depth" and state.inspect_range == (0.0, 1.0)
+    state.set_inspect("depth", channels=channels)  # 'auto' views a depth as a range
+    assert state.inspect_mode == "auto" and state.inspect_range == pytest.approx((0.03, 2.97))
+    state.set_inspect("later")  # before a frame: taken as asked
+    assert state.inspect == "later" and state.inspect_auto
+    assert state.state_version == 0  # inspecting does not re-render
+
+
+def test_animation_time_moves_meshes_and_keeps_edits():
+    state = state_of("caustics-pool")
+    assert state.scene_at is not None
+    state.set_material("water", "ior", 1.2)
+    mesh = state.scene.objects[0].mesh
+    state.play()
+    assert state.playing
+    state.set_time(0.5)
+    water = state.scene.objects[0]
+    assert state.time == 0.5 and water.mesh.content_hash() != mesh.content_hash()
+    assert water.material.ior == pytest.approx(1.2) and state.state_version == 2
+    still = state_of("glass-sphere")
+    still.play()
+    still.set_time(1.0)
+    assert not still.playing and still.time == 0.0 and still.state_version == 0
+
+
+def test_panels_and_spp():
+    state = state_of("glass-sphere", overlay=False)
+    assert state.show_panel and not state.show_overlay
+    state.toggle_panel()
+    assert not state.show_panel
+    state.set_spp(4)
+    assert state.spp == 4 and state.state_version == 1
+    with pytest.raises(TechniqueError, match="spp 3 is not a square"):
+        state.set_spp(3)
+    assert state.spp == 4 and state.state_version == 1
+
+
+def test_the_viewer_reads_and_edits_its_state_under_the_old_names():
+    """Viewer's fields and edit methods are its state's (checked on a viewer with no window)."""
+    from caustica.viewer.app import EVENTS, Viewer
+
+    viewer = Viewer.__new__(Viewer)
+    viewer.state = state_of("caustic-sphere")
+    viewer.orbit_by(40, 0)
+    EVENTS["spp"](viewer, 4)
+    EVENTS["material"](viewer, "ball", "ior", 1.4)
+    viewer.technique = "image-space"
+    viewer.exposure = 1.5
+    assert viewer.state.state_version == viewer.state_version == 3
+    assert viewer.state.spp == 4 and viewer.state.technique == "image-space" and viewer.state.exposure == 1.5
+    assert viewer.scene is viewer.state.scene and viewer.scene.objects[0].material.ior == pytest.approx(1.4)
+    np.testing.assert_allclose(viewer.camera().position, viewer.state.camera().position)
