@@ -23,7 +23,7 @@ class ConstantCausticMap(Pass):
     """A square of constant caustic irradiance, x and z in [-0.5, 0.5], seen from a light overhead."""
 
     reads = ("light_samples",)
-    writes = (Channel("caustic_maps", "list", "one map per light"),)
+    writes = (Channel("caustic_maps", "rgba32f + host[light]", "one map per light"),)
 
     def run(self, frame):
         light = frame.read("light_samples")[0]
@@ -33,7 +33,7 @@ class ConstantCausticMap(Pass):
         distance = float(np.dot(np.zeros(3) - light.position, light.direction))
         data = np.zeros((n, n, 4), dtype="f4")
         data[n // 4: 3 * n // 4, n // 4: 3 * n // 4] = (CAUSTIC_E, CAUSTIC_E, CAUSTIC_E, distance)
-        texture = frame.gpu.ctx.texture((n, n), 4, data.tobytes(), dtype="f4")
+        texture = frame.own(frame.gpu.ctx.texture((n, n), 4, data.tobytes(), dtype="f4"))
         frame.write("caustic_maps", [CausticMap(texture, CAUSTIC_PROJECTIVE, clip)])
 
 
@@ -60,10 +60,7 @@ def test_caustic_map_adds_irradiance_where_it_lands(renderer):
     scene = floor_scene()
     technique = Composite(get_technique("env-map"), FakeCaustics())
     without = renderer.render(scene, "env-map")
-    camera = scene.camera
-    from caustica.techniques.raster import RasterTechnique
-
-    image = RasterTechnique.render(technique, renderer, scene, camera, technique.make_params(), 1)
+    image = renderer.render(scene, technique)
     added = (image - without)[..., 0]
     # The floor point under the image centre is inside the square, a corner pixel is outside.
     assert added[32, 32] == pytest.approx(0.5 / np.pi * CAUSTIC_E, rel=1e-4)

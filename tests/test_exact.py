@@ -180,8 +180,8 @@ def test_index_one_ball_renders_as_the_environment():
     with_ball = one_object_scene(ball(), Glass(1.0))
     empty = Scene(environment=with_ball.environment)
     technique = Exact()
-    image = technique.render(None, with_ball, camera, ExactParams(), 1)
-    background = technique.render(None, empty, camera, ExactParams(), 1)
+    image = technique.render(with_ball, camera, ExactParams(), 1)
+    background = technique.render(empty, camera, ExactParams(), 1)
     assert image.shape == (48, 64, 3) and image.dtype == np.float32
     assert np.abs(image - background).mean() < 1e-4
 

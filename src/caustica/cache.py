@@ -107,3 +107,10 @@ class LruCache(OrderedDict):
             evicted = self.popitem(last=False)[1]
             if self.on_evict is not None:
                 self.on_evict(evicted)
+
+    def pop_release(self, key) -> None:
+        """Remove ``key`` and free its value with ``on_evict`` (a no-op for a missing key)."""
+        if key in self:
+            value = super().pop(key)
+            if self.on_evict is not None:
+                self.on_evict(value)

@@ -8,7 +8,10 @@ import numpy as np
 
 from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
-from .gpu.readback import read_rgba, supersampling_factor
+from .gpu.meshes import set_uniform
+from .gpu.readback import read_rgb, read_rgba, supersampling_factor
+from .passes.base import Frame
+from .passes.graph import run_graph
 from .scene import Scene, rules
 from .scene.scene import check_scene
 from .techniques.base import check_spp, get_technique
@@ -37,7 +40,8 @@ class Renderer:
         self._owns_device = device is None
         self.closed = False
         self._keep = keep_channels
-        self.channels: dict = {}
+        self.channels: dict = {}  # the last frame's channels (keep_channels), lent until the next frame
+        self._kept: Frame | None = None
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
         self.last_pass_ms: dict[str, float] = {}
 
@@ -54,7 +58,7 @@ class Renderer:
                                          "context cannot be used here; make the device in the worker, or use "
                                          "multiprocessing's 'spawn' start method")
             self._device.release()  # forgets the inherited objects without calling into them
-            self._device, self.channels = None, {}
+            self._device, self.channels, self._kept = None, {}, None
         if self._device is None:
             from .gpu.device import GpuDevice
 
@@ -65,6 +69,8 @@ class Renderer:
         """Release the GPU device this Renderer made (a caller's device is left as it is); idempotent."""
         if self.closed:
             return
+        if self._device is not None:
+            self._give_back_kept()
         if self._owns_device and self._device is not None:
             self._device.release()
         self._device, self.channels, self.closed = None, {}, True
@@ -81,7 +87,8 @@ class Renderer:
         return camera
 
     def render(self, scene: Scene, technique: str = "env-map", spp: int = 1, **params) -> np.ndarray:
-        """A (H, W, 3) float32 linear RGB image, row 0 at the top."""
+        """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
+        techniques`` lists them) or a Technique instance."""
         image, _ = self.render_timed(scene, technique, spp, **params)
         return image
 
@@ -99,10 +106,54 @@ class Renderer:
             frame_limits.check_environment_texture(scene.environment, self.device.max_texture_size)
         check_spp(tech, spp)
         start = time.perf_counter()
-        image = tech.render(self, scene, camera, parameters, int(spp))
         if tech.uses_gl:
+            image = self._render_graph(tech, scene, camera, parameters, int(spp))
             self.device.finish()
+        else:
+            image = tech.render(scene, camera, parameters, int(spp))
         return image, (time.perf_counter() - start) * 1000.0
+
+    def render_frame(self, tech, scene: Scene, camera, parameters, spp: int = 1, keep=None) -> Frame:
+        """Run a rasterized technique's graph at the supersampled size (``supersampling_factor(spp)``
+        times ``camera``'s) and return its frame, whose channels stay lent until ``frame.give_back()``
+        (``keep``: the channels wanted afterwards; None keeps all). ``pass_ms`` holds the per-pass
+        milliseconds when ``profile_passes``."""
+        k = supersampling_factor(spp)
+        width, height = camera.size
+        frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
+                      pass_ms={} if self.profile_passes else None)
+        try:
+            run_graph(tech.build_passes(parameters), frame, keep=keep)
+        except BaseException:
+            frame.give_back()
+            raise
+        self.last_pass_ms = dict(frame.pass_ms or {})
+        return frame
+
+    def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int) -> np.ndarray:
+        """The technique's image: its graph run, the colour averaged over k x k samples on the GPU,
+        read back; every texture given back but those kept for inspection (``keep_channels``)."""
+        self._give_back_kept()
+        frame = self.render_frame(tech, scene, camera, parameters, spp, keep=None if self._keep else ("color",))
+        try:
+            k = supersampling_factor(spp)
+            color = frame.read("color")
+            # Averaged on the GPU: a k^2 smaller readback, no CPU pass over every sample.
+            image = read_rgb(color if k == 1 else _box_downsampled(frame, color, k))
+        except BaseException:
+            frame.give_back()
+            raise
+        if self._keep:
+            self._kept, self.channels = frame, dict(frame.channels)
+        else:
+            frame.give_back()
+        return image.astype(np.float32)
+
+    def _give_back_kept(self) -> None:
+        """Give back the textures of the frame kept for inspection (the previous one)."""
+        if self._kept is not None:
+            self._kept.give_back()
+        self._kept, self.channels = None, {}
 
     def _check_size(self, size, spp: int, uses_gl: bool) -> None:
         frame_limits.check_spp(spp)
@@ -115,13 +166,6 @@ class Renderer:
                     f"image size {width}x{height} with {spp} spp needs {width * k}x{height * k} pixels, "
                     f"above this GL's limit of {limit}; use a smaller size or fewer samples"
                 )
-
-    def keep_channels(self, frame) -> None:
-        """Return the frame's pooled textures, or keep them readable (``keep_channels=True``)."""
-        _give_back(frame.gpu.targets, self.channels)  # the previous frame's, kept for inspection
-        self.channels = dict(frame.channels) if self._keep else {}
-        if not self._keep:
-            _give_back(frame.gpu.targets, frame.channels)
 
     def exit_directions(self, scene: Scene, technique: str, **params):
         """Per-pixel exit directions (H, W, 3) and validity (H, W) at pixel centres, or None.
@@ -136,8 +180,7 @@ class Renderer:
             if texture is not None:
                 data = read_rgba(texture)
                 result = (data[..., :3].copy(), data[..., 3] > 0.5)
-            _give_back(self.device.targets, self.channels)
-            self.channels = {}
+            self._give_back_kept()
             return result
         finally:
             self._keep = keep
@@ -146,8 +189,17 @@ class Renderer:
         return self.device.info
 
 
-def _give_back(targets, channels: dict) -> None:
-    """Return the pooled textures among a frame's channels (cached ones are not the pool's)."""
-    for texture in channels.values():
-        if targets.is_lent(texture):
-            targets.give_back(texture)
+def _box_downsampled(frame: Frame, texture, k: int):
+    """``texture`` (rgba32f) averaged over k x k blocks on the GPU, into a texture k times smaller lent to ``frame``."""
+    import moderngl
+
+    gpu = frame.gpu
+    width, height = texture.size
+    out = frame.texture((width // k, height // k), "rgba32f")
+    gpu.targets.framebuffer([out]).use()
+    gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+    program = gpu.shaders.program("passes/fullscreen.vert", "passes/box_downsample.frag", {"K": int(k)})
+    texture.use(0)
+    set_uniform(program, "source", 0)
+    gpu.draw_fullscreen(program)
+    return out

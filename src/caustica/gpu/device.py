@@ -97,24 +97,36 @@ class GpuDevice:
         self._fullscreen.clear()
 
 
-def release_all(value, targets=None) -> None:
-    """Release every GL object in a (nested) list, tuple, dict or dataclass of cached results; with
-    ``targets`` (a TargetPool), give its lent textures back to it instead (``pooled()`` lists an
-    object's pooled textures, e.g. an ImpostorSet's atlases)."""
+def gl_objects(value, seen: set | None = None):
+    """The GL objects in a (nested) list, tuple, dict or dataclass of results, each once (``pooled()``
+    lists an object's pooled textures, e.g. an ImpostorSet's atlases)."""
+    seen = set() if seen is None else seen
+    if value is None or isinstance(value, (str, bytes, int, float, np.ndarray)) or id(value) in seen:
+        return
+    seen.add(id(value))
     if isinstance(value, (list, tuple)):
         for item in value:
-            release_all(item, targets)
+            yield from gl_objects(item, seen)
     elif isinstance(value, dict):
-        release_all(list(value.values()), targets)
+        for item in value.values():
+            yield from gl_objects(item, seen)
     elif hasattr(value, "release") and hasattr(value, "glo"):
-        if targets is not None and targets.is_lent(value):
-            targets.give_back(value)
-        else:
-            value.release()
+        yield value
     elif hasattr(value, "pooled"):
-        release_all(value.pooled(), targets)
+        yield from gl_objects(value.pooled(), seen)
     elif hasattr(value, "__dataclass_fields__"):
-        release_all([getattr(value, name) for name in value.__dataclass_fields__], targets)
+        for name in value.__dataclass_fields__:
+            yield from gl_objects(getattr(value, name), seen)
+
+
+def release_all(value, targets=None) -> None:
+    """Release every GL object in ``value`` (:func:`gl_objects`); with ``targets`` (a TargetPool), give
+    its lent textures back to it instead."""
+    for obj in list(gl_objects(value)):
+        if targets is not None and targets.is_lent(obj):
+            targets.give_back(obj)
+        else:
+            obj.release()
 
 
 _DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); an entry goes with its array

@@ -39,7 +39,7 @@ class TargetPool:
         self.idle_frames, self.max_framebuffers = int(idle_frames), int(max_framebuffers)
         self.frame = 0  # frames ended (end_frame)
         self._free: dict[TargetKey, list] = {}  # key -> [(texture, frame it came back)], oldest first
-        self._lent: set[int] = set()  # GL names of textures handed out and not yet returned
+        self._lent: dict[int, object] = {}  # GL name -> texture handed out and not yet returned
         self._framebuffers: OrderedDict[tuple, object] = OrderedDict()
 
     def texture(self, size: tuple[int, int], fmt: str):
@@ -54,7 +54,7 @@ class TargetPool:
         else:
             components, dtype = FORMATS[fmt]
             texture = self.ctx.texture(key.size, components, dtype=dtype)
-        self._lent.add(texture.glo)
+        self._lent[texture.glo] = texture
         return texture
 
     def zeroed(self, size: tuple[int, int], fmt: str):
@@ -64,11 +64,12 @@ class TargetPool:
         return texture
 
     def is_lent(self, texture) -> bool:
-        """Whether ``texture`` came from this pool and is still out."""
-        return getattr(texture, "glo", None) in self._lent
+        """Whether ``texture`` came from this pool and is still out (by identity: a buffer or a
+        renderbuffer may share a texture's GL name)."""
+        return self._lent.get(getattr(texture, "glo", None)) is texture
 
     def give_back(self, texture) -> None:
-        self._lent.discard(texture.glo)
+        self._lent.pop(texture.glo, None)
         fmt = "depth" if texture.depth else next(
             name for name, (c, d) in FORMATS.items() if c == texture.components and d == texture.dtype
         )

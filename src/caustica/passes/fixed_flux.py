@@ -39,7 +39,13 @@ def splat_fixed_point(frame, size: tuple[int, int], dispatch) -> list:
     """
     ctx = frame.gpu.ctx
     width, height = int(size[0]), int(size[1])
-    words = ctx.buffer(reserve=4 * (1 + 2 * CHANNELS * width * height))
+    with frame.scoped(ctx.buffer(reserve=4 * (1 + 2 * CHANNELS * width * height))) as words:
+        return _splat(frame, words, width, height, dispatch)
+
+
+def _splat(frame, words, width: int, height: int, dispatch) -> list:
+    """splat_fixed_point into the cleared ``words`` buffer."""
+    ctx = frame.gpu.ctx
     words.clear()
 
     def bind(program) -> None:
@@ -51,12 +57,11 @@ def splat_fixed_point(frame, size: tuple[int, int], dispatch) -> list:
         dispatch(bind, bound)
         ctx.memory_barrier()
     # Resolve the sums into float textures.
-    textures = [frame.gpu.targets.texture((width, height), "r32f") for _ in range(CHANNELS)]
+    textures = [frame.texture((width, height), "r32f") for _ in range(CHANNELS)]
     program = frame.gpu.shaders.compute("passes/fixed_point_resolve.comp")
     bind(program)
     for unit, texture in enumerate(textures):
         texture.bind_to_image(unit, read=False, write=True)
     run_compute(program, (width + 7) // 8, (height + 7) // 8)
     ctx.memory_barrier()
-    words.release()
     return textures

@@ -35,7 +35,7 @@ from ..gpu.meshes import set_uniform, write_uniform_array
 from ..parameters import Params, param
 from ..scene import rules
 from .base import Channel, Frame, Pass
-from .offscreen import aimed_camera, give_back_pooled, render_offscreen, scene_subset
+from .offscreen import aimed_camera, offscreen_channels, scene_subset
 from .surfaces import ShadeSurfaces
 
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
@@ -73,7 +73,6 @@ class ImpostorSet:
     by_reflector: dict = field(default_factory=dict)  # world object index -> list[Impostor]
     base: dict = field(default_factory=dict)  # world object index -> global index of its first rectangle
     world: object = None
-    cached: bool = False  # kept across frames in the device cache: ReleaseImpostors leaves it alone
 
     def pooled(self):
         """The atlases, one per reflector that has rectangles."""
@@ -143,7 +142,7 @@ def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool 
     """Radiance + depth (along ``axis`` from ``origin``, or the distance from it) in one pooled rgba32f
     texture, or in the square at texel offset ``cell`` of ``atlas`` with ``into=(atlas, cell)``."""
     gpu, ctx = frame.gpu, frame.gpu.ctx
-    out, cell = into if into is not None else (gpu.targets.texture(camera.size, "rgba32f"), (0, 0))
+    out, cell = into if into is not None else (frame.texture(camera.size, "rgba32f"), (0, 0))
     fbo = gpu.targets.framebuffer([out])
     fbo.use()
     fbo.viewport = (*cell, *camera.size)
@@ -179,28 +178,28 @@ class BuildImpostors(Pass):
     """
 
     reads = ("light_samples", "shadow_maps")
-    writes = (Channel("impostors", "ImpostorSet", "per reflector: rectangles and rgba32f textures (radiance, depth)"),)
+    writes = (Channel("impostors", "rgba32f + host[reflector]", "per reflector: rectangles and an atlas of their textures "
+                                                                     "(radiance, depth)"),)
 
     def __init__(self, texture_passes, size: int = 512, depth: int = 0, rect_offset: float = 0.0,
                  distance_factor: float = 50.0, max_impostors: int = MAX_IMPOSTORS):
         self.texture_passes, self.size, self.depth = texture_passes, int(size), int(depth)
         self.rect_offset, self.distance_factor, self.max_impostors = rect_offset, distance_factor, max_impostors
 
-    created = False  # whether the last run built the impostors (rather than finding them)
+    def cache_key(self, frame: Frame):
+        """The top-level set while the scene stays (recursive sub-frames share the parent's world and
+        build theirs each time); None where an earlier pass wrote the impostors."""
+        if "impostors" in frame.channels or "impostor_world" in frame.channels:
+            return None
+        return (self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors,
+                _impostor_state_key(frame.scene))
 
     def run(self, frame: Frame) -> None:
-        self.created = "impostors" not in frame.channels
-        if not self.created:
-            return
-        top_level = "impostor_world" not in frame.channels  # recursive sub-frames share the parent's world
-        key = ("impostors", self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors,
-               _impostor_state_key(frame.scene)) if top_level else None
-        if top_level and key in frame.gpu.cache:
-            frame.write("impostors", frame.gpu.cache[key])
+        if "impostors" in frame.channels:
             return
         world = frame.channels.get("impostor_world", frame.scene)
         drawn = {id(o) for o in frame.scene.objects}
-        result = ImpostorSet(world=world, cached=top_level)
+        result = ImpostorSet(world=world)
         base = 0
         for r, reflector in enumerate(world.objects):
             if id(reflector) not in drawn or reflector.material.kind not in ("glass", "mirror"):
@@ -218,10 +217,6 @@ class BuildImpostors(Pass):
             result.by_reflector[r] = group
             result.base[r] = base
             base += len(group)
-        if top_level:
-            for old in [k for k in frame.gpu.cache if isinstance(k, tuple) and k and k[0] == "impostors"]:
-                give_back_pooled(frame.gpu.targets, frame.gpu.cache.pop(old))
-            frame.gpu.cache[key] = result
         frame.write("impostors", result)
 
     def make_atlas(self, frame: Frame, count: int):
@@ -232,7 +227,7 @@ class BuildImpostors(Pass):
         if max(width, height) > limit:
             raise SceneError(f"impostor_size {self.size} with {count} rectangles needs a {width}x{height} atlas, "
                              f"above this GL's limit of {limit}; lower impostor_size or max_impostors")
-        return frame.gpu.targets.zeroed((width, height), "rgba32f")
+        return frame.zeroed((width, height), "rgba32f")
 
     def render_texture(self, frame: Frame, world, impostor: Impostor) -> None:
         """TEX_k: the object alone through the impostor's camera, packed with its depth along the axis
@@ -240,12 +235,10 @@ class BuildImpostors(Pass):
         obj = world.objects[impostor.index]
         depth = self.depth if obj.material.kind in ("glass", "mirror") else 0
         frame.channels.setdefault("impostor_world", world)
-        kept = render_offscreen(frame, scene_subset(world, [impostor.index]), impostor.camera,
-                                self.texture_passes(depth), keep=("color", "depth"), share=("impostor_world",))
-        pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
-                     into=(impostor.texture, impostor.cell))
-        for value in kept.values():
-            frame.gpu.targets.give_back(value)
+        with offscreen_channels(frame, scene_subset(world, [impostor.index]), impostor.camera,
+                                self.texture_passes(depth), keep=("color", "depth"), share=("impostor_world",)) as kept:
+            pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
+                         into=(impostor.texture, impostor.cell))
 
 
 def atlas_grid(count: int, size: int, limit: int) -> tuple[int, int]:
@@ -258,22 +251,6 @@ def atlas_grid(count: int, size: int, limit: int) -> tuple[int, int]:
 def atlas_cell(k: int, columns: int, size: int) -> tuple[int, int]:
     """Texel offset of square ``k`` in an atlas of ``columns`` squares of ``size`` texels a row."""
     return (k % columns) * size, (k // columns) * size
-
-
-class ReleaseImpostors(Pass):
-    """Return the impostor textures to the pool once the frame is shaded."""
-
-    reads = ("impostors",)
-
-    def __init__(self, owner: BuildImpostors | None = None):
-        self.owner = owner  # release only what this BuildImpostors built (None: always)
-
-    def run(self, frame: Frame) -> None:
-        if self.owner is not None and not self.owner.created:
-            return
-        if not frame.read("impostors").cached:
-            give_back_pooled(frame.gpu.targets, frame.read("impostors"))
-        frame.channels["impostors"] = ImpostorSet()
 
 
 def _impostor_state_key(scene) -> tuple:
@@ -364,12 +341,10 @@ class NearbyView(Pass):
 
         scene = frame.scene
         keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
-        kept = render_offscreen(frame, scene_subset(scene, keep), frame.camera,
-                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"))
-        packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
-                              np.zeros(3), radial=True)
-        for value in kept.values():
-            frame.gpu.targets.give_back(value)
+        with offscreen_channels(frame, scene_subset(scene, keep), frame.camera,
+                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth")) as kept:
+            packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
+                                  np.zeros(3), radial=True)
         frame.write("nearby_view", packed)
 
 

@@ -269,7 +269,7 @@ def dispatch_photons(frame: Frame, program, size: tuple[int, int], count: int, i
                      stats: dict) -> Photons:
     """Run a photon compute shader over a ``size`` texel grid (8 x 8 groups) into a new buffer of ``count``
     photons (binding 0); binding 1 holds the ``initial`` photons (``has_initial``), or the new buffer."""
-    buffer = frame.gpu.ctx.buffer(reserve=count * PHOTON_BYTES)
+    buffer = frame.own(frame.gpu.ctx.buffer(reserve=count * PHOTON_BYTES))
     buffer.bind_to_storage_buffer(0)
     set_uniform(program, "has_initial", int(initial is not None))
     (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
@@ -290,7 +290,7 @@ class FitCasterViews(Pass):
     """
 
     reads = ("light_samples",)
-    writes = (Channel("caster_views", "list", "per light: LightView of the photon grid, or None"),)
+    writes = (Channel("caster_views", "host[light]", "per light: LightView of the photon grid, or None"),)
 
     def __init__(self, size: int, kinds=("glass", "mirror"), point_map: str = "frustum"):
         self.size, self.kinds, self.point_map = int(size), tuple(kinds), point_map
@@ -328,17 +328,21 @@ class LightSurfaces(Pass):
     def __init__(self, views: str, channel: str, kinds=("diffuse",), faces: str = "front", coded=("glass", "mirror")):
         self.views, self.channel, self.kinds, self.faces, self.coded = views, channel, tuple(kinds), faces, tuple(coded)
         self.reads = (views,)
-        self.writes = (Channel(channel, "list", f"per light: (position+distance, normal+code) rgba32f of {faces} faces of "
-                                                f"{'/'.join(self.kinds)} objects"),)
+        self.writes = (Channel(channel, "rgba32f x2[light]", f"per light: (position+distance, normal+code) of {faces} "
+                                                             f"faces of {'/'.join(self.kinds)} objects"),)
 
     def run(self, frame: Frame) -> None:
         frame.write(self.channel, [None if v is None else self.render(frame, v) for v in frame.read(self.views)])
 
     def render(self, frame: Frame, view: LightView):
+        gpu = frame.gpu
+        position, normal = frame.texture(view.atlas_size, "rgba32f"), frame.texture(view.atlas_size, "rgba32f")
+        with frame.scratch(view.atlas_size, "depth") as depth:
+            self._draw(frame, view, gpu.targets.framebuffer([position, normal], depth))
+        return position, normal
+
+    def _draw(self, frame: Frame, view: LightView, fbo) -> None:
         gpu, ctx = frame.gpu, frame.gpu.ctx
-        position, normal = gpu.targets.texture(view.atlas_size, "rgba32f"), gpu.targets.texture(view.atlas_size, "rgba32f")
-        depth = gpu.targets.texture(view.atlas_size, "depth")
-        fbo = gpu.targets.framebuffer([position, normal], depth)
         fbo.use()
         back = self.faces == "back"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if back else 1.0)
@@ -367,15 +371,13 @@ class LightSurfaces(Pass):
         ctx.depth_func = "<"
         ctx.cull_face = "back"
         ctx.disable(moderngl.CULL_FACE)
-        gpu.targets.give_back(depth)
-        return position, normal
 
 
 class FitCoarseViews(Pass):
     """A first receiver view of each light over the whole scene (:func:`coarse_view`), to find the footprint."""
 
     reads = ("light_samples",)
-    writes = (Channel("coarse_views", "list", "per light: LightView over the whole scene"),)
+    writes = (Channel("coarse_views", "host[light]", "per light: LightView over the whole scene"),)
 
     def __init__(self, size: int):
         self.size = int(size)
@@ -398,7 +400,7 @@ class FitCausticViews(Pass):
         self.photons, self.size, self.margin, self.trim = photons, int(size), margin_texels, trim
         self.point_map = point_map
         self.reads = ("light_samples", photons)
-        self.writes = (Channel("caustic_views", "list", "per light: LightView of the caustic map, or None"),)
+        self.writes = (Channel("caustic_views", "host[light]", "per light: LightView of the caustic map, or None"),)
 
     def run(self, frame: Frame) -> None:
         views = []
@@ -441,7 +443,7 @@ class SplatPhotons(Pass):
     def __init__(self, photons: str, views: str = "caustic_views", mode: str = "auto", radius: float = 1.5):
         self.photons, self.views, self.mode, self.radius = photons, views, mode, float(radius)
         self.reads = (photons, views)
-        self.writes = (Channel("caustic_flux", "list", "per light: three r32f textures of flux (W) per caustic-map texel"),)
+        self.writes = (Channel("caustic_flux", "r32f x3[light]", "per light: three textures of flux (W) per caustic-map texel"),)
 
     def run(self, frame: Frame) -> None:
         mode = self.mode
@@ -469,7 +471,7 @@ class SplatPhotons(Pass):
 
     def _points(self, frame: Frame, view: LightView, photons: Photons) -> list:
         ctx = frame.gpu.ctx
-        targets = [frame.gpu.targets.zeroed(view.atlas_size, "r32f") for _ in range(3)]
+        targets = [frame.zeroed(view.atlas_size, "r32f") for _ in range(3)]
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
         fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
@@ -500,7 +502,7 @@ class ResolveCausticMaps(Pass):
     def __init__(self, receivers: str = "receivers", views: str = "caustic_views"):
         self.receivers, self.views = receivers, views
         self.reads = ("caustic_flux", receivers, views)
-        self.writes = (Channel("caustic_maps", "rgba32f", "per light: CausticMap (irradiance W/m^2, receiver distance)"),)
+        self.writes = (Channel("caustic_maps", "rgba32f + host[light]", "per light: CausticMap (irradiance W/m^2, receiver distance)"),)
 
     def run(self, frame: Frame) -> None:
         ctx = frame.gpu.ctx
@@ -510,7 +512,7 @@ class ResolveCausticMaps(Pass):
             if view is None or flux is None or receivers is None:
                 maps.append(None)
                 continue
-            texture = ctx.texture(view.atlas_size, 4, dtype="f4")
+            texture = frame.own(ctx.texture(view.atlas_size, 4, dtype="f4"))  # nearest filtered, unlike pooled ones
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             view.bind(program)
             bind_samplers(program, ("flux_r", "flux_g", "flux_b", "receiver_position", "receiver_normal"),
@@ -530,14 +532,14 @@ def material_state_key(scene) -> tuple:
 class CachedPasses(Pass):
     """Run ``passes`` only when lights, objects, materials or ``key`` change; reuse their outputs otherwise.
 
-    Pooled textures and photon buffers the inner passes leave in list channels
-    go back to the pool (or are released) after a rebuild; the ``keep``
-    channels (new textures, e.g. caustic maps) stay in ``frame.gpu.cache``.
+    The graph caches the ``keep`` channels (passes/graph.py, :meth:`Pass.cache_key`); whatever else
+    the inner passes wrote is given back when they finish.
     """
 
     def __init__(self, tag: str, key, passes: list, keep: tuple[str, ...] = ("caustic_maps",)):
         self.tag, self.key, self.passes, self.keep = tag, key, list(passes), tuple(keep)
-        self.reads = ("light_samples",)
+        inner = {c.name for p in self.passes for c in p.writes}
+        self.reads = tuple(dict.fromkeys(("light_samples", *(n for p in self.passes for n in p.reads if n not in inner))))
         self.writes = tuple(c for p in self.passes for c in p.writes if c.name in self.keep)
         self.rebuilt = 0  # how many times the inner passes ran (tests)
 
@@ -545,38 +547,12 @@ class CachedPasses(Pass):
     def label(self) -> str:
         return f"{type(self).__name__}({self.tag})"
 
+    def cache_key(self, frame: Frame):
+        return self.key, scene_state_key(frame.scene), material_state_key(frame.scene)
+
     def run(self, frame: Frame) -> None:
-        key = (self.tag, self.key, scene_state_key(frame.scene), material_state_key(frame.scene))
-        cached = frame.gpu.cache.get(key)
-        if cached is None:
-            evict_cached(frame.gpu.cache, self.tag)
-            before = set(frame.channels)
-            run_passes(self.passes, frame)
-            cached = {name: frame.read(name) for name in self.keep}
-            for name in set(frame.channels) - before - set(self.keep):
-                _give_back(frame, frame.channels.pop(name))
-            frame.gpu.cache[key] = cached
-            self.rebuilt += 1
-        for name, value in cached.items():
-            frame.write(name, value)
-
-
-def evict_cached(cache: dict, tag: str) -> None:
-    """Release the textures of cached caustic maps tagged ``tag``."""
-    for key in [k for k in cache if isinstance(k, tuple) and k and k[0] == tag]:
-        for value in cache.pop(key).values():
-            for item in value if isinstance(value, list) else [value]:
-                texture = getattr(item, "texture", item)
-                if hasattr(texture, "release"):
-                    texture.release()
-
-
-def _give_back(frame: Frame, value) -> None:
-    """Return pooled textures (possibly nested in lists/tuples) and release photon buffers."""
-    if isinstance(value, (list, tuple)):
-        for item in value:
-            _give_back(frame, item)
-    elif isinstance(value, Photons):
-        value.buffer.release()
-    elif frame.gpu.targets.is_lent(value):
-        frame.gpu.targets.give_back(value)
+        before = set(frame.channels)
+        run_passes(self.passes, frame, keep=before | set(self.keep))
+        for name in set(frame.channels) - before - set(self.keep):
+            del frame.channels[name]  # given back by the inner graph
+        self.rebuilt += 1

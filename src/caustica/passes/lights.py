@@ -84,30 +84,27 @@ class ShadowMaps(Pass):
 
     reads = ()
     writes = (
-        Channel("light_samples", "list", "point/directional/spot samples with their shadow projections"),
-        Channel("shadow_maps", "r32f", "per light sample: distance to the light (6-face atlas for points)"),
+        Channel("light_samples", "host[light]", "point/directional/spot samples with their shadow projections"),
+        Channel("shadow_maps", "r32f[light]", "per light sample: distance to the light (6-face atlas for points)"),
     )
 
     def __init__(self, size: int = 1024):
         self.size = size
 
+    def cache_key(self, frame: Frame):
+        return self.size, scene_state_key(frame.scene)
+
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
-        key = ("shadow_maps", self.size, scene_state_key(frame.scene))
-        targets = frame.gpu.cache.get(key)
-        if targets is None:
-            _evict(frame.gpu.cache, "shadow_maps")
-            targets = [self._render(frame, s) for s in samples]
-            frame.gpu.cache[key] = targets
         frame.write("light_samples", samples)
-        frame.write("shadow_maps", [texture for texture, _, _ in targets])
+        frame.write("shadow_maps", [self._render(frame, s) for s in samples])
 
     def _render(self, frame: Frame, sample: LightSample):
         ctx, gpu, n = frame.gpu.ctx, frame.gpu, self.size
         faces = 6 if sample.type == LIGHT_POINT else 1
-        color = ctx.texture((n * faces, n), 1, dtype="f4")
-        depth = ctx.depth_renderbuffer((n * faces, n))
-        fbo = ctx.framebuffer([color], depth)
+        color = frame.own(ctx.texture((n * faces, n), 1, dtype="f4"))  # nearest filtered, unlike pooled ones
+        depth = frame.own(ctx.depth_renderbuffer((n * faces, n)))
+        fbo = frame.own(ctx.framebuffer([color], depth))
         along = 1 if sample.type == LIGHT_DIRECTIONAL else 0
         program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/distance.frag", {"ALONG_DIRECTION": along})
         set_uniform(program, "origin", sample.position.astype("f4"))
@@ -128,9 +125,7 @@ class ShadowMaps(Pass):
                 clip = sample.clip_from_world
             draw_objects(frame, program, frame.scene.objects, clip)
         color.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        # The framebuffer stays bound after this pass: it is released with the map (_evict),
-        # since a standalone context has no default framebuffer to bind instead.
-        return color, fbo, depth
+        return color
 
 
 def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int, shadow_bias: float = 2e-3) -> None:
@@ -174,11 +169,3 @@ def scene_state_key(scene) -> tuple:
     for obj in scene.objects:
         parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
     return tuple(parts)
-
-
-def _evict(cache: dict, tag: str) -> None:
-    """Release the cached GL objects under keys starting with ``tag``."""
-    from ..gpu.device import release_all
-
-    for key in [k for k in cache if isinstance(k, tuple) and k and k[0] == tag]:
-        release_all(cache.pop(key))

@@ -7,6 +7,7 @@ and cached sub-scenes.
 from __future__ import annotations
 
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,31 +72,28 @@ def scene_subset(scene: Scene, keep) -> Scene:
 
 
 def render_offscreen(frame: Frame, scene: Scene, camera, passes, keep=("color",), share=(), params=None) -> dict:
-    """Run ``passes`` on a sub-frame of ``frame`` (``scene`` seen by ``camera``); return the ``keep``
-    channels and give every other pooled texture the sub-frame made back to the pool.
+    """Run ``passes`` on a sub-frame of ``frame`` (``scene`` seen by ``camera``) and return its ``keep``
+    channels, now lent to ``frame``; the sub-frame gives back everything else.
 
     The sub-frame starts with the parent's ``light_samples`` and ``shadow_maps`` and the ``share``d channels.
     """
     inherited = {name: frame.read(name) for name in ("light_samples", "shadow_maps", *share) if name in frame.channels}
-    sub = Frame(frame.gpu, scene, camera, frame.params if params is None else params, channels=dict(inherited))
-    run_passes(passes, sub)
-    kept = {name: sub.read(name) for name in keep}
-    kept_ids = {id(v) for v in kept.values()}
-    for name, value in sub.channels.items():
-        if name not in inherited and id(value) not in kept_ids:
-            give_back_pooled(frame.gpu.targets, value)
+    sub = frame.sub_frame(scene, camera, inherited, params)
+    try:
+        run_passes(passes, sub, keep=keep)
+        kept = {name: sub.read(name) for name in keep}
+        for obj in sub.take_out(kept):
+            frame.own(obj)
+    finally:
+        sub.give_back()
     return kept
 
 
-def give_back_pooled(targets, value) -> None:
-    """Return pooled textures in ``value``: a texture, a list/tuple/dict of them, or an object with ``pooled()``."""
-    if isinstance(value, (list, tuple)):
-        for item in value:
-            give_back_pooled(targets, item)
-    elif isinstance(value, dict):
-        for item in value.values():
-            give_back_pooled(targets, item)
-    elif hasattr(value, "pooled"):
-        give_back_pooled(targets, value.pooled())
-    elif targets.is_lent(value):
-        targets.give_back(value)
+@contextmanager
+def offscreen_channels(frame: Frame, scene: Scene, camera, passes, keep=("color",), share=(), params=None):
+    """:func:`render_offscreen` for a ``with`` block: the kept channels are given back at its end."""
+    kept = render_offscreen(frame, scene, camera, passes, keep, share, params)
+    try:
+        yield kept
+    finally:
+        frame.give_back(kept)

@@ -47,7 +47,8 @@ class RefractFromLight(Pass):
     """
 
     reads = ("light_samples", "caster_views", "caster_back")
-    writes = (Channel("photon_exits", "list", "per light: (flux, exit point, direction[, ...]) rgba32f textures, or None"),)
+    writes = (Channel("photon_exits", "rgba32f x3[light]", "per light: (flux, exit point, direction[, ...]) textures "
+                                                                "(x7 when dispersive), or None"),)
 
     def __init__(self, tir_mode: str = "clamp", use_dn: bool = True):
         self.tir_mode, self.use_dn = tir_mode, bool(use_dn)
@@ -59,11 +60,15 @@ class RefractFromLight(Pass):
         frame.write("photon_exits", out)
 
     def render(self, frame: Frame, view: LightView, back):
+        channels = 3 if dispersive(frame.scene) else 1
+        targets = [frame.texture(view.atlas_size, "rgba32f") for _ in range(1 + 2 * channels)]
+        with frame.scratch(view.atlas_size, "depth") as depth:
+            self._draw_all(frame, view, back, channels, frame.gpu.targets.framebuffer(targets, depth))
+        return tuple(targets)
+
+    def _draw_all(self, frame: Frame, view: LightView, back, channels: int, fbo) -> None:
+        """The photon buffer's draw into ``fbo``: every object, the casters making photons."""
         gpu, ctx, scene = frame.gpu, frame.gpu.ctx, frame.scene
-        channels = 3 if dispersive(scene) else 1
-        targets = [gpu.targets.texture(view.atlas_size, "rgba32f") for _ in range(1 + 2 * channels)]
-        depth = gpu.targets.texture(view.atlas_size, "depth")
-        fbo = gpu.targets.framebuffer(targets, depth)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
@@ -80,8 +85,6 @@ class RefractFromLight(Pass):
             set_uniform(program, "clip_from_world", view.clips[face])
             for obj in scene.objects:
                 self._draw(frame, program, obj, makers)
-        gpu.targets.give_back(depth)
-        return tuple(targets)
 
     def _draw(self, frame: Frame, program, obj, makers: list) -> None:
         kind = caster_code(obj) if obj in makers else CASTER_NONE
@@ -112,7 +115,7 @@ class LandPhotons(Pass):
         self.receivers, self.receiver_views, self.channel = receivers, receiver_views, channel
         self.iterations, self.initial = int(iterations), initial
         self.reads = ("photon_exits", receivers, receiver_views) + ((initial,) if initial else ())
-        self.writes = (Channel(channel, "list", "per light: Photons (landing point, flux) or None"),)
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons (landing point, flux) or None"),)
 
     def run(self, frame: Frame) -> None:
         scene = frame.scene

@@ -61,23 +61,22 @@ def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", 
     """Draw the glass objects' (or ``objects``') ``face`` faces, keeping the ``order`` one per pixel,
     into a pooled camera-sized ``fmt`` target cleared to 0; returns the target."""
     gpu, ctx = frame.gpu, frame.gpu.ctx
-    target = gpu.targets.texture(frame.camera.size, fmt)
-    depth = gpu.targets.texture(frame.camera.size, "depth")
-    fbo = gpu.targets.framebuffer([target], depth)
-    fbo.use()
-    farthest = order == "farthest"
-    fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
-    ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-    ctx.front_face = "ccw"
-    ctx.cull_face = "front" if face == "back" else "back"
-    ctx.depth_func = ">" if farthest else "<"
-    objects = frame.scene.objects_of("glass") if objects is None else objects
-    if objects:
-        draw_objects(frame, program, objects, frame.camera.clip_from_world())
-    ctx.depth_func = "<"
-    ctx.cull_face = "back"
-    ctx.disable(moderngl.CULL_FACE)
-    gpu.targets.give_back(depth)
+    target = frame.texture(frame.camera.size, fmt)
+    with frame.scratch(frame.camera.size, "depth") as depth:
+        fbo = gpu.targets.framebuffer([target], depth)
+        fbo.use()
+        farthest = order == "farthest"
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
+        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
+        ctx.cull_face = "front" if face == "back" else "back"
+        ctx.depth_func = ">" if farthest else "<"
+        objects = frame.scene.objects_of("glass") if objects is None else objects
+        if objects:
+            draw_objects(frame, program, objects, frame.camera.clip_from_world())
+        ctx.depth_func = "<"
+        ctx.cull_face = "back"
+        ctx.disable(moderngl.CULL_FACE)
     return target
 
 
@@ -97,7 +96,8 @@ class ShadeSurfaces(Pass):
     FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
     FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
-    optional_reads = ("caustic_maps", "caustic_tiles")  # added to diffuse receivers when a caustic technique wrote them
+    # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py).
+    optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES"}
 
     def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
                  inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
@@ -161,9 +161,9 @@ class ShadeSurfaces(Pass):
     def run(self, frame: Frame) -> None:
         gpu, camera, scene = frame.gpu, frame.camera, frame.scene
         if self.background:
-            color = gpu.targets.texture(camera.size, "rgba32f")
-            exit_direction = gpu.targets.texture(camera.size, "rgba32f")
-            depth = gpu.targets.texture(camera.size, "depth")
+            color = frame.texture(camera.size, "rgba32f")
+            exit_direction = frame.texture(camera.size, "rgba32f")
+            depth = frame.texture(camera.size, "depth")
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
@@ -175,14 +175,14 @@ class ShadeSurfaces(Pass):
             clip_from_world = camera.clip_from_world()
             if (deferring and self.material_override is None and all(self.draws(o) for o in glass)
                     and all(culls_back_faces(o, clip_from_world) for o in glass)):
-                front = gpu.targets.zeroed(camera.size, "rgba32f")
+                front = frame.zeroed(camera.size, "rgba32f")
                 frame.write("front_surface", front)
             else:
                 frame.write("front_surface", refractor_surfaces(frame, "front", "nearest", glass))
         if deferring:
             # Cleared before anything is drawn: on llvmpipe (Mesa 22.3.6) clearing it right after a
             # draw into the colour target lost part of that draw (test_deferred_* guards this).
-            g_buffer = gpu.targets.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
+            g_buffer = frame.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
         fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
         environment = gpu.environment_texture(scene.environment)
@@ -197,7 +197,6 @@ class ShadeSurfaces(Pass):
             deferred = self._draw_objects(frame, drawn, targets)
             if deferred:
                 self._resolve_deferred(frame, deferred, color, exit_direction, g_buffer)
-            gpu.targets.give_back(g_buffer)
         else:
             self._draw_objects(frame, drawn)
         if self.background:  # after the objects: only where none was drawn
@@ -231,9 +230,8 @@ class ShadeSurfaces(Pass):
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
-        caustic_maps = frame.channels.get("caustic_maps")
-        defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, "CAUSTICS": int(caustic_maps is not None),
-                   "CAUSTIC_TILES": int(frame.channels.get("caustic_tiles") is not None),
+        caustic_maps = frame.optional("caustic_maps")
+        defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, **frame.optional_defines(self),
                    "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
@@ -280,7 +278,7 @@ class ShadeSurfaces(Pass):
         if material.kind == "glass":
             set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
             set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
-        tiles = frame.channels.get("caustic_tiles")
+        tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
         if self.set_uniforms is not None:
@@ -292,7 +290,7 @@ class ShadeSurfaces(Pass):
         per object at its key, depth test EQUAL.
         Objects of a ``staged`` kind flag pixels for a second stage (_resolve_second_stage)."""
         gpu, ctx = frame.gpu, frame.gpu.ctx
-        key_depth = gpu.targets.texture(frame.camera.size, "depth")
+        key_depth = frame.texture(frame.camera.size, "depth")
         g_unit = self.FIRST_INPUT_UNIT + len(self.inputs)  # the free unit after the inputs
         key_fbo = gpu.targets.framebuffer([], key_depth)
         key_fbo.use()
@@ -312,7 +310,7 @@ class ShadeSurfaces(Pass):
         staged = [(index, obj, material, variant_defines, rect)
                   for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1)
                   if material.kind in self.staged]
-        refine = gpu.targets.zeroed(frame.camera.size, "r32f") if staged else None  # stage-1 flags: the key
+        refine = frame.zeroed(frame.camera.size, "r32f") if staged else None  # stage-1 flags: the key
         ctx.depth_func = "=="
         for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1):
             stage = 1 if material.kind in self.staged else 0
@@ -323,10 +321,8 @@ class ShadeSurfaces(Pass):
                                index / 256.0, rect)
         if staged:
             self._resolve_second_stage(frame, staged, refine, key_fbo, resolve_fbo, g_unit)
-            gpu.targets.give_back(refine)
         resolve_fbo.depth_mask = True
         ctx.depth_func = "<"
-        gpu.targets.give_back(key_depth)
 
     def _resolve_second_stage(self, frame: Frame, staged: list, refine, key_fbo, resolve_fbo, g_unit: int) -> None:
         """The second stage of ``staged`` objects ((index, object, material, defines, screen rectangle)):
@@ -360,7 +356,7 @@ class ShadeSurfaces(Pass):
         gpu = frame.gpu
         program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
                                       {**defines, "DEFERRED_SHADING": DEFER_RESOLVE})
-        self._set_frame_uniforms(frame, program, frame.channels.get("caustic_maps"))
+        self._set_frame_uniforms(frame, program, frame.optional("caustic_maps"))
         set_uniform(program, "deferred_surface", g_unit)
         _set_deferred_ray_uniforms(program, frame.camera)
         set_uniform(program, "deferred_key", key)
@@ -380,8 +376,8 @@ class ShadeSurfaces(Pass):
         bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
-        elif frame.channels.get("caustic_tiles") is not None:
-            bind_caustic_tiles(program, frame.channels["caustic_tiles"], unit=self.FIRST_CAUSTIC_UNIT)
+        elif frame.optional("caustic_tiles") is not None:
+            bind_caustic_tiles(program, frame.optional("caustic_tiles"), unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
 

@@ -15,7 +15,6 @@ from ..errors import TechniqueError, closest_name, short
 from ..parameters import Params, param  # noqa: F401 (the techniques declare with these)
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..renderer import Renderer
     from ..scene import Camera, Scene
 
 _REGISTRY: dict[str, type["Technique"]] = {}
@@ -59,8 +58,9 @@ class Technique:
         except (TypeError, ValueError) as exc:
             raise TechniqueError(f"technique '{self.name}': {exc}") from None
 
-    def render(self, renderer: "Renderer", scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
-        """Return a (H, W, 3) float32 linear image, row 0 at the top."""
+    def render(self, scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
+        """A CPU technique's (``uses_gl`` False) (H, W, 3) float32 linear image, row 0 at the top; a
+        rasterized technique lists passes instead (raster.py), which the renderer runs."""
         raise NotImplementedError
 
 
@@ -83,8 +83,11 @@ def technique_names() -> list[str]:
 
 
 def get_technique(name: str) -> Technique:
-    """A technique by name; ``view+caustics`` composes a view technique with a caustic technique."""
+    """A technique by name; ``view+caustics`` composes a view technique with a caustic technique. A
+    Technique instance (one built in code, e.g. a Composite) is returned as it is."""
     _load_builtin()
+    if isinstance(name, Technique):
+        return name
     if not isinstance(name, str):
         raise TechniqueError(f"technique {short(name)} must be a technique name such as 'env-map'; "
                              "run 'caustica techniques' to list them")

@@ -124,7 +124,7 @@ class TracePhotons(Pass):
         self.estimator = estimator or (params.estimator, params.iterations)
         self.reads = ("light_samples", "caster_views", "caster_front", "caster_back", receivers, receiver_views)
         self.reads += (initial,) if initial else ()
-        self.writes = (Channel(channel, "list", "per light: Photons (landing point, flux) or None"),)
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons (landing point, flux) or None"),)
 
     def run(self, frame: Frame) -> None:
         scene, p = frame.scene, self.params

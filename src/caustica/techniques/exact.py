@@ -48,7 +48,7 @@ class Exact(Technique):
     Params = ExactParams
     uses_gl = False
 
-    def render(self, renderer, scene, camera, params, spp: int) -> np.ndarray:
+    def render(self, scene, camera, params, spp: int) -> np.ndarray:
         """Trace ``spp`` stratified samples per pixel and average them: (H, W, 3) float32.
 
         Rows are made and traced in bands of about one trace batch (paths.BATCH_SIZE rays), so memory

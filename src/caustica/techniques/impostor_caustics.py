@@ -55,11 +55,11 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
 from ..passes.base import Channel, Frame, Pass
-from ..passes.impostors import BuildImpostors, ReleaseImpostors
+from ..passes.impostors import BuildImpostors
 from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
 from ..passes.fixed_flux import splat_fixed_point
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
-from ..passes.offscreen import aimed_camera, give_back_pooled, render_offscreen
+from ..passes.offscreen import aimed_camera, render_offscreen
 from .base import param
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes
@@ -108,7 +108,8 @@ class ImpostorPhotons(Pass):
     """3.1: per light, the photon buffer: throughput rgb and (u, v, k + 1, hit) of the rectangle each texel's ray met."""
 
     reads = ("light_samples", "shadow_maps", "impostors")
-    writes = (Channel("impostor_photons", "list", "per light: (throughput rgba32f, record rgba32f, camera, sample) or None"),)
+    writes = (Channel("impostor_photons", "rgba32f x2 + host[light]",
+                      "per light: (throughput, record, camera, sample) or None"),)
 
     def __init__(self, params: ImpostorCausticsParams):
         self.params = params
@@ -122,7 +123,7 @@ class ImpostorPhotons(Pass):
                 out.append(None)
                 continue
             passes = impostor_view_passes(self.params, 0, output=2, photon=True)[1:]
-            passes = [p for p in passes if type(p).__name__ not in ("BuildImpostors", "ReleaseImpostors")]
+            passes = [p for p in passes if not isinstance(p, BuildImpostors)]
             kept = render_offscreen(frame, frame.scene, camera, passes, keep=("color", "exit_direction"),
                                     share=("impostors", "impostor_world"))
             out.append((kept["color"], kept["exit_direction"], camera, sample))
@@ -158,8 +159,6 @@ class CausticTextures(Pass):
         flux = splat_fixed_point(frame, (width, size), dispatch)
         caustic = filter_tiles(frame, flux, size, [imp.texel_area(size) for imp in impostors], self.params.filter_k,
                                self.params.filter_s)
-        for tex in flux:
-            frame.gpu.targets.give_back(tex)
         frame.write("caustic_textures", caustic)
 
 
@@ -191,7 +190,7 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     """The 3.2 filter over three r32f flux atlases of ``size`` tiles: a pooled rgba32f atlas of irradiance."""
     width = flux[0].size[0]
     occupancy, flux_rgb = flux_occupancy(frame, flux)
-    out = frame.gpu.targets.zeroed((width, size), "rgba32f")  # blocks with no photon near stay 0
+    out = frame.zeroed((width, size), "rgba32f")  # blocks with no photon near stay 0
     program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
     bind_samplers(program, ("flux_rgb", "occupancy"), (flux_rgb, occupancy))
     set_uniform(program, "tile_size", size)
@@ -202,8 +201,6 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     out.bind_to_image(0, read=False, write=True)
     run_compute(program, (occupancy.size[0] + 7) // 8, (occupancy.size[1] + 7) // 8)  # a block per invocation
     frame.gpu.ctx.memory_barrier()
-    frame.gpu.targets.give_back(occupancy)
-    frame.gpu.targets.give_back(flux_rgb)
     return out
 
 
@@ -211,8 +208,8 @@ def flux_occupancy(frame: Frame, flux):
     """Pooled textures: the summed flux of each CELL x CELL block of the atlases (r32f; the filter skips
     texels with no photon within reach) and the three atlases packed into one (rgba32f)."""
     width, height = flux[0].size
-    occupancy = frame.gpu.targets.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
-    flux_rgb = frame.gpu.targets.texture((width, height), "rgba32f")
+    occupancy = frame.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
+    flux_rgb = frame.texture((width, height), "rgba32f")
     program = frame.gpu.shaders.compute("passes/impostor_caustic_occupancy.comp", {"CELL": CELL})
     bind_samplers(program, ("flux_r", "flux_g", "flux_b"), flux)
     occupancy.bind_to_image(0, read=False, write=True)
@@ -228,7 +225,7 @@ class CausticTilesOnReceivers(Pass):
     rectangle: the paper's direct texture). No light-space pass: the paper projects in the eye view."""
 
     reads = ("impostors", "caustic_textures")
-    writes = (Channel("caustic_tiles", "CausticTiles", "caustic textures with their rectangles and receivers"),)
+    writes = (Channel("caustic_tiles", "rgba32f + host", "caustic textures with their rectangles and receivers"),)
 
     def __init__(self, params: ImpostorCausticsParams):
         self.params = params
@@ -242,21 +239,7 @@ class CausticTilesOnReceivers(Pass):
                              np.array([imp.axis for imp in impostors], np.float64).reshape(-1, 3),
                              [world.objects[imp.index] for imp in impostors],
                              np.array([imp.texel_area(self.params.caustic_size) for imp in impostors]))
-        # The surface pass reads the atlas after this chain: keep it until the next frame's.
-        key = ("impostor-caustic-tiles",)
-        give_back_pooled(frame.gpu.targets, frame.gpu.cache.pop(key, []))
-        frame.gpu.cache[key] = [atlas]
         frame.write("caustic_tiles", tiles)
-
-
-class ReleaseCausticInputs(Pass):
-    """Give the photon buffers back to the pool (the caustic textures stay for the surface pass)."""
-
-    reads = ("impostor_photons",)
-
-    def run(self, frame: Frame) -> None:
-        give_back_pooled(frame.gpu.targets, frame.read("impostor_photons"))  # pooled textures only
-        frame.channels["impostor_photons"] = []
 
 
 class ImpostorCaustics(CausticTechnique):
@@ -267,5 +250,4 @@ class ImpostorCaustics(CausticTechnique):
     def caustic_passes(self, params):
         build = BuildImpostors(lambda d: texture_passes(params, d), params.impostor_size, params.depth,
                                params.rect_offset, params.distance_factor, params.max_impostors)
-        return [build, ImpostorPhotons(params), CausticTextures(params), CausticTilesOnReceivers(params),
-                ReleaseCausticInputs(), ReleaseImpostors(owner=build)]
+        return [build, ImpostorPhotons(params), CausticTextures(params), CausticTilesOnReceivers(params)]

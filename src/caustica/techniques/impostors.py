@@ -45,7 +45,6 @@ from ..gpu.meshes import set_uniform
 from ..passes.impostors import (
     MAX_IMPOSTORS,
     BuildImpostors,
-    ReleaseImpostors,
     bind_impostors,
     chain_uniforms,
     impostor_defines,
@@ -91,7 +90,7 @@ class ImpostorParams(DepthSearchParams):
 
 def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, photon: bool = False) -> list:
     """Depth-search's passes with the impostors: ShadowMaps, refractor buffers, BuildImpostors,
-    ShadeSurfaces (NEARBY impostors), ReleaseImpostors. ``output``/``photon``: NEARBY_OUTPUT, PHOTON_BUFFER."""
+    ShadeSurfaces (NEARBY impostors). ``output``/``photon``: NEARBY_OUTPUT, PHOTON_BUFFER."""
     passes = DepthSearch().build_passes(params)
     shade = passes[-1]
     shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
@@ -108,9 +107,10 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
         bind_impostors(program, frame.channels.get("impostors"), world_index(frame, obj), params)
 
     shade.set_uniforms = chain_uniforms(shade.set_uniforms, set_impostors)
+    shade.reads = (*shade.reads, "impostors")  # bound by set_impostors
     build = BuildImpostors(lambda d: texture_passes(params, d), params.impostor_size, depth, params.rect_offset,
                            params.distance_factor, params.max_impostors)
-    return passes[:-1] + [build, shade, ReleaseImpostors()]
+    return passes[:-1] + [build, shade]
 
 
 def texture_passes(params: ImpostorParams, depth: int) -> list:

@@ -37,7 +37,7 @@ class MitsubaReference(Technique):
     uses_gl = False
     square_spp = False  # Mitsuba's independent sampler takes any count
 
-    def render(self, renderer, scene, camera, params, spp: int) -> np.ndarray:
+    def render(self, scene, camera, params, spp: int) -> np.ndarray:
         from ..reference.render import render_reference
 
         params = params if params is not None else MitsubaParams()

@@ -252,9 +252,6 @@ class PerVertexReflectors(Pass):
         for reflector, patch_maps in zip(reflectors, maps):
             for k, (forward, backward) in enumerate(patch_maps):
                 _draw_patch(frame, reflector, k, forward, backward, self.params)
-                for texture in (forward, backward):
-                    if texture is not None:
-                        frame.gpu.targets.give_back(texture)
         if self.depth == self.params.depth:
             LAST_STATS.clear()
             LAST_STATS.update(per_vertex_ms=cpu_ms, map_ms=map_ms, reflectors=reflectors,
@@ -342,11 +339,11 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     defines = {"LENS": int(reflector.lens), "ZOOM": int(backward is not None),
                "DISPERSION": int(len(reflector.channels) > 1)}
     program = gpu.shaders.program("passes/per_vertex_surface.vert", "passes/per_vertex_surface.frag", defines)
-    vbo, ibo = ctx.buffer(data.tobytes()), ctx.buffer(indices.tobytes())
+    vbo, ibo = frame.own(ctx.buffer(data.tobytes())), frame.own(ctx.buffer(indices.tobytes()))
     # skip_errors: a variant's linker drops the attributes it does not read (uv_r, uv_b, zoom).
-    vao = ctx.vertex_array(program, [(vbo, "3f 3f 2f 2f 2f 1f 3f", "in_position", "in_normal", "in_uv_r",
+    vao = frame.own(ctx.vertex_array(program, [(vbo, "3f 3f 2f 2f 2f 1f 3f", "in_position", "in_normal", "in_uv_r",
                                       "in_uv_g", "in_uv_b", "in_zoom", "in_weight")], ibo, index_element_size=4,
-                           skip_errors=True)
+                           skip_errors=True))
     fbo = gpu.targets.framebuffer([frame.read("color"), frame.read("exit_direction")], frame.read("depth"))
     fbo.use()
     gpu.environment_texture(frame.scene.environment).use(0)
@@ -371,8 +368,6 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     ctx.disable(moderngl.CULL_FACE)
     ctx.polygon_offset = (0.0, 0.0)
     ctx.depth_func = "<"
-    for resource in (vao, vbo, ibo):
-        resource.release()
 
 
 class PerVertex(RasterTechnique):

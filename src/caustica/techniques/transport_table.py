@@ -106,7 +106,7 @@ class TransportPhotons(Pass):
     """Table lookup, illumination volumes and photons on the receivers, per light sample (Iwasaki et al. 5.1)."""
 
     reads = ("light_samples",)
-    writes = (Channel("photons", "list", "per light: Photons (landing point, flux) or None"),)
+    writes = (Channel("photons", "buffer[light]", "per light: Photons (landing point, flux) or None"),)
 
     def __init__(self, params: TransportTableParams):
         self.params = params
@@ -120,7 +120,7 @@ class TransportPhotons(Pass):
                 continue
             data = np.zeros((len(position), 8), "f4")
             data[:, :3], data[:, 3], data[:, 4:7] = position, 1.0, flux
-            buffer = frame.gpu.ctx.buffer(data.tobytes())
+            buffer = frame.own(frame.gpu.ctx.buffer(data.tobytes()))
             assert data.itemsize * 8 == PHOTON_BYTES
             out.append(Photons(buffer, len(position), stats))
         frame.write("photons", out)

@@ -1,7 +1,7 @@
 """Live frames: the renderer's own passes into offscreen textures, kept on the GPU for display.
 
-A rasterized technique runs exactly the passes ``Renderer.render`` runs (same
-device, same Frame, same supersampled size) but skips the readback: the
+A rasterized technique runs exactly the graph ``Renderer.render`` runs
+(``Renderer.render_frame``: same device, same supersampled size) but skips the readback: the
 window draws the ``color`` texture and the pass inspector any other channel.
 CPU techniques (``exact``, ``mitsuba``) run through ``Renderer.render`` in a
 worker thread; their image is uploaded when it is ready and reused until the
@@ -16,10 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import first_line
-from ..passes.base import Frame, run_passes
 from ..renderer import Renderer
 from ..techniques import get_technique
-from ..gpu.readback import supersampling_factor
 from ..techniques.raster import RasterTechnique
 
 
@@ -50,12 +48,13 @@ def channel_textures(channels: dict) -> dict:
 
 
 class LiveRenderer:
-    """Renders into textures of ``device`` (the window's context); returns pooled textures every frame."""
+    """Renders into textures of ``device`` (the window's context); each slot's frame keeps its textures
+    lent until that slot's next frame."""
 
     def __init__(self, device):
         self.device = device
         self.renderer = Renderer(device=device)
-        self._lent: dict[str, list] = {}  # slot -> pooled textures of that slot's last frame
+        self._frames: dict = {}  # slot -> that slot's last frame (its textures stay lent for display)
         self._uploads: dict[str, object] = {}  # slot -> texture holding a CPU image
         self._jobs: dict[str, dict] = {}  # slot -> CPU render state (thread, key, result)
 
@@ -69,19 +68,14 @@ class LiveRenderer:
         return self._render_cpu(slot, technique, scene, camera, params, spp, state_key)
 
     def _render_raster(self, slot, tech, scene, camera, parameters, spp, profile) -> LiveImage:
-        # Run the technique's passes at the supersampled size, as RasterTechnique.render does.
         self._give_back(slot)
-        k = supersampling_factor(spp)
-        width, height = camera.size
         start = time.perf_counter()
-        frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
-                      pass_ms={} if profile else None)
-        run_passes(tech.build_passes(parameters), frame)
+        self.renderer.profile_passes = profile
+        frame = self._frames[slot] = self.renderer.render_frame(tech, scene, camera, parameters, spp)
         if profile:
             self.device.finish()
         elapsed = (time.perf_counter() - start) * 1000.0
-        # Keep the pooled textures until the next frame of this slot, then hand them back.
-        self._lent[slot] = [t for t in _textures_in(frame.channels) if self.device.targets.is_lent(t)]
+        k = frame.camera.size[0] // camera.size[0]
         return LiveImage(tech.name, frame.read("color"), k, dict(frame.channels), dict(frame.pass_ms or {}), elapsed)
 
     def _render_cpu(self, slot, technique, scene, camera, params, spp, state_key) -> LiveImage:
@@ -132,25 +126,20 @@ class LiveRenderer:
         texture.write(rgba.tobytes())
 
     def _give_back(self, slot: str) -> None:
-        for texture in self._lent.pop(slot, []):
-            if self.device.targets.is_lent(texture):
-                self.device.targets.give_back(texture)
+        frame = self._frames.pop(slot, None)
+        if frame is not None:
+            frame.give_back()
 
     def release(self) -> None:
         """Hand back every pooled texture and release the uploads (before the device is released)."""
         for job in self._jobs.values():
             job["thread"].join(5.0)
-        for slot in list(self._lent):
+        for slot in list(self._frames):
             self._give_back(slot)
         for texture in self._uploads.values():
             texture.release()
         self._uploads.clear()
         self._jobs.clear()
-
-
-def _textures_in(channels: dict) -> list:
-    """Top-level texture channels (lists hold cached maps the passes own, as Renderer.keep_channels assumes)."""
-    return [value for value in channels.values() if hasattr(value, "glo")]
 
 
 def prune_meshes(device, scene) -> None:
@@ -163,20 +152,4 @@ def prune_meshes(device, scene) -> None:
 
 def release_device(device) -> None:
     """Release everything a GpuDevice holds, cached results (shadow and caustic maps) included."""
-    for value in list(device.cache.values()):
-        _release_tree(value)
-    device.cache.clear()
     device.release()
-
-
-def _release_tree(value) -> None:
-    if isinstance(value, dict):
-        for item in value.values():
-            _release_tree(item)
-    elif isinstance(value, (list, tuple)):
-        for item in value:
-            _release_tree(item)
-    else:
-        target = getattr(value, "texture", value)
-        if hasattr(target, "release") and hasattr(target, "glo"):
-            target.release()
