@@ -1,4 +1,4 @@
-"""Command line: ``caustica render | view | compare | bench | techniques | presets | info``.
+"""Command line: ``caustica render | view | compare | bench | techniques | graph | presets | info``.
 
 Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
 """
@@ -202,6 +202,11 @@ def build_parser() -> argparse.ArgumentParser:
     techniques = sub.add_parser("techniques", help="list the techniques; NAME: its parameters")
     techniques.add_argument("name", nargs="?", help="a technique (or view+caustics): its parameters as a table")
     techniques.add_argument("--json", action="store_true", help="every technique (or NAME) with its parameters as JSON")
+    graph = sub.add_parser("graph", help="a technique's render graph: passes, channels, formats, caching")
+    graph.add_argument("name", help="a technique (or view+caustics)")
+    graph.add_argument("-p", "--param", type=_param, action="append", default=[],
+                       help="technique parameter name=value (repeatable): the graph for those parameters")
+    graph.add_argument("--dot", metavar="FILE", help="write the graph as Graphviz to FILE ('-': print it)")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
     return parser
@@ -432,6 +437,30 @@ def cmd_techniques(args) -> int:
     return 0
 
 
+def cmd_graph(args) -> int:
+    from .errors import TechniqueError
+    from .passes.graph import RenderGraph
+    from .techniques import get_technique
+
+    technique = get_technique(args.name)
+    if not technique.uses_gl:
+        raise TechniqueError(f"'{technique.name}' runs on the CPU and has no render graph; "
+                             "try a rasterized technique such as depth-search")
+    graph = RenderGraph(technique.build_passes(technique.make_params(**dict(args.param))))
+    if args.dot is None:
+        print(f"{technique.name}: {technique.summary}")
+        print(graph.describe())
+    elif args.dot == "-":
+        print(graph.dot(technique.name), end="")
+    else:
+        from .atomic import write_atomic
+
+        text = graph.dot(technique.name)
+        write_atomic(args.dot, lambda tmp: Path(tmp).write_text(text))
+        print(f"wrote {args.dot}")
+    return 0
+
+
 def cmd_presets(args) -> int:
     from .scene.presets import PRESETS
 
@@ -457,7 +486,7 @@ def cmd_info(args) -> int:
 
 
 COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
-            "precompute": cmd_precompute, "techniques": cmd_techniques, "presets": cmd_presets, "info": cmd_info}
+            "precompute": cmd_precompute, "techniques": cmd_techniques, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -48,18 +48,35 @@ class RenderGraph:
                 out.setdefault(channel.name, (channel, stage.label))
         return out
 
-    def describe(self) -> str:
-        """The wired graph as text: passes in order, what each reads and writes, what is cached."""
+    def lifetime(self, name: str, keep=("color",)) -> str:
+        """How long a channel's textures stay lent: kept for the caller, held by the cache (a cached
+        pass's outputs), or until the pass that reads them last."""
+        writer = next((i for i, p in enumerate(self.passes) if any(c.name == name for c in p.writes)), None)
+        if name in keep:
+            return "kept for the caller"
+        if writer is not None and is_cached(self.passes[writer]):
+            return "held by the cache"
+        last = max(self.last_reads().get(name, -1), -1 if writer is None else writer)
+        return f"lent until pass {last + 1}"
+
+    def describe(self, keep=("color",), indent: str = "") -> str:
+        """The wired graph as text: passes in order, what each reads and writes (format, meaning,
+        how long it stays lent), what is cached across frames; a group's inner passes indented."""
         lines = []
         for index, stage in enumerate(self.passes, start=1):
             doc = (stage.__doc__ or "").strip().splitlines()
-            cached = "  [cached across frames]" if type(stage).cache_key is not Pass.cache_key else ""
-            lines.append(f"{index}. {stage.label}: {doc[0] if doc else ''}{cached}")
-            lines.append(f"     reads:    {', '.join(stage.reads) or '-'}")
+            cached = "  [cached across frames]" if is_cached(stage) else ""
+            lines.append(f"{indent}{index}. {stage.label}: {doc[0] if doc else ''}{cached}")
+            lines.append(f"{indent}     reads:    {', '.join(stage.reads) or '-'}")
             if stage.optional:
-                lines.append("     optional: " + ", ".join(f"{n} (define {d})" for n, d in stage.optional.items()))
+                lines.append(f"{indent}     optional: "
+                             + ", ".join(f"{n} (define {d})" for n, d in stage.optional.items()))
             for c in stage.writes:
-                lines.append(f"     writes:   {c.name} ({c.format}): {c.meaning}")
+                lines.append(f"{indent}     writes:   {c.name} ({c.format}): {c.meaning}; {self.lifetime(c.name, keep)}")
+            inner = getattr(stage, "passes", None)  # a group of passes run as one (CachedPasses)
+            if inner:
+                lines.append(f"{indent}     runs:")
+                lines.append(RenderGraph(inner).describe(keep=[c.name for c in stage.writes], indent=indent + "       "))
         return "\n".join(lines)
 
     def dot(self, title: str = "graph") -> str:
@@ -72,7 +89,7 @@ class RenderGraph:
         formats = {}
         for index, stage in enumerate(self.passes):
             node = f"p{index}"
-            cached = type(stage).cache_key is not Pass.cache_key
+            cached = is_cached(stage)
             lines.append(f"  {node} [label={quote(stage.label)}{', style=bold' if cached else ''}];")
             for name, optional in [(n, False) for n in stage.reads] + [(n, True) for n in stage.optional]:
                 if name in writer:
@@ -82,6 +99,11 @@ class RenderGraph:
                 writer[c.name], formats[c.name] = node, c.format
         lines.append("}")
         return "\n".join(lines) + "\n"
+
+
+def is_cached(stage: Pass) -> bool:
+    """Whether a pass declares a cache key (its outputs may be reused across frames)."""
+    return type(stage).cache_key is not Pass.cache_key
 
 
 def run_graph(passes, frame: Frame, keep=None) -> None:

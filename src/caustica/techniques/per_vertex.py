@@ -230,7 +230,6 @@ class PerVertexReflectors(Pass):
         params, scene = self.params, frame.scene
         targets = [i for i, obj in enumerate(scene.objects) if reflector_kind(obj, params)]
         if self.depth <= 0 or not targets:
-            frame.write("color", frame.read("color"))
             return
         eye = np.asarray(frame.camera.position, dtype=np.float64)
         ray_scene = ray_scene_for(scene)
@@ -257,7 +256,6 @@ class PerVertexReflectors(Pass):
             LAST_STATS.update(per_vertex_ms=cpu_ms, map_ms=map_ms, reflectors=reflectors,
                               ray_vertices=int(sum(len(r.vertex_ids) for r in reflectors)),
                               patches=int(sum(len(r.patches) for r in reflectors)))
-        frame.write("color", frame.read("color"))
 
     def _maps(self, frame: Frame, subscene: Scene, volume: ViewVolume, zoom: bool, size: tuple[int, int]):
         """The forward reflection map and, for a zooming region, the reversed one."""
