@@ -6,18 +6,17 @@ and cached sub-scenes.
 """
 from __future__ import annotations
 
-from collections import OrderedDict
 from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..cache import LruCache
 from ..scene.scene import Scene
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view
 from .base import Frame, run_passes
 
-_SUBSCENES: OrderedDict = OrderedDict()
-_CACHE_SIZE = 64
+_SUBSCENES = LruCache(64)  # sub-scenes by their objects, lights and environment
 
 
 @dataclass
@@ -65,9 +64,6 @@ def scene_subset(scene: Scene, keep) -> Scene:
         sub = Scene(camera=scene.camera, objects=objects, lights=scene.lights, environment=scene.environment,
                     intensity_scale=scene.intensity_scale, name=f"{scene.name}-subset")
         _SUBSCENES[key] = sub
-        while len(_SUBSCENES) > _CACHE_SIZE:
-            _SUBSCENES.popitem(last=False)
-    _SUBSCENES.move_to_end(key)
     return sub
 
 

@@ -46,12 +46,12 @@ nothing seen through glass in a map is refracted twice.
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
+from ..cache import LruCache
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.lights import ShadowMaps
@@ -69,8 +69,7 @@ from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
 LAST_STATS: dict = {}  # the last frame's figures: per-vertex ms, ray-issuing vertices, patches, maps
-_LENS_CACHE: OrderedDict = OrderedDict()  # refraction vectors in eye space while a lens is fixed to the eye
-_CACHE_SIZE = 32
+_LENS_CACHE = LruCache(32)  # refraction vectors in eye space while a lens is fixed to the eye
 
 
 @dataclass
@@ -172,11 +171,8 @@ def _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world)
             rot, shift = eye_from_world[:3, :3], eye_from_world[:3, 3]
             _LENS_CACHE[key] = {ior: (r.origins @ rot.T + shift, r.directions @ rot.T, r.transmittance,
                                       r.path_length, r.valid) for ior, r in refracted.items()}
-            while len(_LENS_CACHE) > _CACHE_SIZE:
-                _LENS_CACHE.popitem(last=False)
         rays = {ior: (r.origins, r.directions, r.transmittance, r.path_length, r.valid) for ior, r in refracted.items()}
     else:
-        _LENS_CACHE.move_to_end(key)
         world_from_eye = np.linalg.inv(eye_from_world)
         rot, shift = world_from_eye[:3, :3], world_from_eye[:3, 3]
         rays = {ior: (o @ rot.T + shift, d @ rot.T, t, length, ok) for ior, (o, d, t, length, ok) in cached.items()}
