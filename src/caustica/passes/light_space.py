@@ -1,4 +1,4 @@
-"""Light-space building blocks of the caustic techniques (Shah et al.; Wyman's photon splats).
+"""Light-space passes of the caustic techniques: photons from the light into caustic maps (Shah et al.; Wyman).
 
 Both caustic papers render the scene *from the light*: Shah et al., "Caustics
 Mapping: An Image-space Technique for Real-time Caustics" (III-B) render the
@@ -6,31 +6,26 @@ receivers' world positions and the refractors' positions and normals into
 light-space textures, trace one photon per refractor texel, splat the photons
 into a light-space caustic map with additive blending (III-F) and project the
 map onto receivers like a shadow map; Wyman's photon splats follow the same
-outline. This module holds what they share:
+outline. This module holds the passes they share, each declaring its channels
+(one list entry per light sample, None where a light makes no caustic); the
+views they draw in are ``passes/light_views.py``, the cache across frames
+``passes/cached_passes.py``:
 
-- :class:`LightView`: a light-space view, projective (perspective or
-  orthographic, any ``clip_from_world``) or a six-face cube atlas (6N x N, the
-  layout of ``passes/lights.py``), with its texels' area at unit distance (the shaders'
-  ``texel_measure``: solid angle or perpendicular area) and ``bind`` for
-  ``shaders/passes/caustic_light_space.glsl``.
-- Fitting (III-F, "view frustum limitation"): :func:`fit_view` fits a view
-  tightly around world points as seen from the light (the casters' vertices for
-  the photon grid; the photons' landing points for the caustic map, trimmed of
-  a tiny flux fraction), :func:`coarse_view` covers the whole scene,
-  :func:`cube_view` is the omnidirectional atlas for point lights.
-- Passes, each declaring its channels (one list entry per light sample, None
-  where a light makes no caustic): :class:`FitCasterViews`,
-  :class:`LightSurfaces` (position + distance and normal textures of chosen
-  objects and faces: receivers, caster fronts, refractor backs),
-  :class:`FitCausticViews`, :class:`SplatPhotons` (compute shader with
-  integer atomics on fixed-point sums, ``passes/fixed_flux.py``, where
-  GL_NV_shader_atomic_float exists, else Gaussian point sprites with additive
-  blending into three r32f targets: the same kernel, so both deposit the same
-  flux; either way the bytes do not depend on thread scheduling),
-  :class:`ResolveCausticMaps` (irradiance = flux / receiver area of the texel,
+- :class:`FitCasterViews` (III-B: the photon grid's view around the casters),
+  :class:`FitCoarseViews` and :class:`FitCausticViews` (III-F, "view frustum
+  limitation": a view over the whole scene, then one fitted tightly around
+  where the photons landed).
+- :class:`LightSurfaces` (III-B, first two passes: position + distance and
+  normal textures of chosen objects and faces: receivers, caster fronts,
+  refractor backs).
+- :class:`SplatPhotons` (III-C, III-F: compute shader with integer atomics on
+  fixed-point sums, ``passes/fixed_flux.py``, where GL_NV_shader_atomic_float
+  exists, else Gaussian point sprites with additive blending into three r32f
+  targets: the same kernel, so both deposit the same flux; either way the
+  bytes do not depend on thread scheduling).
+- :class:`ResolveCausticMaps` (irradiance = flux / receiver area of the texel,
   alpha = the receiver's distance to the light, into the ``caustic_maps``
-  contract of ``passes/caustics.py``), and :class:`CachedPasses`, which reruns
-  a chain only when lights, objects or materials change.
+  contract of ``passes/caustics.py``).
 
 Photons live in :class:`Photons`: an SSBO of ``{vec4 position (w = 1 landed);
 vec4 flux (W, RGB)}``, the format every splat here reads; :func:`dispatch_photons`
@@ -43,211 +38,17 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from ..cache import state_key
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from ..gpu.shaders import run_compute
-from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
-from .base import Channel, Frame, Pass, run_passes
-from .caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE, CausticMap
+from .base import Channel, Frame, Pass
 from .fixed_flux import splat_fixed_point
-from .lights import (
-    CUBE_FORWARD,
-    CUBE_UP,
-    LIGHT_DIRECTIONAL,
-    LIGHT_POINT,
-    LightSample,
-    scene_state_key,
-)
+from .light_views import LightView, caster_points, coarse_view, cube_view, fit_view
+from .lights import LIGHT_DIRECTIONAL, LIGHT_POINT
 
-VIEW_PROJECTIVE, VIEW_CUBE = 0, 1
-MAX_PROJECTIVE_HALF_ANGLE = 60.0  # degrees: wider footprints of a point light go to the cube atlas
 PHOTON_BYTES = 32  # vec4 position + vec4 flux
 # The fewest Newton-Raphson steps of the first landing, on the coarse views: it converges, so the caustic
 # view fitted around the landed photons holds the caustic (caustic-mapping's footprint pass, photon-splats).
 COARSE_NEWTON_STEPS = 6
-
-
-@dataclass
-class LightView:
-    """A light-space view: ``size`` x ``size`` texels per face, 1 face (projective) or 6 (cube atlas)."""
-
-    sample: LightSample
-    kind: int  # VIEW_PROJECTIVE or VIEW_CUBE
-    size: int
-    clips: np.ndarray  # (faces, 4, 4) clip_from_world per face
-    forwards: np.ndarray  # (faces, 3) view axis per face
-    unit_area: float  # texel area on the image plane at unit distance (orthographic: the texel's area)
-    ortho: bool = False
-
-    @property
-    def faces(self) -> int:
-        return 6 if self.kind == VIEW_CUBE else 1
-
-    @property
-    def atlas_size(self) -> tuple[int, int]:
-        return (self.faces * self.size, self.size)
-
-    @property
-    def clip_from_world(self) -> np.ndarray:
-        return self.clips[0]
-
-    def caustic_map(self, texture) -> CausticMap:
-        """The contract's CausticMap for a texture laid out in this view."""
-        if self.kind == VIEW_CUBE:
-            return CausticMap(texture, CAUSTIC_CUBE, None)
-        return CausticMap(texture, CAUSTIC_PROJECTIVE, self.clips[0].astype("f4"))
-
-    def bind(self, program) -> None:
-        """Set this view as view 0 of caustic_light_space.glsl, and its light."""
-        bind_views(program, [self])
-
-
-def bind_views(program, views: list) -> None:
-    """Set caustic_light_space.glsl's view arrays (VIEW_COUNT = len(views)) and the light of the first view."""
-    count = len(views)
-    kinds, orthos, sizes, areas = np.zeros(count, "i4"), np.zeros(count, "i4"), np.ones(count, "i4"), np.zeros(count, "f4")
-    clips = np.tile(np.eye(4, dtype="f4"), (6 * count, 1, 1))
-    forwards = np.zeros((6 * count, 3), "f4")
-    for v, view in enumerate(views):
-        if view is None:
-            continue
-        kinds[v], orthos[v], sizes[v], areas[v] = view.kind, int(view.ortho), view.size, view.unit_area
-        clips[6 * v: 6 * v + view.faces] = view.clips
-        forwards[6 * v: 6 * v + view.faces] = view.forwards
-    # Drivers may shorten arrays to the entries a shader uses: write that many.
-    for name, values in (("view_kind", kinds), ("view_ortho", orthos), ("view_size", sizes),
-                         ("view_unit_area", areas), ("view_forward", forwards),
-                         ("view_clip", np.ascontiguousarray(clips.transpose(0, 2, 1)))):
-        if name in program:
-            program[name].write(values[: max(program[name].array_length, 1)].tobytes())
-    light = next(v for v in views if v is not None).sample
-    set_uniform(program, "ls_light_type", int(light.type))
-    set_uniform(program, "ls_light_position", np.asarray(light.position, "f4"))
-    set_uniform(program, "ls_light_direction", np.asarray(light.direction, "f4"))
-    set_uniform(program, "ls_light_intensity", np.asarray(light.intensity, "f4"))
-    set_uniform(program, "ls_light_cone", np.asarray(light.cone_cos, "f4"))
-
-
-def _scene_depth_range(sample: LightSample, scene) -> tuple[float, float]:
-    """Near and far distances of the scene's bounding box from the light (along its direction if directional)."""
-    low, high = scene.bounds()
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    radius = 0.5 * np.linalg.norm(high - low) + 1e-6
-    if sample.type == LIGHT_DIRECTIONAL:
-        d = (corners - sample.position) @ sample.direction
-        return max(d.min() - 0.01 * radius, 1e-3 * radius), d.max() + 0.01 * radius
-    far = np.linalg.norm(corners - sample.position, axis=1).max() * 1.01
-    return 1e-3 * radius, far
-
-
-def cube_view(sample: LightSample, size: int, scene) -> LightView:
-    """The six-face atlas around a point light (Shah et al. III-F: an environment caustic map)."""
-    near, far = _scene_depth_range(sample, scene)
-    p = np.asarray(sample.position, dtype=np.float64)
-    clips = np.stack([perspective_clip_from_view(90.0, 1.0, near, far) @ look_at_view_from_world(p, p + f, u)
-                      for f, u in zip(CUBE_FORWARD, CUBE_UP)])
-    return LightView(sample, VIEW_CUBE, int(size), clips, CUBE_FORWARD.copy(), (2.0 / size) ** 2)
-
-
-def _ortho_view(sample: LightSample, scene, size: int, x0, x1, y0, y1) -> LightView:
-    view = look_at_view_from_world(sample.position, sample.position + sample.direction, up_hint(sample.direction))
-    near, far = _scene_depth_range(sample, scene)
-    m = np.eye(4)
-    m[0, 0], m[0, 3] = 2.0 / (x1 - x0), -(x1 + x0) / (x1 - x0)
-    m[1, 1], m[1, 3] = 2.0 / (y1 - y0), -(y1 + y0) / (y1 - y0)
-    m[2, 2], m[2, 3] = -2.0 / (far - near), -(far + near) / (far - near)
-    area = (x1 - x0) * (y1 - y0) / size**2
-    return LightView(sample, VIEW_PROJECTIVE, int(size), (m @ view)[None], sample.direction[None].copy(), area, True)
-
-
-def _perspective_view(sample: LightSample, scene, size: int, axis, x0, x1, y0, y1) -> LightView:
-    """Off-axis perspective view along ``axis`` over [x0, x1] x [y0, y1] on the plane at unit distance."""
-    view = look_at_view_from_world(sample.position, sample.position + axis, up_hint(axis))
-    near, far = _scene_depth_range(sample, scene)
-    m = np.zeros((4, 4))
-    m[0, 0], m[0, 2] = 2.0 / (x1 - x0), (x1 + x0) / (x1 - x0)
-    m[1, 1], m[1, 2] = 2.0 / (y1 - y0), (y1 + y0) / (y1 - y0)
-    m[2, 2], m[2, 3] = (far + near) / (near - far), 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    area = (x1 - x0) * (y1 - y0) / size**2
-    return LightView(sample, VIEW_PROJECTIVE, int(size), (m @ view)[None], np.asarray(axis, float)[None], area)
-
-
-def coarse_view(sample: LightSample, size: int, scene) -> LightView:
-    """A view over the whole scene: orthographic box (directional), the atlas (point and spot lights).
-
-    Spot lights get the atlas too, not their cone: refracted light leaves the
-    cone (a prism bends a narrow beam by tens of degrees onto receivers the
-    cone never sees), and this view must hold every landing point.
-    """
-    if sample.type != LIGHT_DIRECTIONAL:
-        return cube_view(sample, size, scene)
-    low, high = scene.bounds()
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    return fit_view(sample, corners, size, scene, margin_texels=1.0)
-
-
-def fit_view(sample: LightSample, points: np.ndarray, size: int, scene, margin_texels: float = 2.0,
-             weights: np.ndarray | None = None, trim: float = 0.0) -> LightView | None:
-    """A square projective view fitted tightly around world ``points`` as the light sees them.
-
-    Directional lights get an orthographic box, point and spot lights an
-    off-axis perspective frustum aimed at the points; None when a point or spot
-    light would need more than MAX_PROJECTIVE_HALF_ANGLE (use :func:`cube_view`).
-    ``trim`` drops that fraction of the ``weights`` (flux) at each side of each
-    axis (outliers that would spread the map thin); ``margin_texels`` pads it.
-    """
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(points) == 0:
-        return None
-    direction = np.asarray(sample.direction, dtype=np.float64)
-    if sample.type == LIGHT_DIRECTIONAL:
-        axis = direction
-    else:
-        rays = points - sample.position
-        rays /= np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-30)
-        axis = rays.mean(axis=0)
-        if np.linalg.norm(axis) < 1e-6:
-            return None
-        axis /= np.linalg.norm(axis)
-    view = look_at_view_from_world(sample.position, sample.position + axis, up_hint(axis))
-    local = points @ view[:3, :3].T + view[:3, 3]
-    if sample.type == LIGHT_DIRECTIONAL:
-        xy = local[:, :2]
-    else:
-        depth = -local[:, 2]
-        if np.any(depth <= 1e-9 * (1.0 + np.abs(local).max())):
-            return None
-        xy = local[:, :2] / depth[:, None]
-    lo, hi = _trimmed_range(xy, weights, trim)
-    centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
-    half = max(half, 1e-6 * (1.0 + float(np.abs(centre).max()))) * size / max(size - 2.0 * margin_texels, 1.0)
-    if sample.type == LIGHT_DIRECTIONAL:
-        return _ortho_view(sample, scene, size, centre[0] - half, centre[0] + half, centre[1] - half, centre[1] + half)
-    corner = np.abs(centre) + half
-    if np.degrees(np.arctan(np.hypot(*corner))) > MAX_PROJECTIVE_HALF_ANGLE:
-        return None
-    return _perspective_view(sample, scene, size, axis, centre[0] - half, centre[0] + half,
-                             centre[1] - half, centre[1] + half)
-
-
-def _trimmed_range(xy: np.ndarray, weights: np.ndarray | None, trim: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per-axis [lo, hi] keeping all but ``trim`` of the weight on each side."""
-    if weights is None or trim <= 0.0:
-        return xy.min(axis=0), xy.max(axis=0)
-    lo, hi = np.empty(2), np.empty(2)
-    total = float(weights.sum())
-    for k in range(2):
-        order = np.argsort(xy[:, k])
-        cumulative = np.cumsum(weights[order]) / max(total, 1e-300)
-        lo[k] = xy[order[np.searchsorted(cumulative, trim)], k]
-        hi[k] = xy[order[min(np.searchsorted(cumulative, 1.0 - trim), len(order) - 1)], k]
-    return lo, hi
-
-
-def caster_points(objects) -> np.ndarray:
-    """World vertices of the objects (the silhouettes a fitted view must hold)."""
-    return np.concatenate([o.world_mesh().vertices.astype(np.float64) for o in objects]) if objects else np.zeros((0, 3))
 
 
 @dataclass
@@ -496,7 +297,7 @@ class ResolveCausticMaps(Pass):
     The receiver area of a texel is its solid angle times d^2 (or its
     perpendicular area) over the cosine between the receiver normal and the
     light, from the receivers' normal texture. The maps are new textures owned
-    by the caller (:class:`CachedPasses` keeps them across frames).
+    by the caller (:class:`~caustica.passes.cached_passes.CachedPasses` keeps them across frames).
     """
 
     def __init__(self, receivers: str = "receivers", views: str = "caustic_views"):
@@ -523,36 +324,3 @@ class ResolveCausticMaps(Pass):
             maps.append(view.caustic_map(texture))
         frame.write("caustic_maps", maps)
 
-
-def material_state_key(scene) -> tuple:
-    """What caustic maps depend on beyond shadow maps: every object's material."""
-    return tuple(state_key(o.material) for o in scene.objects)
-
-
-class CachedPasses(Pass):
-    """Run ``passes`` only when lights, objects, materials or ``key`` change; reuse their outputs otherwise.
-
-    The graph caches the ``keep`` channels (passes/graph.py, :meth:`Pass.cache_key`); whatever else
-    the inner passes wrote is given back when they finish.
-    """
-
-    def __init__(self, tag: str, key, passes: list, keep: tuple[str, ...] = ("caustic_maps",)):
-        self.tag, self.key, self.passes, self.keep = tag, key, list(passes), tuple(keep)
-        inner = {c.name for p in self.passes for c in p.writes}
-        self.reads = tuple(dict.fromkeys(("light_samples", *(n for p in self.passes for n in p.reads if n not in inner))))
-        self.writes = tuple(c for p in self.passes for c in p.writes if c.name in self.keep)
-        self.rebuilt = 0  # how many times the inner passes ran (tests)
-
-    @property
-    def label(self) -> str:
-        return f"{type(self).__name__}({self.tag})"
-
-    def cache_key(self, frame: Frame):
-        return self.key, scene_state_key(frame.scene), material_state_key(frame.scene)
-
-    def run(self, frame: Frame) -> None:
-        before = set(frame.channels)
-        run_passes(self.passes, frame, keep=before | set(self.keep))
-        for name in set(frame.channels) - before - set(self.keep):
-            del frame.channels[name]  # given back by the inner graph
-        self.rebuilt += 1

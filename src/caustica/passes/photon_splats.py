@@ -26,7 +26,8 @@ from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
 from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
 from .image_space import DN_ATTRIBUTE, distance_along_normal
-from .light_space import LightView, bind_views, dispatch_photons
+from .light_space import dispatch_photons
+from .light_views import LightView, bind_views
 
 TIR_MODES = ("keep-t1", "clamp", "reflect", "drop")
 ESTIMATOR_NEWTON = 1  # estimate_distance's Newton-Raphson with bisection fallback

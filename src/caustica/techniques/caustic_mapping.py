@@ -68,18 +68,18 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters
+from ..passes.cached_passes import CachedPasses
 from ..passes.light_space import (
     COARSE_NEWTON_STEPS,
-    CachedPasses,
     FitCasterViews,
     FitCausticViews,
     FitCoarseViews,
     LightSurfaces,
     ResolveCausticMaps,
     SplatPhotons,
-    bind_views,
     dispatch_photons,
 )
+from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
 from .env_map import ShadowedParams

@@ -58,9 +58,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..passes.cached_passes import CachedPasses
 from ..passes.light_space import (
     COARSE_NEWTON_STEPS,
-    CachedPasses,
     FitCasterViews,
     FitCausticViews,
     FitCoarseViews,

@@ -37,9 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..passes.base import Channel, Frame, Pass
+from ..passes.cached_passes import CachedPasses
 from ..passes.light_space import (
     PHOTON_BYTES,
-    CachedPasses,
     FitCausticViews,
     LightSurfaces,
     Photons,
