@@ -26,6 +26,9 @@ views they draw in are ``passes/light_views.py``, the cache across frames
 - :class:`ResolveCausticMaps` (irradiance = flux / receiver area of the texel,
   alpha = the receiver's distance to the light, into the ``caustic_maps``
   contract of ``passes/caustics.py``).
+- :func:`landing_chain`: the whole sequence from the light to the caustic maps,
+  once for ``caustic-mapping`` and ``photon-splats``, which differ only in how
+  they make and land the photons.
 
 Photons live in :class:`Photons`: an SSBO of ``{vec4 position (w = 1 landed);
 vec4 flux (W, RGB)}``, the format every splat here reads; :func:`dispatch_photons`
@@ -41,6 +44,7 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from ..gpu.shaders import run_compute
 from .base import Channel, Frame, Pass
+from .cached_passes import CachedPasses
 from .fixed_flux import splat_fixed_point
 from .light_views import LightView, caster_points, coarse_view, cube_view, fit_view
 from .lights import LIGHT_DIRECTIONAL, LIGHT_POINT
@@ -49,6 +53,7 @@ PHOTON_BYTES = 32  # vec4 position + vec4 flux
 # The fewest Newton-Raphson steps of the first landing, on the coarse views: it converges, so the caustic
 # view fitted around the landed photons holds the caustic (caustic-mapping's footprint pass, photon-splats).
 COARSE_NEWTON_STEPS = 6
+COARSE_MAP_SIZE = 256  # texels a side of the coarse views at most
 
 
 @dataclass
@@ -279,15 +284,14 @@ class SplatPhotons(Pass):
         program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag")
         view.bind(program)
         set_uniform(program, "splat_radius", self.radius)
-        vao = ctx.vertex_array(program, [(photons.buffer, "4f 4f", "in_position", "in_flux")])
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         ctx.blend_equation = moderngl.FUNC_ADD
-        vao.render(moderngl.POINTS, vertices=photons.count)
+        with frame.scoped(ctx.vertex_array(program, [(photons.buffer, "4f 4f", "in_position", "in_flux")])) as vao:
+            vao.render(moderngl.POINTS, vertices=photons.count)
         ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.DEFAULT_BLENDING
-        vao.release()
         return targets
 
 
@@ -324,3 +328,38 @@ class ResolveCausticMaps(Pass):
             maps.append(view.caustic_map(texture))
         frame.write("caustic_maps", maps)
 
+
+
+def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
+                  splat: str, splat_radius: float, point_map: str = "frustum") -> CachedPasses:
+    """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
+
+    1. III-B: the photon grid's view around the casters (:class:`FitCasterViews`, ``caster_size`` texels
+       a side) and the refractors' farthest back faces in it (``caster_back``, Wyman's back-face buffer).
+    2. ``makers``: the technique's passes making, in that view, what its photons start from.
+    3. The footprint: the photons landed on the receivers of a view over the whole scene
+       (:class:`FitCoarseViews`, at most COARSE_MAP_SIZE texels), Newton-Raphson with at least
+       COARSE_NEWTON_STEPS steps, into ``coarse_photons``.
+    4. III-F, view frustum limitation: the caustic map's view fitted around where they landed
+       (:class:`FitCausticViews`, ``map_size`` texels), its receivers, and the photons landed again
+       ``steps`` steps from the first hits, into ``photons``.
+    5. III-F: :class:`SplatPhotons` (``splat``, ``splat_radius`` texels) and :class:`ResolveCausticMaps`.
+
+    ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
+    ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
+    channel's photons landed, none for the footprint). The chain reruns only when lights, objects,
+    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``).
+    """
+    return CachedPasses(tag, tuple(sorted(vars(params).items())), [
+        FitCasterViews(caster_size, point_map=point_map),
+        LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
+        *makers,
+        FitCoarseViews(min(map_size, COARSE_MAP_SIZE)),
+        LightSurfaces("coarse_views", "coarse_receivers"),
+        land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps)),
+        FitCausticViews("coarse_photons", map_size, margin_texels=splat_radius + 2.0, point_map=point_map),
+        LightSurfaces("caustic_views", "receivers"),
+        land("receivers", "caustic_views", "photons", steps, initial="coarse_photons"),
+        SplatPhotons("photons", mode=splat, radius=splat_radius),
+        ResolveCausticMaps("receivers"),
+    ])

@@ -1,7 +1,8 @@
 """``caustic-mapping``: caustics by image-space photon tracing from the light (Shah et al.).
 
 Shah, Konttinen and Pattanaik, "Caustics Mapping: An Image-space Technique for
-Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``):
+Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
+``landing_chain``, which ``photon-splats`` shares):
 
 1. Casters (glass and mirrors) from the light (III-B, second pass): nearest
    front faces of every object (positions + distance, normals + caster code;
@@ -68,17 +69,7 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters
-from ..passes.cached_passes import CachedPasses
-from ..passes.light_space import (
-    COARSE_NEWTON_STEPS,
-    FitCasterViews,
-    FitCausticViews,
-    FitCoarseViews,
-    LightSurfaces,
-    ResolveCausticMaps,
-    SplatPhotons,
-    dispatch_photons,
-)
+from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -176,20 +167,12 @@ class CausticMapping(CausticTechnique):
 
     def caustic_passes(self, params):
         p = params
-        coarse = min(p.map_size, 256)
-        inner = [
-            FitCasterViews(p.photon_grid, point_map=p.point_map),
-            LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front"),
-            LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
-            FitCoarseViews(coarse),
-            LightSurfaces("coarse_views", "coarse_receivers"),
-            TracePhotons("coarse_receivers", "coarse_views", "coarse_photons", p,
-                         estimator=("newton", max(COARSE_NEWTON_STEPS, p.iterations))),
-            FitCausticViews("coarse_photons", p.map_size, margin_texels=p.splat_radius + 2.0, point_map=p.point_map),
-            LightSurfaces("caustic_views", "receivers"),
-            TracePhotons("receivers", "caustic_views", "photons", p, initial="coarse_photons"),
-            SplatPhotons("photons", mode=p.splat, radius=p.splat_radius),
-            ResolveCausticMaps("receivers"),
-        ]
-        key = tuple(sorted(vars(p).items()))
-        return [CachedPasses("caustic-mapping", key, inner)]
+
+        def trace(receivers: str, views: str, channel: str, steps: int, initial: str | None = None) -> TracePhotons:
+            """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator."""
+            estimator = (p.estimator if initial else "newton", steps)
+            return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
+
+        front = LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front")
+        return [landing_chain("caustic-mapping", p, [front], trace, caster_size=p.photon_grid, map_size=p.map_size,
+                              steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map)]

@@ -25,7 +25,8 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    Shah et al.'s intersection estimate against the receivers' light-space
    position texture, the one ``caustic-mapping`` uses). A first landing on a
    coarse view of the whole scene fits the caustic map's view tightly around
-   the hits (``passes/light_space.py``, FitCausticViews); the photons then
+   the hits (``passes/light_space.py``: FitCausticViews in ``landing_chain``, the
+   chain ``caustic-mapping`` runs too); the photons then
    land again on that view's receivers, ``land_iterations`` steps from the first hits.
 3. Caustic map ("Rendering the Caustic Map"): Gaussian splats of radius
    ``splat_radius`` caustic-map texels (sigma = radius / 2; the paper's 7 x 7
@@ -58,22 +59,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.cached_passes import CachedPasses
-from ..passes.light_space import (
-    COARSE_NEWTON_STEPS,
-    FitCasterViews,
-    FitCausticViews,
-    FitCoarseViews,
-    LightSurfaces,
-    ResolveCausticMaps,
-    SplatPhotons,
-)
+from ..passes.light_space import landing_chain
 from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
 from .base import param
 from .composite import SPLATS, CausticTechnique
 from .env_map import ShadowedParams
-
-COARSE_MAP_SIZE = 256
 
 
 @dataclass
@@ -102,18 +92,6 @@ class PhotonSplats(CausticTechnique):
 
     def caustic_passes(self, params):
         p = params
-        inner = [
-            FitCasterViews(p.photon_buffer_size),
-            LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
-            RefractFromLight(p.tir_mode, p.use_dn),
-            FitCoarseViews(min(p.caustic_map_size, COARSE_MAP_SIZE)),
-            LightSurfaces("coarse_views", "coarse_receivers"),
-            LandPhotons("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, p.land_iterations)),
-            FitCausticViews("coarse_photons", p.caustic_map_size, margin_texels=p.splat_radius + 2.0),
-            LightSurfaces("caustic_views", "receivers"),
-            LandPhotons("receivers", "caustic_views", "photons", p.land_iterations, initial="coarse_photons"),
-            SplatPhotons("photons", mode=p.splat, radius=p.splat_radius),
-            ResolveCausticMaps("receivers"),
-        ]
-        key = tuple(sorted(vars(p).items()))
-        return [CachedPasses("photon-splats", key, inner)]
+        return [landing_chain("photon-splats", p, [RefractFromLight(p.tir_mode, p.use_dn)], LandPhotons,
+                              caster_size=p.photon_buffer_size, map_size=p.caustic_map_size,
+                              steps=p.land_iterations, splat=p.splat, splat_radius=p.splat_radius)]
