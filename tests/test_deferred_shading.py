@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from caustica.passes import surfaces
+from caustica.passes import deferred, surfaces
 from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
                             procedural_environment)
 from caustica.scene.shapes import box, sphere, torus
@@ -89,10 +89,34 @@ def test_deferred_runs_only_where_it_is_asked_for():
         surfaces.ShadeSurfaces("passes/depth_search.frag", vertex="passes/image_space.vert", deferred=("glass",))
 
 
+def test_shade_options_declare_and_check_the_options():
+    """ShadeSurfaces' arguments are ShadeOptions' fields (positional in order, or by name, or over an
+    options object), checked alike; each is an attribute read and written through."""
+    positional = surfaces.ShadeSurfaces("passes/depth_search.frag", {"A": 1}, None, ("back_surface",), None,
+                                        deferred=("glass",))
+    named = surfaces.ShadeSurfaces(options=surfaces.ShadeOptions("passes/depth_search.frag", {"A": 1}),
+                                   deferred=("glass",))
+    assert positional.options == named.options
+    assert named.fragment == "passes/depth_search.frag" and named.inputs == ("back_surface",)
+    named.deferred = ("glass", "mirror")  # techniques set some after construction (impostors)
+    assert named.options.deferred == ("glass", "mirror") and positional.deferred == ("glass",)
+    assert surfaces.ShadeSurfaces(objects=["ball"]).objects == frozenset({"ball"})
+    with pytest.raises(ValueError, match="at most 7 input channels"):
+        surfaces.ShadeOptions(inputs=tuple(f"c{i}" for i in range(8)))
+    with pytest.raises(ValueError, match="a free input unit"):
+        surfaces.ShadeSurfaces(inputs=tuple(f"c{i}" for i in range(7)), deferred=("glass",))
+    with pytest.raises(ValueError, match="captures_front_surface needs"):
+        surfaces.ShadeSurfaces("passes/depth_search.frag", captures_front_surface=True, deferred=("glass",))
+    shade = surfaces.ShadeSurfaces(inputs=("front_surface", "back_surface"), deferred=("glass",),
+                                   captures_front_surface=True, background=False)
+    assert shade.reads == ("light_samples", "shadow_maps", "back_surface", "color", "exit_direction", "depth")
+    assert [c.name for c in shade.writes][-1] == "front_surface"
+
+
 def test_too_many_glass_objects_are_shaded_per_fragment(renderer, per_fragment, monkeypatch):
     """Past MAX_DEFERRED glass objects (G-buffer ids) a run shades every object per fragment: the image
     is the per-fragment one, bit for bit."""
-    monkeypatch.setattr(surfaces, "MAX_DEFERRED", 1)  # the crowded scene has two glass objects
+    monkeypatch.setattr(deferred, "MAX_DEFERRED", 1)  # the crowded scene has two glass objects
     scene = crowded_scene()
     np.testing.assert_array_equal(renderer.render(scene, "depth-search"), per_fragment(renderer, scene, "depth-search"))
 
@@ -142,13 +166,13 @@ def test_staged_resolve_equals_one_stage(renderer, one_stage, monkeypatch, scene
         scene = Scene(camera=camera, objects=[SceneObject("ball", sphere(1.0, 5), Glass(ior=0.8))],
                       environment=procedural_environment("sky-checker"))
     flags = []
-    original = surfaces.ShadeSurfaces._resolve_second_stage
+    original = deferred.resolve_second_stage
 
-    def reading_flags(self, frame, staged, refine, *rest):
+    def reading_flags(frame, shade, staged, refine, *rest):
         flags.append(np.frombuffer(refine.read(), np.float32))
-        return original(self, frame, staged, refine, *rest)
+        return original(frame, shade, staged, refine, *rest)
 
-    monkeypatch.setattr(surfaces.ShadeSurfaces, "_resolve_second_stage", reading_flags)
+    monkeypatch.setattr(deferred, "resolve_second_stage", reading_flags)
     staged = renderer.render(scene, "depth-search")
     assert len(flags) == 1
     keys, counts = np.unique(flags[0], return_counts=True)

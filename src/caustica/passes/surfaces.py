@@ -1,20 +1,24 @@
 """Camera-view passes shared by techniques: refractor surface buffers, background, surface shading."""
 from __future__ import annotations
 
+import dataclasses
 from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, Callable
 
 import moderngl
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..scene.codes import MATERIAL_CODES
+from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
+from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
-DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
-MAX_DEFERRED = 255  # G-buffer ids 1..255 keyed as depth id / 256
-SECOND_STAGE_KEY = 1.0 / 512.0  # a staged object's second-stage pixels: depth id / 256 + this, between the ids
+FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
+FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 
 
 class RefractorSurfaces(Pass):
@@ -80,11 +84,45 @@ def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", 
     return target
 
 
+@dataclass
+class ShadeOptions:
+    """ShadeSurfaces' options, in the order of its positional arguments."""
+
+    fragment: str = "passes/env_map.frag"  # the surface fragment shader (default: the env-map baseline)
+    defines: dict | None = None  # its defines
+    material_override: Any = None  # one material for every object (None: each its own)
+    inputs: tuple[str, ...] = ("back_surface",)  # channels bound as samplers of the same name
+    set_uniforms: Callable | None = None  # set_uniforms(program, frame, obj): own uniforms (obj None: per frame)
+    objects: Any = None  # object names or a predicate f(obj) -> bool: the objects drawn (None: all)
+    background: bool = True  # False: draw over an earlier run's color, exit_direction, depth (per-object)
+    tag: str = ""  # names the run in pass timings
+    vertex: str = "common/mesh_vertex.glsl"  # the vertex stage (writes world_position, world_normal as this one)
+    frame_defines: Callable | None = None  # frame_defines(frame) -> dict: defines from the frame's channels
+    deferred: tuple[str, ...] = ()  # material kinds shaded once per visible pixel from a G-buffer (passes/deferred.py)
+    captures_front_surface: bool = False  # writes the front_surface input itself, from the glass G-buffer if it can
+    staged: tuple[str, ...] = ()  # deferred kinds resolved in two stages (passes/deferred.py)
+
+    def __post_init__(self):
+        max_inputs = FIRST_SHADOW_UNIT - FIRST_INPUT_UNIT
+        if len(self.inputs) > max_inputs:
+            raise ValueError(f"ShadeSurfaces binds at most {FIRST_SHADOW_UNIT - 1} input channels")
+        self.defines = self.defines or {}
+        self.inputs = tuple(self.inputs)
+        self.objects = self.objects if self.objects is None or callable(self.objects) else frozenset(self.objects)
+        self.background = bool(self.background)
+        self.deferred, self.staged = tuple(self.deferred), tuple(self.staged)
+        if self.deferred and (self.vertex != "common/mesh_vertex.glsl" or len(self.inputs) + 1 > max_inputs):
+            raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
+        self.captures_front_surface = bool(self.captures_front_surface)
+        if self.captures_front_surface and ("front_surface" not in self.inputs or "glass" not in self.deferred):
+            raise ValueError("captures_front_surface needs 'front_surface' among the inputs and glass deferred")
+
+
 class ShadeSurfaces(Pass):
     """Environment background, then every object shaded by a surface fragment shader.
 
     The default shader is the env-map baseline; techniques pass their own
-    fragment shader and extra uniforms for refractors.
+    fragment shader and extra uniforms for refractors. Each ShadeOptions field is an attribute too.
     """
 
     writes = (
@@ -93,55 +131,21 @@ class ShadeSurfaces(Pass):
         Channel("depth", "depth", "camera depth buffer"),
     )
 
-    FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
-    FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
+    FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT = FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT  # the module's (ShadeOptions checks)
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
     # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py).
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES"}
 
-    def __init__(self, fragment: str = "passes/env_map.frag", defines: dict | None = None, material_override=None,
-                 inputs: tuple[str, ...] = ("back_surface",), set_uniforms=None, objects=None, background: bool = True,
-                 tag: str = "", vertex: str = "common/mesh_vertex.glsl", frame_defines=None,
-                 deferred: tuple[str, ...] = (), captures_front_surface: bool = False, staged: tuple[str, ...] = ()):
-        """``inputs``: channels bound as samplers of the same name; ``set_uniforms(program, frame, obj)``
-        sets a technique's own uniforms per object (``obj`` None once per frame); ``vertex``: the vertex
-        stage (it writes world_position and world_normal as the shared one does).
+    def __init__(self, *args, options: ShadeOptions | None = None, **overrides):
+        """``args``, ``overrides``: ShadeOptions fields (in order, by name), over ``options`` when given.
 
-        ``objects`` (a set of object names or a predicate ``f(obj) -> bool``; None: all) limits the
-        objects drawn. ``background`` False draws over the ``color``, ``exit_direction`` and ``depth``
-        an earlier ShadeSurfaces wrote, without clearing them: several runs, each with its own shader
-        and objects, then make one image (``per-object``). ``tag`` names the run in pass timings.
-        ``frame_defines(frame) -> dict``: defines that depend on the frame's channels (compiled per value).
-        ``deferred``: material kinds shaded after every object is drawn, once per visible pixel from a
-        G-buffer (common/surface_inputs.glsl), instead of per fragment of small triangles: for costly
-        shaders on a CPU rasterizer, which shades each triangle's partly covered pixel blocks whole.
-        Needs the shared vertex stage and a free input unit. ``captures_front_surface``: this run
-        writes the ``front_surface`` input itself (RefractorSurfaces' nearest front faces), from the
-        glass draw of the G-buffer when it can (glass deferred and drawn first, every refractor a
-        culled solid drawn by this run: one draw of each refractor fewer), else by drawing that buffer first.
-        ``staged``: deferred kinds resolved in two stages. The first (DEFER_STAGE 1) shades every pixel
-        and flags those that need a costlier path (``deferred_refine``); the second (DEFER_STAGE 2)
-        shades the flagged pixels alone, keyed in the depth buffer: a CPU rasterizer runs a branch that
-        no pixel of its vector takes, but skips every pixel that fails an early depth test."""
-        if len(inputs) > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT:
-            raise ValueError(f"ShadeSurfaces binds at most {self.FIRST_SHADOW_UNIT - 1} input channels")
-        self.fragment, self.vertex = fragment, vertex
-        self.defines = defines or {}
-        self.material_override = material_override
-        self.inputs = tuple(inputs)
-        self.set_uniforms = set_uniforms
-        self.objects = objects if objects is None or callable(objects) else frozenset(objects)
-        self.background = bool(background)
-        self.tag = tag
-        self.frame_defines = frame_defines
-        self.deferred = tuple(deferred)
-        self.staged = tuple(staged)
-        if self.deferred and (vertex != "common/mesh_vertex.glsl"
-                              or len(inputs) + 1 > self.FIRST_SHADOW_UNIT - self.FIRST_INPUT_UNIT):
-            raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
-        self.captures_front_surface = bool(captures_front_surface)
-        if self.captures_front_surface and ("front_surface" not in self.inputs or "glass" not in self.deferred):
-            raise ValueError("captures_front_surface needs 'front_surface' among the inputs and glass deferred")
+        ``captures_front_surface`` fills RefractorSurfaces' nearest front faces from the glass draw of
+        the G-buffer when glass is deferred and drawn first and every refractor is a culled solid this
+        run draws (one draw of each refractor fewer), else by drawing that buffer first."""
+        if options is not None and args:
+            raise TypeError("ShadeSurfaces takes options or positional fields, not both")
+        self.options = (ShadeOptions(*args, **overrides) if options is None
+                        else dataclasses.replace(options, **overrides))
         targets = () if self.background else tuple(c.name for c in ShadeSurfaces.writes)
         own = ("front_surface",) if self.captures_front_surface else ()
         self.reads = ("light_samples", "shadow_maps") + tuple(i for i in self.inputs if i not in own) + targets
@@ -151,6 +155,11 @@ class ShadeSurfaces(Pass):
     @property
     def label(self) -> str:
         return f"ShadeSurfaces({self.tag})" if self.tag else "ShadeSurfaces"
+
+    @property
+    def deferred_unit(self) -> int:
+        """The texture unit of the G-buffer (and the next, of the second stage's flags): after the inputs."""
+        return self.FIRST_INPUT_UNIT + len(self.inputs)
 
     def draws(self, obj) -> bool:
         """Whether this run shades ``obj``."""
@@ -167,8 +176,7 @@ class ShadeSurfaces(Pass):
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
         drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
-        # Beyond MAX_DEFERRED ids, every object is shaded per fragment.
-        deferring = 0 < sum(1 for _, material in drawn if material.kind in self.deferred) <= MAX_DEFERRED
+        deferring = deferred.defers(drawn, self.deferred)
         front = None  # the front-surface buffer the glass G-buffer draw fills (captures_front_surface)
         if self.captures_front_surface:
             glass = scene.objects_of("glass")
@@ -190,13 +198,10 @@ class ShadeSurfaces(Pass):
         if self.background:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         if deferring:
-            targets = {DEFER_SHADE_NOW: gpu.targets.framebuffer([color, exit_direction, g_buffer], depth),
-                       DEFER_GBUFFER: gpu.targets.framebuffer([g_buffer], depth)}
-            if front is not None:  # glass G-buffer draws also write the front-surface buffer
-                targets["glass"] = gpu.targets.framebuffer([g_buffer, front], depth)
-            deferred = self._draw_objects(frame, drawn, targets)
-            if deferred:
-                self._resolve_deferred(frame, deferred, color, exit_direction, g_buffer)
+            targets = deferred.gbuffer_targets(gpu, color, exit_direction, g_buffer, depth, front)
+            later = self._draw_objects(frame, drawn, targets)
+            if later:
+                deferred.resolve(frame, self, later, color, exit_direction, g_buffer)
         else:
             self._draw_objects(frame, drawn)
         if self.background:  # after the objects: only where none was drawn
@@ -225,7 +230,8 @@ class ShadeSurfaces(Pass):
         """This run's objects (``drawn``: (object, material) pairs), depth tested against what earlier
         runs drew (the background comes after).
 
-        Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``;
+        Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``
+        (deferred.gbuffer_targets);
         returns the deferred (object, material, defines), in G-buffer id order."""
         gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
         ctx.enable(moderngl.DEPTH_TEST)
@@ -244,7 +250,7 @@ class ShadeSurfaces(Pass):
         capturing = bool(deferring_targets) and "glass" in deferring_targets
         if capturing:  # glass first: the front-surface buffer must hold the refractors alone
             variants.sort(key=lambda variant: variant[0] != "glass")
-        deferred = []  # (object, material, variant defines) in G-buffer id order
+        later = []  # the deferred (object, material, variant defines) in G-buffer id order
         for kind, dispersion in variants:
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion)}
             program_defines = variant_defines
@@ -257,22 +263,23 @@ class ShadeSurfaces(Pass):
                 else:
                     deferring_targets[mode].use()
             program = gpu.shaders.program(self.vertex, self.fragment, program_defines)
-            self._set_frame_uniforms(frame, program, caustic_maps)
+            self.set_frame_uniforms(frame, program, caustic_maps)
             if deferring_targets:
-                _set_deferred_ray_uniforms(program, camera)
+                deferred.set_ray_uniforms(program, camera)
             for obj, material in drawn:
                 if _variant(material) != (kind, dispersion):
                     continue
                 if deferring_targets and kind in self.deferred:
-                    deferred.append((obj, material, variant_defines))
-                    set_uniform(program, "deferred_id", float(len(deferred)))
+                    later.append((obj, material, variant_defines))
+                    set_uniform(program, "deferred_id", float(len(later)))
                 else:
-                    self._set_object_uniforms(frame, program, obj, material)
+                    self.set_object_uniforms(frame, program, obj, material)
                 with _culled_back_faces(ctx, obj, clip_from_world):
                     draw_objects(frame, program, [obj], clip_from_world)
-        return deferred
+        return later
 
-    def _set_object_uniforms(self, frame: Frame, program, obj, material) -> None:
+    def set_object_uniforms(self, frame: Frame, program, obj, material) -> None:
+        """What one object's shading needs: its material, caustic tiles, the technique's uniforms."""
         set_uniform(program, "material_kind", MATERIAL_CODES[material.kind])
         set_uniform(program, "material_color", _material_color(material))
         if material.kind == "glass":
@@ -284,87 +291,7 @@ class ShadeSurfaces(Pass):
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, obj)
 
-    def _resolve_deferred(self, frame: Frame, deferred: list, color, exit_direction, g_buffer) -> None:
-        """Shade each deferred object at its visible pixels: a depth key per pixel from the G-buffer's
-        ids (deferred_key.frag, drawn over each object's screen rectangle), then one screen rectangle
-        per object at its key, depth test EQUAL.
-        Objects of a ``staged`` kind flag pixels for a second stage (_resolve_second_stage)."""
-        gpu, ctx = frame.gpu, frame.gpu.ctx
-        key_depth = frame.texture(frame.camera.size, "depth")
-        g_unit = self.FIRST_INPUT_UNIT + len(self.inputs)  # the free unit after the inputs
-        key_fbo = gpu.targets.framebuffer([], key_depth)
-        key_fbo.use()
-        key_fbo.clear(depth=1.0)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "1"
-        g_buffer.use(g_unit)
-        rects = [_screen_rect(obj.world_mesh().bounds, frame.camera) for obj, _, _ in deferred]
-        keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_key.frag")
-        set_uniform(keys, "deferred_surface", g_unit)
-        set_uniform(keys, "deferred_key", 0.5)  # the quad's depth: unused, the shader writes its key
-        for rect in rects:  # each object's screen rectangle, not the whole viewport
-            set_uniform(keys, "deferred_rect", rect)
-            gpu.draw_fullscreen(keys, vertices=6)
-
-        resolve_fbo = gpu.targets.framebuffer([color, exit_direction], key_depth)
-        staged = [(index, obj, material, variant_defines, rect)
-                  for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1)
-                  if material.kind in self.staged]
-        refine = frame.zeroed(frame.camera.size, "r32f") if staged else None  # stage-1 flags: the key
-        ctx.depth_func = "=="
-        for index, ((obj, material, variant_defines), rect) in enumerate(zip(deferred, rects), start=1):
-            stage = 1 if material.kind in self.staged else 0
-            fbo = gpu.targets.framebuffer([color, exit_direction, refine], key_depth) if stage else resolve_fbo
-            fbo.use()
-            fbo.depth_mask = False
-            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": stage}, g_unit,
-                               index / 256.0, rect)
-        if staged:
-            self._resolve_second_stage(frame, staged, refine, key_fbo, resolve_fbo, g_unit)
-        resolve_fbo.depth_mask = True
-        ctx.depth_func = "<"
-
-    def _resolve_second_stage(self, frame: Frame, staged: list, refine, key_fbo, resolve_fbo, g_unit: int) -> None:
-        """The second stage of ``staged`` objects ((index, object, material, defines, screen rectangle)):
-        the pixels the first flagged in ``refine`` (their object's key, index / 256) get the key
-        index / 256 + SECOND_STAGE_KEY in ``key_fbo``'s depth (deferred_refine_key.frag, within the
-        object's rectangle), then DEFER_STAGE 2 shades them, drawn at that key with the EQUAL test of
-        ``resolve_fbo``."""
-        gpu, ctx = frame.gpu, frame.gpu.ctx
-        refine_unit = g_unit + 1
-        refine.use(refine_unit)
-        keys = gpu.shaders.program("passes/deferred_resolve.vert", "passes/deferred_refine_key.frag")
-        set_uniform(keys, "deferred_refine", refine_unit)
-        key_fbo.use()
-        key_fbo.depth_mask = True
-        ctx.depth_func = "1"
-        for index, _, _, _, rect in staged:
-            set_uniform(keys, "deferred_key", index / 256.0)
-            set_uniform(keys, "second_stage_key", index / 256.0 + SECOND_STAGE_KEY)
-            set_uniform(keys, "deferred_rect", rect)
-            gpu.draw_fullscreen(keys, vertices=6)
-        resolve_fbo.use()
-        resolve_fbo.depth_mask = False
-        ctx.depth_func = "=="
-        for index, obj, material, variant_defines, rect in staged:
-            self._draw_resolve(frame, obj, material, {**variant_defines, "DEFER_STAGE": 2}, g_unit,
-                               index / 256.0 + SECOND_STAGE_KEY, rect)
-
-    def _draw_resolve(self, frame: Frame, obj, material, defines: dict, g_unit: int, key: float, rect) -> None:
-        """One deferred object's resolve rectangle ``rect`` (_screen_rect), drawn at depth ``key`` into
-        the bound framebuffer."""
-        gpu = frame.gpu
-        program = gpu.shaders.program("passes/deferred_resolve.vert", self.fragment,
-                                      {**defines, "DEFERRED_SHADING": DEFER_RESOLVE})
-        self._set_frame_uniforms(frame, program, frame.optional("caustic_maps"))
-        set_uniform(program, "deferred_surface", g_unit)
-        _set_deferred_ray_uniforms(program, frame.camera)
-        set_uniform(program, "deferred_key", key)
-        set_uniform(program, "deferred_rect", rect)
-        self._set_object_uniforms(frame, program, obj, material)
-        gpu.draw_fullscreen(program, vertices=6)
-
-    def _set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
+    def set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
         camera, scene = frame.camera, frame.scene
         set_uniform(program, "environment", 0)
@@ -380,12 +307,6 @@ class ShadeSurfaces(Pass):
             bind_caustic_tiles(program, frame.optional("caustic_tiles"), unit=self.FIRST_CAUSTIC_UNIT)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
-
-
-def _set_deferred_ray_uniforms(program, camera) -> None:
-    """What deferred_pixel_ray (common/surface_inputs.glsl) needs to rebuild a pixel's ray."""
-    set_uniform(program, "deferred_world_from_clip", np.linalg.inv(camera.clip_from_world()))
-    set_uniform(program, "deferred_viewport", np.array(camera.size, "f4"))
 
 
 @contextmanager
@@ -412,26 +333,9 @@ def culls_back_faces(obj, clip_from_world: np.ndarray) -> bool:
             and np.linalg.det(clip_from_world @ obj.world_from_object()) < 0.0)  # GL's perspective/ortho sign
 
 
-def _clip_corners(bounds: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
-    """The eight corners of the box ``bounds`` (2, 3) in clip coordinates, (8, 4)."""
-    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
-    return corners @ np.asarray(clip_from_world, np.float64).T
-
-
-def _screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
-    """The NDC rectangle (x0, y0, x1, y1) covering the box ``bounds`` (2, 3) with a pixel to spare,
-    clamped to the viewport (all of it when the box reaches behind the eye)."""
-    clip = _clip_corners(bounds, camera.clip_from_world())
-    if np.any(clip[:, 3] <= 1e-9):
-        return np.array([-1.0, -1.0, 1.0, 1.0], "f4")
-    ndc = clip[:, :2] / clip[:, 3:]
-    pixel = 2.0 / np.asarray(camera.size, np.float64)
-    return np.clip(np.concatenate([ndc.min(axis=0) - pixel, ndc.max(axis=0) + pixel]), -1.0, 1.0).astype("f4")
-
-
 def _in_front_of_near_plane(bounds: np.ndarray, clip_from_world: np.ndarray) -> bool:
     """Whether the box ``bounds`` (2, 3) lies wholly beyond the near plane (the eye then lies outside it)."""
-    clip = _clip_corners(bounds, clip_from_world)
+    clip = clip_corners(bounds, clip_from_world)
     return bool(np.all(clip[:, 3] > 0.0) and np.all(clip[:, 2] > -clip[:, 3]))
 
 
@@ -449,3 +353,14 @@ def _variant(material) -> tuple[str, bool]:
 
 def _material_color(material) -> np.ndarray:
     return np.asarray(getattr(material, "color", np.ones(3)), dtype="f4")
+
+
+def _option(name: str) -> property:
+    """ShadeSurfaces' attribute ``name``: its ShadeOptions field, read and written (techniques set some later)."""
+    return property(lambda shade: getattr(shade.options, name),
+                    lambda shade, value: setattr(shade.options, name, value), doc=f"ShadeOptions.{name}")
+
+
+for _field in dataclasses.fields(ShadeOptions):
+    setattr(ShadeSurfaces, _field.name, _option(_field.name))
+del _field
