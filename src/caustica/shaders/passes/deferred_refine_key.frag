@@ -5,7 +5,7 @@
 #version 430 core
 uniform sampler2D deferred_refine;  // the first stage's flags: the object's key, 0 elsewhere
 uniform float deferred_key;         // this object's first-stage key (window depth, id / 256)
-uniform float second_stage_key;     // its second-stage key (surfaces.SECOND_STAGE_KEY above it)
+uniform float second_stage_key;     // its second-stage key (deferred.SECOND_STAGE_KEY above it)
 
 void main() {
     if (texelFetch(deferred_refine, ivec2(gl_FragCoord.xy), 0).r != deferred_key) discard;
