@@ -1,4 +1,4 @@
-// Light-space views shared by the caustic passes (caustica/passes/light_space.py, LightView.bind).
+// Light-space views shared by the caustic passes (caustica/passes/light_views.py, LightView.bind).
 // A view is a projective map (perspective or orthographic) or a six-face cube atlas (6N x N, faces in
 // the order of CUBE_FORWARD / CUBE_UP). View v has view_kind[v] (0 projective, 1 cube), view_ortho[v],
 // view_clip[6 v + face] (clip_from_world), view_forward[6 v + face], view_unit_area[v] (texel area on the
@@ -11,6 +11,7 @@
 #endif
 #define VIEW_PROJECTIVE 0
 #define VIEW_CUBE 1
+#include "passes/texel_solid_angle.glsl"
 
 uniform int view_kind[VIEW_COUNT];
 uniform int view_ortho[VIEW_COUNT];
@@ -64,11 +65,11 @@ vec2 view_pixel(int v, vec3 p, out int face, out bool inside) {
 }
 
 // Measure of the light-space texel that sees p: its solid angle (perspective and cube views,
-// A_unit cos^3 alpha) or its area perpendicular to the light (orthographic views).
+// texel_solid_angle) or its area perpendicular to the light (orthographic views).
 float texel_measure(int v, int face, vec3 p) {
     if (view_ortho[v] != 0) return view_unit_area[v];
     float c = max(dot(light_ray(p), view_forward[6 * v + face]), 1e-6);
-    return view_unit_area[v] * c * c * c;
+    return texel_solid_angle(view_unit_area[v], c);
 }
 
 // A surface texture of view v at continuous pixel x in `face` (rgba: world xyz, light distance; a = 0

@@ -10,6 +10,7 @@
 #define FLUX_BOUND 0
 #endif
 #include "passes/fixed_point_flux.glsl"
+#include "passes/texel_solid_angle.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 uniform sampler2D throughput;
 uniform sampler2D record;
@@ -40,7 +41,7 @@ void main() {
         float s = clamp((dot(ray, light_axis) - light_cone.y) / max(light_cone.x - light_cone.y, 1e-9), 0.0, 1.0);
         intensity *= s * s * (3.0 - 2.0 * s);
     }
-    vec3 flux = texelFetch(throughput, t, 0).rgb / intensity_scale * intensity * unit_area * c * c * c;
+    vec3 flux = texel_flux(texelFetch(throughput, t, 0).rgb / intensity_scale * intensity, unit_area, c);
     ivec2 texel = ivec2(clamp(rec.xy, 0.0, 0.999999) * float(tile_size)) + ivec2(k * tile_size, 0);
 #if FLUX_BOUND
     flux_bound(flux);
