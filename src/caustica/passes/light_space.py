@@ -338,8 +338,8 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
        a side) and the refractors' farthest back faces in it (``caster_back``, Wyman's back-face buffer).
     2. ``makers``: the technique's passes making, in that view, what its photons start from.
     3. The footprint: the photons landed on the receivers of a view over the whole scene
-       (:class:`FitCoarseViews`, at most COARSE_MAP_SIZE texels), Newton-Raphson with at least
-       COARSE_NEWTON_STEPS steps, into ``coarse_photons``.
+       (:class:`FitCoarseViews`, at most COARSE_MAP_SIZE texels) with at least COARSE_NEWTON_STEPS
+       steps, into ``coarse_photons``.
     4. III-F, view frustum limitation: the caustic map's view fitted around where they landed
        (:class:`FitCausticViews`, ``map_size`` texels), its receivers, and the photons landed again
        ``steps`` steps from the first hits, into ``photons``.
@@ -347,7 +347,7 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
 
     ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
-    channel's photons landed, none for the footprint). The chain reruns only when lights, objects,
+    channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
     materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``).
     """
     return CachedPasses(tag, tuple(sorted(vars(params).items())), [
