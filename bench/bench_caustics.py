@@ -24,7 +24,7 @@ import caustica
 from caustica.bench.compare import compare
 from caustica.bench.sheet import contact_sheet, save_sheet
 from caustica.bench.timing import timed_render
-from caustica.passes.light_space import evict_cached
+from caustica.passes.graph import evict
 from caustica.renderer import Renderer
 
 TECHNIQUES = ["depth-search+caustic-mapping", "depth-search+photon-splats"]
@@ -41,7 +41,7 @@ def caustic_map_ms(renderer: Renderer, scene, technique: str, frames: int) -> tu
     renderer.render(scene, technique)  # compile shaders, upload d_N
     totals, inner = [], {}
     for _ in range(max(1, frames)):
-        evict_cached(renderer.device.cache, tag)
+        evict(renderer.device.cache, f"CachedPasses({tag})")
         renderer.render(scene, technique)
         ms = renderer.last_pass_ms
         totals.append(ms[f"CachedPasses({tag})"])

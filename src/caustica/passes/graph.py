@@ -154,13 +154,18 @@ def _run_stage(stage: Pass, frame: Frame) -> float:
         for name, value in entry.items():
             frame.write(name, value)
         return 0.0
-    for old in [k for k in cache if isinstance(k, tuple) and len(k) == 2 and k[0] == stage.label]:
-        cache.pop_release(old)
+    evict(cache, stage.label)
     elapsed = _timed(stage, frame)
     entry = {c.name: frame.read(c.name) for c in stage.writes if c.name in frame.channels}
     frame.take_out(entry)  # the cache owns them now
     cache[(stage.label, key)] = entry
     return elapsed
+
+
+def evict(cache, label: str) -> None:
+    """Give back the cached outputs of the pass labelled ``label`` (the next frame reruns it)."""
+    for old in [k for k in cache if isinstance(k, tuple) and len(k) == 2 and k[0] == label]:
+        cache.pop_release(old)
 
 
 def _timed(stage: Pass, frame: Frame) -> float:
