@@ -43,35 +43,32 @@ def _shown(text: str, limit: int = 40) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _integer(low: int, high: int):
-    """An argparse type: an integer in [low, high]."""
+def _bounded(convert, low, high, unreadable: str, out_of_range: str):
+    """An argparse type: ``convert(text)`` in [low, high]. The messages are ``str.format`` templates over
+    ``text`` (cut by :func:`_shown`), ``value``, ``low`` and ``high``."""
 
-    def parse(text: str) -> int:
+    def parse(text: str):
         try:
-            value = int(text)
+            value = convert(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"'{_shown(text)}' is not an integer; give one in [{low}, {high}]") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"{value} is out of range; give an integer in [{low}, {high}]")
+            raise argparse.ArgumentTypeError(unreadable.format(text=_shown(text), low=low, high=high)) from None
+        if not low <= value <= high:  # NaN fails the comparison
+            raise argparse.ArgumentTypeError(out_of_range.format(text=_shown(text), value=value, low=low, high=high))
         return value
 
     return parse
+
+
+def _integer(low: int, high: int):
+    """An argparse type: an integer in [low, high]."""
+    return _bounded(int, low, high, "'{text}' is not an integer; give one in [{low}, {high}]",
+                    "{value} is out of range; give an integer in [{low}, {high}]")
 
 
 def _number(low: float, high: float):
     """An argparse type: a finite number in [low, high]."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"'{_shown(text)}' is not a number") from None
-        if not low <= value <= high:  # NaN fails the comparison
-            raise argparse.ArgumentTypeError(f"{_shown(text)} is out of range; give a finite number in "
-                                             f"[{low:g}, {high:g}]")
-        return value
-
-    return parse
+    return _bounded(float, low, high, "'{text}' is not a number",
+                    "{text} is out of range; give a finite number in [{low:g}, {high:g}]")
 
 
 # Bounds of the numeric options: what a frame, a reference or a table can sensibly ask for.
