@@ -30,6 +30,13 @@ from .raster import RasterTechnique
 VIEW_TECHNIQUES = ("env-map", "image-space", "depth-search")
 
 
+def _check_view_technique(technique, subject: str) -> None:
+    """ValueError, ``<subject> must be one of <the view techniques>`` with a hint, unless ``technique`` is one."""
+    if technique not in VIEW_TECHNIQUES:
+        raise ValueError(f"{subject} must be one of {', '.join(VIEW_TECHNIQUES)}"
+                         f"{closest_name(str(technique), VIEW_TECHNIQUES)}")
+
+
 @dataclass
 class PerObjectParams(ShadowedParams):
     """Parameters of ``per-object``: ``techniques`` maps glass object names to view techniques.
@@ -50,16 +57,12 @@ class PerObjectParams(ShadowedParams):
         if not isinstance(self.techniques, dict):
             raise ValueError(f"techniques {self.techniques!r} must map object names to view techniques")
         for name, technique in self.techniques.items():
-            if technique not in VIEW_TECHNIQUES:
-                raise ValueError(f"technique {technique!r} of object '{name}' must be one of "
-                                 f"{', '.join(VIEW_TECHNIQUES)}{closest_name(str(technique), VIEW_TECHNIQUES)}")
+            _check_view_technique(technique, f"technique {technique!r} of object '{name}'")
         self.techniques = {str(k): str(v) for k, v in self.techniques.items()}
         if not isinstance(self.technique_params, dict):
             raise ValueError(f"technique_params {self.technique_params!r} must map view techniques to parameters")
         for technique, values in self.technique_params.items():
-            if technique not in VIEW_TECHNIQUES:
-                raise ValueError(f"parameters for {technique!r}: it must be one of {', '.join(VIEW_TECHNIQUES)}"
-                                 f"{closest_name(str(technique), VIEW_TECHNIQUES)}")
+            _check_view_technique(technique, f"parameters for {technique!r}: it")
             if "shadow_map_size" in values:
                 raise ValueError("shadow_map_size is shared by every technique of per-object; set it unqualified")
             self.params_for(technique)  # rejects unknown names and bad values now, with the technique's message
