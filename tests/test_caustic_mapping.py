@@ -85,40 +85,52 @@ def encircled_flux(e: np.ndarray, x: np.ndarray, z: np.ndarray, area: float, rad
     return total_flux(np.where((np.hypot(x, z) < radius)[..., None], e, 0.0), area)
 
 
+def focus_sweep(map_of):
+    """(ball heights, flux within 0.01 of the axis, second moment) of ``map_of(scene)``'s (irradiance, x, z,
+    texel area) with the ball at each height from 0.55 to 1: where a caustic-map technique focuses."""
+    distances = np.array([0.55, 0.6, 0.65, 0.68, 0.7, 0.72, 0.74, 0.76, 0.8, 0.9, 1.0])
+    maps = [map_of(ball_scene(height=d)) for d in distances]
+    return distances, [encircled_flux(*m)[1] for m in maps], [spread(*m[:3]) for m in maps]
+
+
 def test_ball_lens_focuses_near_the_paraxial_focal_distance(keeper):
     # Paraxial focus f = n D / (4 (n - 1)) = 0.75 from the centre. The light is most concentrated
     # (flux within 0.01 of the axis) at f up to spherical aberration, which pulls it closer: we accept
     # [f - 0.07, f + 0.03]. The whole beam's second moment (the circle of least confusion, marginal
     # rays included) is smallest closer still, just behind the ball: [0.55, 0.7].
     f = 1.5 * 2 * RADIUS / (4 * 0.5)
-    distances = np.array([0.55, 0.6, 0.65, 0.68, 0.7, 0.72, 0.74, 0.76, 0.8, 0.9, 1.0])
-    maps = [caustic_map(keeper, ball_scene(height=d), map_size=256) for d in distances]
-    concentration = [encircled_flux(*m)[1] for m in maps]
-    spreads = [spread(*m[:3]) for m in maps]
+    distances, concentration, spreads = focus_sweep(lambda scene: caustic_map(keeper, scene, map_size=256))
     assert f - 0.07 <= distances[int(np.argmax(concentration))] <= f + 0.03, concentration
     assert 0.55 <= distances[int(np.argmin(spreads))] <= 0.7, spreads
     assert min(spreads) < 0.5 * spreads[-1]  # behind the focus the light spreads out again
 
 
-def test_index_one_passes_the_light_unchanged(keeper):
-    e, x, z, area = caustic_map(keeper, ball_scene(ior=1.0), map_size=128)
+def check_index_one_passes_the_light_unchanged(map_of):
+    """The IOR 1 checks of a caustic-map technique (caustic-mapping, photon-splats); ``map_of(scene,
+    **params)`` gives the first light's (irradiance, x, z, texel area) at 128 texels a side.
+
+    The map is the unobstructed light: E inside the ball's disc, nothing outside, the disc's flux in all.
+    With absorption only its shadow: exp(-sigma 2 sqrt(R^2 - r^2)) along each vertical chord, the mean
+    within 1 percent and 95 percent of texels within 3 percent (the photon grid beats against the map's
+    texels: a moire of a few percent that a wider splat smooths)."""
+    e, x, z, area = map_of(ball_scene(ior=1.0))
     r = np.hypot(x, z)
     inside = r < 0.9 * RADIUS
     assert np.mean(e[inside], axis=0) == pytest.approx(np.full(3, E), rel=0.02)
     assert e[r > 1.1 * RADIUS].max() < 1e-6
     assert total_flux(e, area) == pytest.approx(np.full(3, E * np.pi * RADIUS**2), rel=0.01)
-    # With absorption only its shadow: exp(-sigma 2 sqrt(R^2 - r^2)) along each vertical chord.
     colour = np.array([0.9, 0.5, 0.2])
-    e, x, z, _ = caustic_map(keeper, ball_scene(ior=1.0, absorption_color=colour, absorption_distance=1.0),
-                             map_size=128, splat_radius=3.0)
+    e, x, z, _ = map_of(ball_scene(ior=1.0, absorption_color=colour, absorption_distance=1.0), splat_radius=3.0)
     r = np.hypot(x, z)
     sigma = -np.log(colour)
     near = r < 0.8 * RADIUS
     expected = E * np.exp(-sigma[None, :] * 2.0 * np.sqrt(RADIUS**2 - r[near] ** 2)[:, None])
-    # Mean within 1 percent; 95 percent of texels within 3 percent (the photon grid beats against the
-    # map's texels: a moire of a few percent that a wider splat smooths).
     assert np.mean(e[near] / expected, axis=0) == pytest.approx(np.ones(3), rel=0.01)
     assert np.percentile(np.abs(e[near] / expected - 1.0), 95) < 0.03
+
+
+def test_index_one_passes_the_light_unchanged(keeper):
+    check_index_one_passes_the_light_unchanged(lambda scene, **params: caustic_map(keeper, scene, map_size=128, **params))
 
 
 def test_dispersion_focuses_blue_before_red(keeper):

@@ -13,9 +13,9 @@ from test_caustic_mapping import (
     RADIUS,
     E,
     ball_scene,
-    encircled_flux,
+    check_index_one_passes_the_light_unchanged,
+    focus_sweep,
     sphere_transmittance,
-    spread,
     total_flux,
 )
 
@@ -77,31 +77,17 @@ def test_ball_lens_focuses_near_the_paraxial_focal_distance(keeper):
     # closer still. Accepted: [f - 0.08, f + 0.03]. The second moment (circle of least confusion) is
     # smallest just behind the ball, [0.55, 0.7], and grows 5x by 1.0.
     f = 1.5 * 2 * RADIUS / (4 * 0.5)
-    distances = np.array([0.55, 0.6, 0.65, 0.68, 0.7, 0.72, 0.74, 0.76, 0.8, 0.9, 1.0])
-    maps = [photon_map(keeper, ball_scene(height=d)) for d in distances]
-    concentration = [encircled_flux(*m)[1] for m in maps]
-    spreads = [spread(*m[:3]) for m in maps]
+    distances, concentration, spreads = focus_sweep(lambda scene: photon_map(keeper, scene))
     assert f - 0.08 <= distances[int(np.argmax(concentration))] <= f + 0.03, concentration
     assert 0.55 <= distances[int(np.argmin(spreads))] <= 0.7, spreads
     assert min(spreads) < 0.5 * spreads[-1]
 
 
 def test_index_one_passes_the_light_unchanged(keeper):
-    # IOR 1: T1 = L, d~ = d_V exactly (theta_t = theta_i), T2 = T1: the map is the unobstructed light.
-    e, x, z, area = photon_map(keeper, ball_scene(ior=1.0), caustic_map_size=128)
-    r = np.hypot(x, z)
-    assert np.mean(e[r < 0.9 * RADIUS], axis=0) == pytest.approx(np.full(3, E), rel=0.02)
-    assert e[r > 1.1 * RADIUS].max() < 1e-6
-    assert total_flux(e, area) == pytest.approx(np.full(3, E * np.pi * RADIUS**2), rel=0.01)
-    # With absorption only its shadow: exp(-sigma 2 sqrt(R^2 - r^2)) along each vertical chord (d~ = d_V).
-    colour = np.array([0.9, 0.5, 0.2])
-    e, x, z, _ = photon_map(keeper, ball_scene(ior=1.0, absorption_color=colour, absorption_distance=1.0),
-                            caustic_map_size=128, splat_radius=3.0)
-    r = np.hypot(x, z)
-    near = r < 0.8 * RADIUS
-    expected = E * np.exp(-(-np.log(colour))[None, :] * 2.0 * np.sqrt(RADIUS**2 - r[near] ** 2)[:, None])
-    assert np.mean(e[near] / expected, axis=0) == pytest.approx(np.ones(3), rel=0.01)
-    assert np.percentile(np.abs(e[near] / expected - 1.0), 95) < 0.03
+    # IOR 1: T1 = L, d~ = d_V exactly (theta_t = theta_i), T2 = T1: the map is the unobstructed light, and
+    # with absorption its shadow along each vertical chord (d~ = d_V).
+    check_index_one_passes_the_light_unchanged(
+        lambda scene, **params: photon_map(keeper, scene, caustic_map_size=128, **params))
 
 
 def test_map_is_rebuilt_only_when_a_light_or_refractor_changes(keeper):
