@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.installed
 
 demo: $(STAMP)
 	@mkdir -p out
-	$(VENV)/bin/caustica render caustic-sphere --technique depth-search+caustic-mapping -o out/demo.png
+	$(VENV)/bin/caustica render caustic-sphere -o out/demo.png --explain
 
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)

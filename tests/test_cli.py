@@ -71,7 +71,7 @@ def test_render_exr_is_linear_float(tmp_path, capsys):
     from caustica import load_scene
     from caustica.renderer import Renderer
 
-    expected = Renderer().render(load_scene(tmp_path / "scene.toml"), "env-map")
+    expected = Renderer().render(load_scene(tmp_path / "scene.toml"), "auto")  # the default technique
     assert image.dtype == np.float32
     np.testing.assert_allclose(image, expected, atol=1e-6)  # linear, unclipped, row 0 at the top
 

@@ -23,6 +23,7 @@ TECHNIQUE_SCENES = {
     "per-object": "glass-sphere", "caustic-mapping": "caustics-two-lights", "photon-splats": "caustics-spot",
     "impostor-caustics": "tvcg-fig24", "transport-table": "transport-ball", "transport-table-view": "transport-ball",
     "impostors+impostor-caustics": "tvcg-fig27", "image-space+caustic-mapping": "caustics-point",
+    "auto": "caustic-sphere",
 }
 
 
@@ -91,12 +92,9 @@ def test_a_failing_frame_gives_everything_back(renderer):
             frame.texture((4, 4), "r32f")
             raise RuntimeError("boom")
 
-    class Wrapped:  # a technique whose second pass fails
-        uses_gl, square_spp, name = True, True, "fails"
+    from caustica.techniques.raster import RasterTechnique
 
-        def make_params(self, **values):
-            return None
-
+    class Wrapped(RasterTechnique):  # a technique whose second pass fails (no name: not registered)
         def build_passes(self, params):
             return [Allocates("a"), Fails()]
 
@@ -170,7 +168,8 @@ def test_channel_formats_are_real_formats():
 @pytest.mark.parametrize("technique", sorted(TECHNIQUE_SCENES))
 def test_every_graph_is_wired_and_described(technique):
     tech = get_technique(technique)
-    graph = RenderGraph(tech.build_passes(tech.make_params()))
+    tech, params = tech.for_scene(PRESETS[TECHNIQUE_SCENES[technique]](), tech.make_params())  # auto: its plan
+    graph = RenderGraph(tech.build_passes(params))
     graph.check()  # every read is written earlier, with no channel given by the caller
     text = graph.describe()
     for stage in graph.passes:

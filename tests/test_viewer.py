@@ -166,7 +166,7 @@ def test_cli_view_frames_and_screenshot(display, tmp_path):
                            str(tmp_path / "window.png")], env=env, check=False, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "3 frames" in done.stdout and "ms per frame" in done.stdout
-    reference = caustica.Renderer((96, 96)).render(caustica.load_scene("glass-sphere"), "env-map")
+    reference = caustica.Renderer((96, 96)).render(caustica.load_scene("glass-sphere"), "auto")  # the default
     from PIL import Image
 
     shot = np.asarray(Image.open(tmp_path / "view.png").convert("RGB"), np.int16)

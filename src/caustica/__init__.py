@@ -27,6 +27,10 @@ def __getattr__(name):
         from .renderer import Renderer
 
         return Renderer
+    if name == "plan":
+        from .techniques.auto import plan
+
+        return plan
     if name == "show":
         from .notebook import show
 
@@ -34,6 +38,6 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
-__all__ = ["load_scene", "Renderer", "show", "CausticaError", "EnvironmentImageError", "GLUnavailableError",
+__all__ = ["load_scene", "Renderer", "plan", "show", "CausticaError", "EnvironmentImageError", "GLUnavailableError",
            "MeshError", "MissingExtraError", "OutputError", "RendererClosedError", "RenderOptionError", "SceneError",
            "TechniqueError"]

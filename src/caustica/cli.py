@@ -9,9 +9,12 @@ import statistics
 import sys
 from pathlib import Path
 
-from .errors import CausticaError, OutputError, first_line
+from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .scene.rules import IOR_RANGE
+from .techniques.auto import QUALITY
+
+QUALITIES = tuple(QUALITY)  # auto's quality levels
 
 OUTPUT_SUFFIXES = (".png", ".exr")
 
@@ -142,7 +145,10 @@ def build_parser() -> argparse.ArgumentParser:
     render = sub.add_parser("render", help="render a scene file or preset to PNG or EXR")
     render.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
     render.add_argument("-o", "--output", required=True, help="output image, .png (sRGB) or .exr (linear float)")
-    render.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
+    render.add_argument("-t", "--technique", default="auto",
+                        help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
+    render.add_argument("--quality", choices=QUALITIES, help="auto's quality (default balanced)")
+    render.add_argument("--explain", action="store_true", help="print auto's plan: each object's technique and why")
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
@@ -152,7 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     view = sub.add_parser("view", help="interactive window: orbit, switch techniques, edit parameters, inspect passes")
     view.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
-    view.add_argument("-t", "--technique", default="env-map", help="technique name (see 'caustica techniques')")
+    view.add_argument("-t", "--technique", default="auto",
+                      help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
+    view.add_argument("--quality", choices=QUALITIES, help="auto's quality (default balanced)")
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
@@ -167,7 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     comp = sub.add_parser("compare", help="every technique against the reference: time, PSNR, relMSE, SSIM, FLIP per region")
     comp.add_argument("scene", help="a .toml scene file or a preset name")
-    comp.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated (default env-map,exact)")
+    comp.add_argument("--techniques", type=_names, default=["auto", "exact"], help="comma-separated (default auto,exact)")
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
     comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
@@ -199,6 +207,10 @@ def build_parser() -> argparse.ArgumentParser:
     techniques = sub.add_parser("techniques", help="list the techniques; NAME: its parameters")
     techniques.add_argument("name", nargs="?", help="a technique (or view+caustics): its parameters as a table")
     techniques.add_argument("--json", action="store_true", help="every technique (or NAME) with its parameters as JSON")
+    plan = sub.add_parser("plan", help="what auto renders a scene with: each object's technique, parameters and why")
+    plan.add_argument("scene", help="a .toml scene file or a preset name")
+    plan.add_argument("--quality", choices=QUALITIES, default="balanced", help="draft, balanced (default) or high")
+    plan.add_argument("--json", action="store_true", help="the plan as JSON")
     graph = sub.add_parser("graph", help="a technique's render graph: passes, channels, formats, caching")
     graph.add_argument("name", help="a technique (or view+caustics)")
     graph.add_argument("-p", "--param", type=_param, action="append", default=[],
@@ -257,7 +269,11 @@ def cmd_render(args) -> int:
     check_spp(technique, args.spp)
     scene = load_scene(args.scene)
     renderer = Renderer(args.size)
-    params = dict(args.param)
+    params = _with_quality(args)
+    if args.explain and args.technique == "auto":
+        from .techniques.auto import plan
+
+        print(plan(scene, params.get("quality", "balanced")).describe())
     image, ms = renderer.render_timed(scene, args.technique, args.spp, **params)
     timings = [ms]
     if technique.uses_gl:
@@ -282,7 +298,7 @@ def cmd_view(args) -> int:
     scene = load_scene(args.scene)
     from .viewer import Viewer
 
-    viewer = Viewer(scene, args.technique, dict(args.param), size=args.size, spp=args.spp, exposure=args.exposure,
+    viewer = Viewer(scene, args.technique, _with_quality(args), size=args.size, spp=args.spp, exposure=args.exposure,
                     panel=not args.no_panel, fixed_step=args.frames is not None)
     try:
         viewer.play(args.play)
@@ -434,8 +450,27 @@ def cmd_techniques(args) -> int:
     return 0
 
 
+def cmd_plan(args) -> int:
+    from . import load_scene
+    from .techniques.auto import plan
+
+    chosen = plan(load_scene(args.scene), args.quality)
+    print(chosen.to_json() if args.json else chosen.describe())
+    return 0
+
+
+def _with_quality(args) -> dict:
+    """The -p parameters, with --quality for auto (an error for any other technique)."""
+    params = dict(args.param)
+    if args.quality is not None:
+        if args.technique != "auto":
+            raise TechniqueError(f"--quality applies to the auto technique, not '{args.technique}'; "
+                                 "drop it or use -t auto")
+        params["quality"] = args.quality
+    return params
+
+
 def cmd_graph(args) -> int:
-    from .errors import TechniqueError
     from .passes.graph import RenderGraph
     from .techniques import get_technique
 
@@ -483,7 +518,7 @@ def cmd_info(args) -> int:
 
 
 COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
-            "precompute": cmd_precompute, "techniques": cmd_techniques, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
+            "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

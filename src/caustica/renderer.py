@@ -98,6 +98,7 @@ class Renderer:
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
+        tech, parameters = tech.for_scene(scene, parameters)
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
         if tech.uses_gl:
@@ -118,6 +119,7 @@ class Renderer:
         times ``camera``'s) and return its frame, whose channels stay lent until ``frame.give_back()``
         (``keep``: the channels wanted afterwards; None keeps all). ``pass_ms`` holds the per-pass
         milliseconds when ``profile_passes``."""
+        tech, parameters = tech.for_scene(scene, parameters)
         k = supersampling_factor(spp)
         width, height = camera.size
         frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,

@@ -58,6 +58,11 @@ class Technique:
         except (TypeError, ValueError) as exc:
             raise TechniqueError(f"technique '{self.name}': {exc}") from None
 
+    def for_scene(self, scene: "Scene", params):
+        """The technique and parameters that render ``scene``: itself, or what a planner (``auto``)
+        chooses for it."""
+        return self, params
+
     def render(self, scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
         """A CPU technique's (``uses_gl`` False) (H, W, 3) float32 linear image, row 0 at the top; a
         rasterized technique lists passes instead (raster.py), which the renderer runs."""

@@ -1,0 +1,162 @@
+"""``auto``: the most accurate real-time combination for the scene at hand, planned from its contents.
+
+The plan (:func:`plan`) looks at what the scene holds and picks, with the reason, the
+technique each part needs; docs/auto.md gives the table and the measurements behind it:
+
+- glass with other objects in the scene: ``impostors`` (Hu and Qin 2.2), so refracted and
+  reflected rays see the nearby geometry, with depth-search's exit routine and internal bounces;
+- glass alone in the environment: ``depth-search`` with internal bounces (Hu and Qin 2.1);
+- mirrors without glass: ``per-vertex`` (Kakimoto et al.: exact at every vertex, and exact for a
+  flat mirror, whose least-squares viewpoint is its mirror image);
+- nothing specular: ``env-map`` (diffuse shading with shadow maps);
+- lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
+  (Shah et al.) is composed with the view technique.
+
+``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..errors import TechniqueError
+from .base import Params, Technique, get_technique, param
+
+QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
+    "draft": (0, 256, 256, 512),
+    "balanced": (2, 512, 512, 1024),
+    "high": (4, 1024, 1024, 2048),
+}
+CAUSTICS = "caustic-mapping"
+
+
+@dataclass
+class AutoParams(Params):
+    """Parameters of ``auto``."""
+
+    quality: str = param("balanced", choices=tuple(QUALITY),
+                         help="draft (fastest), balanced, or high (more internal bounces, larger maps); "
+                              "any other parameter goes to the planned technique")
+
+
+@dataclass
+class PlanEntry:
+    """What renders one object, and why."""
+
+    object: str
+    kind: str  # the object's material kind
+    handled_by: str
+    reason: str
+
+
+@dataclass
+class Plan:
+    """The technique ``auto`` runs for a scene, its parameters, and each object's part in it."""
+
+    technique: str
+    params: dict
+    quality: str
+    objects: list[PlanEntry] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def describe(self) -> str:
+        """The plan as readable lines."""
+        params = ", ".join(f"{k}={v}" for k, v in self.params.items()) or "defaults"
+        lines = [f"technique: {self.technique} ({params}; quality {self.quality})"]
+        for entry in self.objects:
+            lines.append(f"  {entry.object} ({entry.kind}): {entry.handled_by}: {entry.reason}")
+        lines.extend(f"  note: {note}" for note in self.notes)
+        return "\n".join(lines)
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2)
+
+
+def plan(scene, quality: str = "balanced") -> Plan:
+    """The technique and parameters ``auto`` uses for ``scene`` at ``quality``, with the reasons."""
+    if quality not in QUALITY:
+        from ..errors import closest_name
+
+        raise TechniqueError(f"unknown quality {quality!r}{closest_name(str(quality), QUALITY)}; "
+                             f"use one of {', '.join(QUALITY)}")
+    bounces, impostor_size, map_size, shadow_size = QUALITY[quality]
+    objects = list(scene.objects)
+    glass = [o for o in objects if o.material.kind == "glass"]
+    mirrors = [o for o in objects if o.material.kind == "mirror"]
+    diffuse = [o for o in objects if o.material.kind == "diffuse"]
+    lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    view_params: dict = {"shadow_map_size": shadow_size}
+    if glass and len(objects) > len(glass) or len(glass) > 1:
+        view = "impostors"
+        view_params.update(internal_bounces=bounces, impostor_size=impostor_size)
+        why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2), exits by "
+                     f"depth search, {bounces} internal bounces")
+        why_mirror = "its reflections see the nearby objects as impostors (Hu and Qin 2.2)"
+    elif glass:
+        view = "depth-search"
+        view_params.update(internal_bounces=bounces)
+        why_glass = f"alone in the environment: depth-search exits (Hu and Qin 2.1), {bounces} internal bounces"
+        why_mirror = ""
+    elif mirrors:
+        view = "per-vertex"
+        why_mirror = ("reflection exact at every vertex with a least-squares viewpoint (Kakimoto et al.); "
+                      "exact for a flat mirror")
+        why_glass = ""
+    else:
+        view = "env-map"
+        why_glass = why_mirror = ""
+    casters = glass + mirrors
+    caustics = bool(casters and diffuse and lit)
+    technique = f"{view}+{CAUSTICS}" if caustics else view
+    params = dict(view_params)
+    if caustics:
+        params[f"{CAUSTICS}.map_size"] = map_size
+    entries = []
+    for obj in objects:
+        kind = obj.material.kind
+        if kind == "glass":
+            entries.append(PlanEntry(obj.name, kind, view, why_glass))
+        elif kind == "mirror":
+            entries.append(PlanEntry(obj.name, kind, view, why_mirror or "reflects the environment"))
+        elif caustics:
+            entries.append(PlanEntry(obj.name, kind, f"{view} + {CAUSTICS}",
+                                     f"diffuse receiver: shadow maps, and caustics from {len(lit)} light(s) through "
+                                     f"{len(casters)} specular object(s) by caustic mapping (Shah et al.)"))
+        else:
+            why = "diffuse: shadow maps and the environment's irradiance"
+            if not lit:
+                why += " (no light, so no caustics)"
+            elif not casters:
+                why += " (nothing specular casts caustics)"
+            entries.append(PlanEntry(obj.name, kind, view, why))
+    notes = []
+    if not objects:
+        notes.append("the scene has no objects: the environment alone")
+    return Plan(technique, params, quality, entries, notes)
+
+
+class Auto(Technique):
+    """``auto``: the plan's technique for each scene (:func:`plan`)."""
+
+    name = "auto"
+    summary = "The most accurate real-time combination for the scene: impostors, depth-search or per-vertex, with caustics"
+    Params = AutoParams
+
+    def make_params(self, **values):
+        """``quality``, and any other parameter for the planned technique (checked once the plan is made)."""
+        params = super().make_params(**({"quality": values.pop("quality")} if "quality" in values else {}))
+        params.overrides = values  # not a field: what the plan's technique takes depends on the scene
+        return params
+
+    def for_scene(self, scene, params):
+        chosen = plan(scene, params.quality)
+        technique = get_technique(chosen.technique)
+        overrides = getattr(params, "overrides", {})
+        try:
+            return technique, technique.make_params(**{**chosen.params, **overrides})
+        except TechniqueError as exc:  # the list of parameters is the planned technique's: point to it
+            reason = str(exc).split("; its parameters are:")[0]
+            raise TechniqueError(f"auto planned '{chosen.technique}' for this scene: {reason}; "
+                                 f"see 'caustica techniques {chosen.technique}'") from None

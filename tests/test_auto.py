@@ -1,0 +1,152 @@
+"""``auto``: the plan per scene kind (docs/auto.md's table), its accuracy over depth-search, `caustica plan`."""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import caustica
+from caustica import Renderer, TechniqueError
+from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
+                            procedural_environment)
+from caustica.scene.shapes import box, plane, sphere
+from caustica.techniques.auto import plan
+
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "auto.md"
+
+
+def marble(name="marble", x=0.3):
+    return SceneObject(name, sphere(0.45, 3), Glass(ior=1.45), Transform(position=[x, 0.55, -0.2]))
+
+
+def table():
+    return SceneObject("table", box((3.0, 0.1, 2.4)), Diffuse(color=[0.7, 0.5, 0.3]), Transform(position=[0, -0.05, 0]))
+
+
+def mirror():
+    return SceneObject("mirror", plane((0.8, 0.6)), Mirror(), Transform(position=[-0.8, 0.6, -0.6], rotation=[90, 0, 0]))
+
+
+def scene_of(objects, light=False, size=(96, 72)) -> Scene:
+    lights = [PointLight(position=[-1.0, 3.0, 1.0], intensity=[8.0, 8.0, 8.0])] if light else []
+    camera = Camera(position=[1.8, 1.4, 2.4], look_at=[0.2, 0.4, -0.2], fov_y=38.0, size=size)
+    return Scene(camera=camera, objects=objects, lights=lights, environment=procedural_environment("sky-checker"))
+
+
+KINDS = {  # docs/auto.md's "scene holds" column -> such a scene
+    "glass alone": lambda: scene_of([marble()]),
+    "two glass objects": lambda: scene_of([marble("a", -0.4), marble("b", 0.6)]),
+    "glass and a diffuse floor, no light": lambda: scene_of([marble(), table()]),
+    "glass, a diffuse floor and a light": lambda: scene_of([marble(), table()], light=True),
+    "glass, a mirror, a diffuse floor and a light": lambda: scene_of([marble(), mirror(), table()], light=True),
+    "a mirror alone": lambda: scene_of([mirror()]),
+    "a mirror, a diffuse floor and a light": lambda: scene_of([mirror(), table()], light=True),
+    "a diffuse floor and a light": lambda: scene_of([table()], light=True),
+    "nothing": lambda: scene_of([]),
+}
+
+
+def documented_rules() -> dict[str, str]:
+    text = DOCS.read_text()
+    block = text[text.index("<!-- plan-rules -->"):text.index("<!-- /plan-rules -->")]
+    rows = re.findall(r"^\| ([^|]+?) \| ([^|]+?) \|$", block, flags=re.M)
+    return {kind: technique for kind, technique in rows if kind not in ("scene holds", "---")}
+
+
+def test_the_documented_table_covers_every_kind():
+    assert set(documented_rules()) == set(KINDS)
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_auto_plans_the_documented_technique(kind):
+    chosen = plan(KINDS[kind]())
+    assert chosen.technique == documented_rules()[kind]
+
+
+def test_auto_renders_the_plan_and_every_quality():
+    scene = scene_of([marble(), table()], light=True, size=(48, 36))
+    with Renderer() as renderer:
+        auto = renderer.render(scene, "auto")
+        chosen = plan(scene)
+        assert np.array_equal(auto, renderer.render(scene, chosen.technique, **chosen.params))
+        draft = renderer.render(scene, "auto", quality="draft")
+        assert not np.array_equal(auto, draft)  # no internal bounces, smaller maps
+
+
+def test_auto_sees_the_floor_through_glass_far_better_than_depth_search():
+    """A glass ball over a table, lit by the environment alone (so the oracle, which has no caustics,
+    is the whole truth): auto's glass pixels against exact. Measured on llvmpipe: auto 27.6 dB,
+    depth-search 21.7 dB, env-map 10.2 dB."""
+    scene = scene_of([marble(), table()])
+    with Renderer() as renderer:
+        reference = renderer.render(scene, "exact", spp=4)
+        glass = renderer.exit_directions(scene, "depth-search")[1]
+        assert glass.sum() > 500
+
+        def psnr(technique):
+            image = renderer.render(scene, technique, spp=4)
+            return 10 * np.log10(reference[glass].max() ** 2 / ((image - reference) ** 2)[glass].mean())
+
+        assert psnr("auto") > psnr("depth-search") + 4.0
+
+
+def test_plan_names_each_object_and_why():
+    scene = scene_of([marble(), mirror(), table()], light=True)
+    chosen = caustica.plan(scene, "high")
+    assert chosen.technique == "impostors+caustic-mapping"
+    assert chosen.params["internal_bounces"] == 4 and chosen.params["caustic-mapping.map_size"] == 1024
+    by_name = {entry.object: entry for entry in chosen.objects}
+    assert set(by_name) == {"marble", "mirror", "table"}
+    assert "impostors" in by_name["marble"].reason and "internal bounces" in by_name["marble"].reason
+    assert "reflections" in by_name["mirror"].reason
+    assert "caustics" in by_name["table"].reason and by_name["table"].handled_by == "impostors + caustic-mapping"
+    assert json.loads(chosen.to_json())["technique"] == "impostors+caustic-mapping"
+
+
+def test_plan_and_explain_commands(tmp_path, capsys):
+    from caustica.cli import main
+
+    assert main(["plan", "caustic-sphere"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("technique: impostors+caustic-mapping") and "ball (glass)" in out and "floor (diffuse)" in out
+    assert main(["plan", "glass-sphere", "--json", "--quality", "draft"]) == 0
+    assert json.loads(capsys.readouterr().out)["params"]["internal_bounces"] == 0
+    image = tmp_path / "a.png"
+    assert main(["render", "glass-sphere", "-o", str(image), "--size", "32x24", "--frames", "1", "--explain"]) == 0
+    out = capsys.readouterr().out
+    assert "technique: depth-search" in out and "auto" in out and image.is_file()
+
+
+def test_bad_quality_is_one_line():
+    from caustica.cli import main
+
+    with pytest.raises(TechniqueError, match="quality"):
+        plan(scene_of([marble()]), "best")
+    with pytest.raises(TechniqueError, match="quality"):
+        Renderer((8, 8)).render(scene_of([marble()]), "auto", quality="best")
+    assert main(["plan", "glass-sphere", "--quality", "best"]) == 2
+    assert main(["render", "glass-sphere", "-o", "/tmp/x.png", "-t", "env-map", "--quality", "high"]) == 2
+
+
+def test_auto_is_the_default_everywhere():
+    from caustica.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["render", "s", "-o", "x.png"]).technique == "auto"
+    assert parser.parse_args(["view", "s"]).technique == "auto"
+    assert parser.parse_args(["compare", "s"]).techniques == ["auto", "exact"]
+    makefile = (Path(__file__).resolve().parents[1] / "Makefile").read_text()
+    demo = next(line for line in makefile.splitlines() if "caustica render" in line)
+    assert "--technique" not in demo and "-t " not in demo
+
+
+def test_other_parameters_go_to_the_planned_technique():
+    scene = scene_of([marble()], size=(32, 24))
+    with Renderer() as renderer:
+        assert np.array_equal(renderer.render(scene, "auto", internal_bounces=0),
+                              renderer.render(scene, "depth-search", internal_bounces=0, shadow_map_size=1024))
+        with pytest.raises(TechniqueError, match="auto planned 'depth-search'.*shadow_map_sise.*shadow_map_size"):
+            renderer.render(scene, "auto", shadow_map_sise=64)
