@@ -37,8 +37,9 @@ class Pass:
     """A render stage. Subclasses set ``reads`` (channel names), ``writes`` (Channels) and may set:
 
     ``optional``: channels read when an earlier pass wrote them, each with the define (1 or 0) that
-    tells the shaders (:meth:`Frame.optional_defines`);
-    :meth:`cache_key`: what the outputs depend on, so that the graph reuses them across frames.
+    tells the shaders (:meth:`Frame.optional_defines`; None: no shader needs to know);
+    :meth:`cache_key`: what the outputs depend on, so that the graph reuses them across frames
+    (:meth:`Frame.version` names an input's content, for a key over what a pass reads).
     """
 
     reads: ClassVar[tuple[str, ...]] = ()
@@ -82,6 +83,7 @@ class Frame:
     pass_ms: dict[str, float] | None = None  # filled with per-pass milliseconds when not None
     lent: dict[int, Any] = field(default_factory=dict, repr=False)  # id -> texture or GL object on loan
     running: Any = field(default=None, repr=False)  # the pass being run (for optional_defines)
+    versions: dict[str, Any] = field(default_factory=dict, repr=False)  # channel -> version (passes/graph.py)
 
     def read(self, name: str):
         return self.channels[name]
@@ -123,7 +125,14 @@ class Frame:
     def optional_defines(self, stage: Pass | None = None) -> dict[str, int]:
         """The defines of ``stage``'s (default: the running pass's) optional inputs: 1 where written, else 0."""
         stage = self.running if stage is None else stage
-        return {define: int(self.channels.get(name) is not None) for name, define in stage.optional.items()}
+        return {define: int(self.channels.get(name) is not None) for name, define in stage.optional.items()
+                if define is not None}
+
+    def version(self, name: str):
+        """A hashable name of a channel's content: the cache key of the pass that wrote it when that
+        pass is cached (equal across frames while the key holds), else unique to this write; None
+        when the channel is absent."""
+        return self.versions.get(name) if name in self.channels else None
 
     def take_out(self, value) -> list:
         """Stop lending the GL objects in ``value`` (someone else keeps them now); returns them."""

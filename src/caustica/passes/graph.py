@@ -11,6 +11,7 @@ entry per pass label, the older one given back on a miss).
 """
 from __future__ import annotations
 
+import itertools
 import time
 
 from .base import Frame, Pass, PassWiringError
@@ -70,7 +71,7 @@ class RenderGraph:
             lines.append(f"{indent}     reads:    {', '.join(stage.reads) or '-'}")
             if stage.optional:
                 lines.append(f"{indent}     optional: "
-                             + ", ".join(f"{n} (define {d})" for n, d in stage.optional.items()))
+                             + ", ".join(f"{n} (define {d})" if d else n for n, d in stage.optional.items()))
             for c in stage.writes:
                 lines.append(f"{indent}     writes:   {c.name} ({c.format}): {c.meaning}; {self.lifetime(c.name, keep)}")
             inner = getattr(stage, "passes", None)  # a group of passes run as one (CachedPasses)
@@ -119,7 +120,7 @@ def run_graph(passes, frame: Frame, keep=None) -> None:
     for index, stage in enumerate(graph.passes):
         frame.running = stage
         try:
-            elapsed = _run_stage(stage, frame)
+            elapsed, version = _run_stage(stage, frame)
         finally:
             frame.running = None
         if frame.pass_ms is not None:
@@ -127,6 +128,8 @@ def run_graph(passes, frame: Frame, keep=None) -> None:
         unwritten = [c.name for c in stage.writes if c.name not in frame.channels]
         if unwritten:
             raise PassWiringError(f"{type(stage).__name__} declares {unwritten} but did not write them")
+        for channel in stage.writes:
+            frame.versions[channel.name] = version
         if frame.lent:
             live = [value for name, value in frame.channels.items()
                     if keep is None or name in keep or last.get(name, -1) > index]
@@ -143,23 +146,28 @@ def _give_back_all_but(frame: Frame, live: list) -> None:
         frame.give_back(idle)
 
 
-def _run_stage(stage: Pass, frame: Frame) -> float:
-    """Run (or find in the cache) one pass; its milliseconds when timing, else 0."""
+def _run_stage(stage: Pass, frame: Frame) -> tuple[float, object]:
+    """Run (or find in the cache) one pass: its milliseconds when timing (else 0) and the version of
+    what it wrote (its cache key, or a new number)."""
     key = stage.cache_key(frame) if frame.gpu is not None else None
     if key is None:
-        return _timed(stage, frame)
+        return _timed(stage, frame), next(_WRITES)
     cache = frame.gpu.cache
-    entry = cache.get((stage.label, key))
+    version = (stage.label, key)
+    entry = cache.get(version)
     if entry is not None:
         for name, value in entry.items():
             frame.write(name, value)
-        return 0.0
+        return 0.0, version
     evict(cache, stage.label)
     elapsed = _timed(stage, frame)
     entry = {c.name: frame.read(c.name) for c in stage.writes if c.name in frame.channels}
     frame.take_out(entry)  # the cache owns them now
-    cache[(stage.label, key)] = entry
-    return elapsed
+    cache[version] = entry
+    return elapsed, version
+
+
+_WRITES = itertools.count(1)  # versions of outputs no cache key names
 
 
 def evict(cache, label: str) -> None:

@@ -178,6 +178,7 @@ class BuildImpostors(Pass):
     """
 
     reads = ("light_samples", "shadow_maps")
+    optional = {"caustic_maps": None}  # the textures show the caustics on the objects they stand for
     writes = (Channel("impostors", "rgba32f + host[reflector]", "per reflector: rectangles and an atlas of their textures "
                                                                      "(radiance, depth)"),)
 
@@ -192,7 +193,7 @@ class BuildImpostors(Pass):
         if "impostors" in frame.channels or "impostor_world" in frame.channels:
             return None
         return (self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors,
-                _impostor_state_key(frame.scene))
+                _impostor_state_key(frame.scene), frame.version("caustic_maps"))
 
     def run(self, frame: Frame) -> None:
         if "impostors" in frame.channels:
@@ -236,7 +237,8 @@ class BuildImpostors(Pass):
         depth = self.depth if obj.material.kind in ("glass", "mirror") else 0
         frame.channels.setdefault("impostor_world", world)
         with offscreen_channels(frame, scene_subset(world, [impostor.index]), impostor.camera,
-                                self.texture_passes(depth), keep=("color", "depth"), share=("impostor_world",)) as kept:
+                                self.texture_passes(depth), keep=("color", "depth"),
+                                share=("impostor_world", "caustic_maps")) as kept:
             pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
                          into=(impostor.texture, impostor.cell))
 

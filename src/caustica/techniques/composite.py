@@ -1,14 +1,15 @@
 """Composition of a view technique and a caustic technique: ``depth-search+caustic-mapping``.
 
 The caustic technique's passes (which write ``caustic_maps`` or ``caustic_tiles``,
-``passes/caustics.py``) run after the
-view technique's shadow maps and refractor buffers and before its surface
-shading, which then adds the caustic irradiance on diffuse receivers. A
-caustic technique named alone is composed with :data:`DEFAULT_VIEW`.
+``passes/caustics.py``) run after the view technique's shadow maps and before
+the first view pass that reads what they write: the surface shading, which adds
+the caustic irradiance on diffuse receivers, or (``impostors``) the impostor
+textures, so that a caustic on a receiver seen through or in glass shows there
+too. A caustic technique named alone is composed with :data:`DEFAULT_VIEW`.
 
-Caustics seen *through* a refractor are approximate: the view techniques look
-refracted rays up in the environment, so a caustic on a receiver behind glass
-shows only where the refraction technique samples that receiver.
+Caustics seen *through* a refractor are approximate with the other view
+techniques: they look refracted rays up in the environment, so a caustic on a
+receiver behind glass shows only where the refraction technique samples that receiver.
 """
 from __future__ import annotations
 
@@ -94,10 +95,15 @@ class Composite(RasterTechnique):
 
 
 def compose_passes(view: RasterTechnique, caustics: CausticTechnique, view_params, caustic_params) -> list:
-    """The view's passes with the caustic passes inserted before its surface shading."""
+    """The view's passes with the caustic passes inserted before the first view pass that reads
+    (or optionally reads) what they write: the surface shading, or the impostors whose textures
+    show the caustics."""
     passes = view.build_passes(view_params)
-    shade = next(i for i, p in enumerate(passes) if isinstance(p, ShadeSurfaces))
-    return passes[:shade] + caustics.caustic_passes(caustic_params) + passes[shade:]
+    caustic = caustics.caustic_passes(caustic_params)
+    made = {c.name for p in caustic for c in p.writes}
+    first = next(i for i, p in enumerate(passes)
+                 if isinstance(p, ShadeSurfaces) or made & {*p.reads, *p.optional})
+    return passes[:first] + caustic + passes[first:]
 
 
 def _shared_params(view: RasterTechnique, caustics: RasterTechnique, caustic_params):
