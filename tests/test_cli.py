@@ -223,3 +223,32 @@ def test_a_long_message_is_cut_to_one_short_line(capsys, monkeypatch):
     code, _, err = run_cli(["presets"], capsys)
     assert_one_line_error(code, err, "value 1.0")
     assert len(err.strip()) <= cli.MAX_MESSAGE + len("caustica: ")
+
+
+def test_render_tonemap_filmic_png_and_exr(tmp_path, capsys):
+    from caustica.images import read_image, to_srgb8
+
+    scene = write_scene(tmp_path, GOOD_SCENE)
+    exr = tmp_path / "x.exr"
+    assert run_cli(["render", scene, "-o", exr, "--frames", "1"], capsys)[0] == 0
+    linear = read_image(exr)
+    outputs = {}
+    for mode in ("clip", "filmic"):
+        out = tmp_path / f"{mode}.png"
+        code, stdout, _ = run_cli(["render", scene, "-o", out, "--tonemap", mode, "--exposure", "3", "--frames", "1"], capsys)
+        assert code == 0 and f"wrote {out}" in stdout
+        from PIL import Image
+
+        with Image.open(out) as img:
+            outputs[mode] = np.asarray(img.convert("RGB"))
+        np.testing.assert_array_equal(outputs[mode], to_srgb8(linear, 3.0, mode))
+    assert (outputs["clip"] == 255).mean() > (outputs["filmic"] == 255).mean()
+    exr_filmic = tmp_path / "f.exr"
+    assert run_cli(["render", scene, "-o", exr_filmic, "--tonemap", "filmic", "--frames", "1"], capsys)[0] == 0
+    np.testing.assert_array_equal(read_image(exr_filmic), linear)  # EXR stays linear
+
+
+def test_render_bad_tonemap_is_one_line(tmp_path, capsys):
+    code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "o.png", "--tonemap", "aces"], capsys)
+    assert_one_line_error(code, err, "--tonemap", "'aces'", "clip", "filmic")
+    assert not (tmp_path / "o.png").exists()

@@ -216,3 +216,93 @@ def test_failed_write_removes_temp_and_keeps_old_file(tmp_path, monkeypatch):
         write_image(target, gradient())
     assert target.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == ["out.exr"]
+
+
+# Tone mapping (PNG only) ---------------------------------------------------------
+
+
+def _clip_png_before_tonemap(image, exposure=0.0) -> np.ndarray:
+    """The PNG encoding as it was before the tonemap option: the "clip" mode must stay bit-identical."""
+    encoded = linear_to_srgb(np.clip(image * 2.0 ** float(exposure), 0.0, 1.0))
+    return np.round(encoded * 255.0).astype(np.uint8)
+
+
+def _png_codes(tmp_path, image, **options) -> np.ndarray:
+    from PIL import Image
+
+    path = write_image(tmp_path / "t.png", image, **options)
+    with Image.open(path) as img:
+        return np.asarray(img.convert("RGB"))
+
+
+def _row(values) -> np.ndarray:
+    return np.repeat(np.asarray(values, np.float32)[None, :, None], 3, axis=2)
+
+
+def test_filmic_curve_known_values_and_monotone():
+    from caustica.images import FILMIC_INPUT_SCALE, filmic
+
+    assert filmic(0.0) == 0.0 and filmic(-3.0) == 0.0
+    assert filmic(0.18) == pytest.approx(0.18, abs=1e-12)  # mid-grey kept (the pre-scale is solved for it)
+    assert FILMIC_INPUT_SCALE == pytest.approx(0.74152, abs=1e-5)
+    # Narkowicz's ACES fit, divided by its asymptote 2.51 / 2.43, at x = 1 (by hand: y = 0.74152).
+    y = 0.7415168381421822
+    assert filmic(1.0) == pytest.approx(y * (2.51 * y + 0.03) / (y * (2.43 * y + 0.59) + 0.14) * 2.43 / 2.51, rel=1e-12)
+    x = np.linspace(0.0, 1e4, 2_000_001)
+    f = filmic(x)
+    assert np.all(np.diff(f) > 0)  # strictly increasing over [0, 1e4]
+    assert f.max() < 1.0 and f[-1] > 0.99996  # approaches 1, never reaches it
+    assert filmic(1e14) < 1.0 and filmic(1e300) == 1.0  # huge inputs are 1, not NaN
+
+
+def test_filmic_png_reaches_255_only_for_very_large_values(tmp_path):
+    from caustica.images import to_srgb8
+
+    x = np.geomspace(1e-4, 1e4, 200_001)
+    codes = to_srgb8(_row(x), tonemap="filmic")[0, :, 0]
+    assert np.all(np.diff(codes.astype(int)) >= 0)
+    assert codes[x < 60.0].max() <= 254 and codes[x < 20.0].max() <= 253
+    assert x[np.argmax(codes == 255)] == pytest.approx(69.9, abs=0.2)  # clip: 255 from x = 1 on
+    assert to_srgb8(_row([0.0]), tonemap="filmic").max() == 0
+
+
+def test_bright_caustic_keeps_gradient_where_clip_saturates(tmp_path):
+    caustic = _row(np.linspace(1.0, 20.0, 200))  # a caustic peaking at 20x white
+    clip = _png_codes(tmp_path, caustic)
+    filmic = _png_codes(tmp_path, caustic, tonemap="filmic")
+    assert np.unique(clip).tolist() == [255]  # a white blot
+    assert len(np.unique(filmic)) >= 25 and filmic.min() == 219 and filmic.max() == 253  # 27 codes, 1x to 20x white
+    assert np.all(np.diff(filmic[0, :, 0].astype(int)) >= 0)
+
+
+def test_filmic_mid_grey_within_one_code_of_clip(tmp_path):
+    """Stated tolerance: mid-grey 0.18 (and 0.5) within one 8-bit code of clip's value, at any exposure."""
+    for exposure in (-2.0, 0.0, 1.5):
+        grey = _row([0.18 * 2.0 ** -exposure, 0.5 * 2.0 ** -exposure])
+        clip = _png_codes(tmp_path, grey, exposure=exposure).astype(int)
+        filmic = _png_codes(tmp_path, grey, exposure=exposure, tonemap="filmic").astype(int)
+        assert clip[0, 0, 0] == 118
+        assert np.abs(filmic - clip).max() <= 1, (exposure, clip, filmic)
+
+
+def test_clip_mode_is_bit_identical_to_before(tmp_path):
+    rng = np.random.default_rng(7)
+    image = (rng.lognormal(-1.0, 1.5, (16, 24, 3)) * rng.choice([0.0, 1.0], (16, 24, 1))).astype(np.float32)
+    for exposure in (0.0, -1.0, 2.5):
+        expected = _clip_png_before_tonemap(image, exposure)
+        np.testing.assert_array_equal(_png_codes(tmp_path, image, exposure=exposure), expected)
+        np.testing.assert_array_equal(_png_codes(tmp_path, image, exposure=exposure, tonemap="clip"), expected)
+
+
+def test_exr_ignores_tonemap_and_exposure(tmp_path):
+    image = gradient() * 50.0
+    written = [write_image(tmp_path / f"{mode}.exr", image, exposure=2.0, tonemap=mode) for mode in ("clip", "filmic")]
+    for path in written:
+        np.testing.assert_array_equal(read_image(path), image)
+    assert written[0].read_bytes() == written[1].read_bytes()
+
+
+def test_unknown_tonemap_is_one_line_and_writes_nothing(tmp_path):
+    with pytest.raises(OutputError, match="unknown tonemap 'aces'.*use one of clip, filmic"):
+        write_image(tmp_path / "t.png", gradient(), tonemap="aces")
+    assert list(tmp_path.iterdir()) == []

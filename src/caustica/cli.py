@@ -11,6 +11,7 @@ from pathlib import Path
 
 from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
+from .images import TONEMAPS
 from .scene.rules import IOR_RANGE
 from .techniques.auto import QUALITY
 
@@ -152,6 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
+    render.add_argument("--tonemap", choices=TONEMAPS, default="clip",
+                        help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "
+                             "off towards white, mid-grey kept); EXR ignores it (linear float)")
     render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
@@ -279,7 +283,7 @@ def cmd_render(args) -> int:
     if technique.uses_gl:
         timings = [renderer.render_timed(scene, args.technique, args.spp, **params)[1] for _ in range(args.frames)]
         image = renderer.render(scene, args.technique, args.spp, **params)
-    write_image(output, image, exposure=args.exposure)
+    write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
     print(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "

@@ -2,7 +2,8 @@
 
 Reads OpenEXR (through the OpenEXR package), Radiance .hdr (our own RGBE
 reader) and 8-bit PNG/JPEG (through Pillow, decoded from sRGB). Writes PNG
-(8-bit sRGB, after exposure), OpenEXR (float32 linear) and .hdr (flat RGBE).
+(8-bit sRGB, after exposure and a tone curve: clip or filmic), OpenEXR
+(float32 linear, never tone mapped) and .hdr (flat RGBE).
 Every failure is a one-line error naming the file and the fix; writes go to a
 temporary file in the target directory first, so a failed write leaves nothing.
 """
@@ -194,16 +195,73 @@ def float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
 # Writing ---------------------------------------------------------------------
 
 
-def write_image(path: str | Path, image: np.ndarray, exposure: float = 0.0) -> Path:
-    """Write .png (8-bit sRGB of image * 2**exposure, clipped) or .exr (float32 linear)."""
+TONEMAPS = ("clip", "filmic")  # PNG tone curves; "clip" is the default and today's encoding
+
+# "filmic": Krzysztof Narkowicz's fit of the ACES reference rendering + output transforms,
+# f(x) = x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14)
+# ("ACES Filmic Tone Mapping Curve", 2016, https://knarkowicz.wordpress.com/2016/01/06/aces-filmic-tone-mapping-curve/).
+# Two changes, both scalings: his f tends to 2.51 / 2.43 > 1 and so clips (his shader saturates it) at
+# x ~ 7.2; divided by that asymptote it approaches 1 and never reaches it. His post pre-scales the input
+# (by 0.6) to pick the exposure; we pick the pre-scale that keeps mid-grey 0.18 at 0.18 exactly, so the
+# filmic and clip PNGs of a mid-grey pixel are the same 8-bit code. f' has numerator
+# (ad - bc) x^2 + 2ae x + be > 0 (a, b, c, d, e the five constants), so the curve is strictly increasing.
+_ACES = (2.51, 0.03, 2.43, 0.59, 0.14)
+FILMIC_MID_GREY = 0.18
+
+
+def _aces(y):
+    a, b, c, d, e = _ACES
+    return y * (a * y + b) / (y * (c * y + d) + e) * (c / a)
+
+
+def _mid_grey_scale() -> float:
+    """s with _aces(s * 0.18) = 0.18: the positive root of a quadratic in y = s * 0.18."""
+    a, b, c, d, e = _ACES
+    t = FILMIC_MID_GREY * a / c  # _aces(y) = 0.18 <=> y (a y + b) = t (y (c y + d) + e)
+    qa, qb, qc = a - t * c, b - t * d, -t * e
+    return (-qb + np.sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa) / FILMIC_MID_GREY
+
+
+FILMIC_INPUT_SCALE = _mid_grey_scale()  # about 0.7415
+_FILMIC_INPUT_MAX = 1e30  # _aces is 1.0 in float64 long before; keeps y * y finite for any exposure
+
+
+def filmic(x) -> np.ndarray:
+    """The "filmic" tone curve of linear radiance: 0 at 0, 0.18 at 0.18, strictly increasing, tends to 1.
+
+    Negative input is treated as 0. The result stays below 1 in float64 up to about 1e15; as an 8-bit
+    sRGB code it reaches 254 at about 23 and 255 at about 70 (clip: 255 from 1 on)."""
+    y = np.minimum(np.maximum(np.asarray(x, dtype=np.float64), 0.0) * FILMIC_INPUT_SCALE, _FILMIC_INPUT_MAX)
+    return _aces(y)
+
+
+def tone_map(image, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
+    """Linear radiance to display values in [0, 1], before the sRGB encoding: image * 2**exposure, then
+    clipped to [0, 1] ("clip") or through :func:`filmic` ("filmic")."""
+    if tonemap not in TONEMAPS:
+        raise OutputError(f"unknown tonemap '{tonemap}'; use one of {', '.join(TONEMAPS)}")
+    exposed = image * 2.0 ** float(exposure)
+    return np.clip(exposed, 0.0, 1.0) if tonemap == "clip" else filmic(exposed)
+
+
+def to_srgb8(image, exposure: float = 0.0, tonemap: str = "clip") -> np.ndarray:
+    """(H, W, 3) uint8 sRGB of a linear image, as :func:`write_image` writes PNGs."""
+    return np.round(linear_to_srgb(tone_map(image, exposure, tonemap)) * 255.0).astype(np.uint8)
+
+
+def write_image(path: str | Path, image: np.ndarray, exposure: float = 0.0, tonemap: str = "clip") -> Path:
+    """Write .png (8-bit sRGB of image * 2**exposure, clipped or through the filmic curve: ``tonemap``)
+    or .exr (float32 linear; exposure and tonemap do not apply)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in WRITE_SUFFIXES:
         raise OutputError(f"unsupported output format '{path.suffix}' for {path}; use .png or .exr")
+    if tonemap not in TONEMAPS:
+        raise OutputError(f"unknown tonemap '{tonemap}' for {path}; use one of {', '.join(TONEMAPS)}")
     image = _checked_image(image, path)
     if suffix == ".png":
-        encoded = linear_to_srgb(np.clip(image * 2.0 ** float(exposure), 0.0, 1.0))
-        return write_atomic(path, lambda tmp: _write_png(tmp, np.round(encoded * 255.0).astype(np.uint8)))
+        pixels = to_srgb8(image, exposure, tonemap)
+        return write_atomic(path, lambda tmp: _write_png(tmp, pixels))
     return write_atomic(path, lambda tmp: _write_exr(tmp, image))
 
 

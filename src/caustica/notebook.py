@@ -13,14 +13,14 @@ import io
 import numpy as np
 
 
-def to_pil(image: np.ndarray, exposure: float = 0.0):
-    """A linear float image as an 8-bit sRGB PIL image, exactly as ``write_image`` encodes PNGs."""
+def to_pil(image: np.ndarray, exposure: float = 0.0, tonemap: str = "clip"):
+    """A linear float image as an 8-bit sRGB PIL image, exactly as ``write_image`` encodes PNGs
+    (``tonemap``: "clip" or "filmic")."""
     from PIL import Image
 
-    from .images import linear_to_srgb
+    from .images import to_srgb8
 
-    encoded = linear_to_srgb(np.clip(image * 2.0 ** float(exposure), 0.0, 1.0))
-    return Image.fromarray(np.round(encoded * 255.0).astype(np.uint8))
+    return Image.fromarray(to_srgb8(image, exposure, tonemap))
 
 
 def show(scene, technique: str = "env-map", size=None, spp: int = 1, exposure: float = 0.0, widgets: bool | None = None,
