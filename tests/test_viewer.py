@@ -242,7 +242,7 @@ def test_show_returns_an_image_without_widgets():
     """``caustica.show``: a PIL image (displayed inline by Jupyter) when ipywidgets is absent or not asked for."""
     image = caustica.show("glass-sphere", size=(64, 48), widgets=False)
     assert image.size == (64, 48)
-    reference = caustica.Renderer((64, 48)).render(caustica.load_scene("glass-sphere"), "env-map")
+    reference = caustica.Renderer((64, 48)).render(caustica.load_scene("glass-sphere"), "auto")  # the default
     assert np.abs(np.asarray(image, np.int16) - srgb8(reference)).max() <= 1
 
 

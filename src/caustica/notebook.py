@@ -23,7 +23,7 @@ def to_pil(image: np.ndarray, exposure: float = 0.0, tonemap: str = "clip"):
     return Image.fromarray(to_srgb8(image, exposure, tonemap))
 
 
-def show(scene, technique: str = "env-map", size=None, spp: int = 1, exposure: float = 0.0, widgets: bool | None = None,
+def show(scene, technique: str = "auto", size=None, spp: int = 1, exposure: float = 0.0, widgets: bool | None = None,
          **params):
     """Render ``scene`` (a Scene, preset name or .toml path) and return something Jupyter displays.
 

@@ -18,7 +18,7 @@ from .techniques.base import check_spp, get_technique
 
 
 class Renderer:
-    """Render scenes with any technique: ``Renderer((512, 512)).render(scene, technique="env-map")``.
+    """Render scenes with any technique: ``Renderer((512, 512)).render(scene)`` (``auto``), or ``technique="env-map"``.
 
     ``size`` (width, height) overrides the scene camera's size; None keeps it.
     The GL context is created on first use of a GPU technique, unless ``device``
@@ -86,13 +86,13 @@ class Renderer:
         camera = scene.camera if self.size is None else scene.camera.with_size(*self.size)
         return camera
 
-    def render(self, scene: Scene, technique: str = "env-map", spp: int = 1, **params) -> np.ndarray:
+    def render(self, scene: Scene, technique: str = "auto", spp: int = 1, **params) -> np.ndarray:
         """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
         techniques`` lists them) or a Technique instance."""
         image, _ = self.render_timed(scene, technique, spp, **params)
         return image
 
-    def render_timed(self, scene: Scene, technique: str = "env-map", spp: int = 1, **params):
+    def render_timed(self, scene: Scene, technique: str = "auto", spp: int = 1, **params):
         """Render and return (image, milliseconds), the GPU finished before the clock stops."""
         self._check_open()  # exact never touches the device
         tech = get_technique(technique)

@@ -103,7 +103,7 @@ class Viewer:
     error = _StateField()
     state_version = _StateField()
 
-    def __init__(self, scene: Scene, technique: str = "env-map", params: dict | None = None, size=None,
+    def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, size=None,
                  spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
                  title: str | None = None, fixed_step: bool = False):
         # Validates the technique, parameters and spp before a window opens.

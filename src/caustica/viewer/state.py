@@ -43,7 +43,7 @@ class ViewerState:
     """The edited scene and view settings; ``viewport()`` gives the first view's (width, height) in pixels
     (the scene camera's size unless a window says otherwise)."""
 
-    def __init__(self, scene: Scene, technique: str = "env-map", params: dict | None = None, spp: int = 1,
+    def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, spp: int = 1,
                  exposure: float = 0.0, panel: bool = True, overlay: bool = True, viewport=None):
         chosen = get_technique(technique)
         chosen.make_params(**(params or {}))  # fail on bad input before opening a window
