@@ -176,3 +176,36 @@ def test_the_caustic_under_glass_is_seen_through_it(ior):
     assert inside.sum() > 1000
     r0 = ((ior - 1.0) / (ior + 1.0)) ** 2
     assert through[inside].mean() / bare[inside].mean() == pytest.approx((1.0 - r0) ** 4, abs=0.04)
+
+
+def test_a_budget_takes_the_highest_quality_that_fits(tmp_path, monkeypatch):
+    monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path))
+    scene = scene_of([marble(), table()], light=True, size=(40, 30))
+    with Renderer() as renderer:
+        renderer.render(scene, "auto", budget_ms=1e5)
+        assert renderer.last_plan.quality == "high"
+        measured = sorted(p.name for p in (tmp_path / "costs").iterdir())
+        assert len(measured) == 1  # high fitted: the others were not measured
+        with pytest.raises(TechniqueError, match=r"budget 0.001 ms is below the cheapest plan's .* ms or more"):
+            renderer.render(scene, "auto", budget_ms=0.001)
+        assert len(list((tmp_path / "costs").iterdir())) == 3  # high (cached), balanced and draft
+        renderer.render(scene, "auto", budget_ms=1e5)  # from the cache: no frame rendered to measure
+        assert renderer.last_plan.quality == "high"
+    with pytest.raises(TechniqueError, match="budget_ms needs frame times"):
+        from caustica.techniques import get_technique
+
+        auto = get_technique("auto")
+        auto.for_scene(scene, auto.make_params(budget_ms=10.0))
+
+
+def test_budget_options_are_checked(tmp_path, capsys):
+    from caustica.cli import main
+
+    out = str(tmp_path / "x.png")
+    assert main(["render", "glass-sphere", "-o", out, "--budget", "0"]) == 2
+    assert "--budget" in capsys.readouterr().err
+    assert main(["render", "glass-sphere", "-o", out, "-t", "env-map", "--budget", "20"]) == 2
+    assert "applies to the auto technique" in capsys.readouterr().err
+    assert main(["render", "glass-sphere", "-o", out, "--size", "32x24", "--frames", "1", "-t", "env-map",
+                 "--explain"]) == 0
+    assert "named" in capsys.readouterr().out

@@ -44,6 +44,7 @@ class Renderer:
         self._kept: Frame | None = None
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
         self.last_pass_ms: dict[str, float] = {}
+        self.last_plan = None  # the Plan auto rendered the last frame with
 
     def _check_open(self) -> None:
         if self.closed:
@@ -98,14 +99,18 @@ class Renderer:
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
-        tech, parameters = tech.for_scene(scene, parameters)
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
-        if tech.uses_gl:
-            frame_limits.check_frame_memory(camera.size, spp, parameters, scene)
-            frame_limits.check_map_sides(parameters, scene, self.device.max_texture_size)
-            frame_limits.check_environment_texture(scene.environment, self.device.max_texture_size)
         check_spp(tech, spp)
+
+        def measured(candidate, values) -> float:  # auto's budget: a candidate's frame time here
+            self._check_frame(candidate, scene, camera, values, spp)
+            return self.frame_ms(candidate, scene, camera, values, int(spp))
+
+        planner = tech
+        tech, parameters = tech.for_scene(scene, parameters, measured)
+        self.last_plan = getattr(planner, "plan_used", None)  # auto's Plan, None for a named technique
+        self._check_frame(tech, scene, camera, parameters, spp)
         start = time.perf_counter()
         if tech.uses_gl:
             image = self._render_graph(tech, scene, camera, parameters, int(spp))
@@ -132,6 +137,35 @@ class Renderer:
         self.last_pass_ms = dict(frame.pass_ms or {})
         return frame
 
+    def frame_ms(self, tech, scene: Scene, camera, parameters, spp: int = 1) -> float:
+        """Milliseconds per frame of a rasterized technique here (after a warm-up frame), cached on
+        disk by device, scene, camera, spp, technique and parameters (``$CAUSTICA_CACHE/costs``)."""
+        import hashlib
+        import json
+
+        from .cache import atomic_write_bytes, cache_dir
+        from .reference.render import cache_key
+
+        key = hashlib.sha1(json.dumps([self.device.info["renderer"], cache_key(scene, camera, spp, 0, "cost", False),
+                                       tech.name, repr(parameters)]).encode()).hexdigest()[:24]
+        path = cache_dir("costs") / f"{key}.json"
+        try:
+            return float(json.loads(path.read_text())["ms"])
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+        times = []
+        for _ in range(3):  # the first compiles shaders and fills caches
+            start = time.perf_counter()
+            self._render_graph(tech, scene, camera, parameters, spp)
+            self.device.finish()
+            times.append((time.perf_counter() - start) * 1000.0)
+        ms = min(times[1:])
+        try:
+            atomic_write_bytes(path, json.dumps({"ms": ms, "technique": tech.name}).encode())
+        except OSError:
+            pass  # a cache that cannot be written only costs a measurement
+        return ms
+
     def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int) -> np.ndarray:
         """The technique's image: its graph run, the colour averaged over k x k samples on the GPU,
         read back; every texture given back but those kept for inspection (``keep_channels``)."""
@@ -156,6 +190,13 @@ class Renderer:
         if self._kept is not None:
             self._kept.give_back()
         self._kept, self.channels = None, {}
+
+    def _check_frame(self, tech, scene: Scene, camera, parameters, spp: int) -> None:
+        """A rasterized frame's memory, map sides and environment texture within this GL's limits."""
+        if tech.uses_gl:
+            frame_limits.check_frame_memory(camera.size, spp, parameters, scene)
+            frame_limits.check_map_sides(parameters, scene, self.device.max_texture_size)
+            frame_limits.check_environment_texture(scene.environment, self.device.max_texture_size)
 
     def _check_size(self, size, spp: int, uses_gl: bool) -> None:
         frame_limits.check_spp(spp)

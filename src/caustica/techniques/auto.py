@@ -12,7 +12,9 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
   (Shah et al.) is composed with the view technique.
 
-``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes).
+``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes);
+``budget_ms`` instead takes the highest quality whose frame time, measured on this device at this
+size and cached on disk (``$CAUSTICA_CACHE/costs``), fits the budget.
 """
 from __future__ import annotations
 
@@ -39,6 +41,8 @@ class AutoParams(Params):
     quality: str = param("balanced", choices=tuple(QUALITY),
                          help="draft (fastest), balanced, or high (more internal bounces, larger maps); "
                               "any other parameter goes to the planned technique")
+    budget_ms: float = param(0.0, range=(0.0, 1e6), special={0: "none: quality decides"}, unit="ms",
+                             help="frame-time budget: the highest quality whose measured frame time fits")
 
 
 @dataclass
@@ -143,15 +147,35 @@ class Auto(Technique):
     name = "auto"
     summary = "The most accurate real-time combination for the scene: impostors, depth-search or per-vertex, with caustics"
     Params = AutoParams
+    plan_used: Plan | None = None  # the plan of the last for_scene (the renderer keeps it as last_plan)
 
     def make_params(self, **values):
-        """``quality``, and any other parameter for the planned technique (checked once the plan is made)."""
-        params = super().make_params(**({"quality": values.pop("quality")} if "quality" in values else {}))
+        """``quality``, ``budget_ms``, and any other parameter for the planned technique (checked once
+        the plan is made)."""
+        own = {name: values.pop(name) for name in ("quality", "budget_ms") if name in values}
+        params = super().make_params(**own)
         params.overrides = values  # not a field: what the plan's technique takes depends on the scene
         return params
 
-    def for_scene(self, scene, params):
-        chosen = plan(scene, params.quality)
+    def for_scene(self, scene, params, frame_ms=None):
+        """The planned technique and its parameters. With a budget, ``frame_ms(technique, params)``
+        (the renderer's measured, cached frame time) picks the highest quality that fits."""
+        if not params.budget_ms:
+            return self._planned(scene, params.quality, params)
+        if frame_ms is None:
+            raise TechniqueError("auto's budget_ms needs frame times measured by a Renderer; render through one")
+        costs = {}
+        for quality in ("high", "balanced", "draft"):
+            technique, values = self._planned(scene, quality, params)
+            costs[quality] = frame_ms(technique, values)
+            if costs[quality] <= params.budget_ms:
+                return technique, values
+        raise TechniqueError(f"budget {params.budget_ms:g} ms is below the cheapest plan's {costs['draft']:.1f} ms "
+                             f"per frame here (draft); give a budget of {costs['draft'] * 1.1:.0f} ms or more, "
+                             "or a smaller size")
+
+    def _planned(self, scene, quality: str, params):
+        chosen = self.plan_used = plan(scene, quality)
         technique = get_technique(chosen.technique)
         overrides = getattr(params, "overrides", {})
         try:

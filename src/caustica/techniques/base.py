@@ -58,9 +58,9 @@ class Technique:
         except (TypeError, ValueError) as exc:
             raise TechniqueError(f"technique '{self.name}': {exc}") from None
 
-    def for_scene(self, scene: "Scene", params):
+    def for_scene(self, scene: "Scene", params, frame_ms=None):
         """The technique and parameters that render ``scene``: itself, or what a planner (``auto``)
-        chooses for it."""
+        chooses for it; ``frame_ms(technique, params)``, when given, measures a candidate."""
         return self, params
 
     def render(self, scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
