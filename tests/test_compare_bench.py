@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from caustica.cli import main
@@ -96,3 +97,69 @@ def test_timed_in_turns_takes_the_median_of_same_round_ratios():
     assert renderer.calls == [("warm-up", "base"), ("warm-up", "other")] + [("timed", "base"), ("timed", "other")] * 3
     assert timed["other"]["ratio"] == pytest.approx(1.0) and timed["base"]["ratio"] == pytest.approx(1.0)
     assert timed["other"]["ms"] == 30.0 and timed["other"]["fastest"] == 20.0
+
+
+def _old_to_rgb8(image, exposure=0.0):
+    """The contact sheet's own encoder before it used images.to_srgb8 (kept here to prove nothing moved)."""
+    from caustica.images import linear_to_srgb
+
+    encoded = linear_to_srgb(np.clip(image * 2.0**exposure, 0.0, 1.0))
+    return (encoded * 255.0 + 0.5).astype(np.uint8)
+
+
+def _sheet_inputs():
+    rng = np.random.default_rng(19)
+    ramp = np.linspace(-0.1, 30.0, 64 * 48 * 3, dtype=np.float32).reshape(48, 64, 3)
+    noisy = (rng.random((48, 64, 3), dtype=np.float32) * 3.0).astype(np.float32)
+    reference = (rng.random((48, 64, 3), dtype=np.float32) ** 3 * 20.0).astype(np.float32)
+    rows = [("ramp", ramp, None), ("noise", noisy, rng.random((48, 64, 3)).astype(np.float32))]
+    return rows, reference
+
+
+def test_contact_sheet_with_clip_is_bit_identical_to_its_old_encoder(monkeypatch):
+    """The sheet encodes with images.to_srgb8 now; with clip (the default) its pixels are exactly the old
+    ``(srgb * 255 + 0.5)`` floor ones: the encoders agree on a sweep of float32 values in [0, 1]."""
+    from caustica.bench import sheet as sheet_module
+    from caustica.images import to_srgb8
+
+    bits = np.arange(0, np.float32(1.0).view(np.uint32) + 1, 257, dtype=np.uint32)  # ~4M float32s in [0, 1]
+    values = np.append(bits.view(np.float32), np.float32(1.0))
+    np.testing.assert_array_equal(to_srgb8(values), _old_to_rgb8(values))
+    rows, reference = _sheet_inputs()
+    now = np.asarray(sheet_module.contact_sheet(rows, reference, "reference: x"))
+    assert np.array_equal(now, np.asarray(sheet_module.contact_sheet(rows, reference, "reference: x", tonemap="clip")))
+    monkeypatch.setattr(sheet_module, "to_srgb8", lambda image, exposure=0.0, tonemap="clip": _old_to_rgb8(image, exposure))
+    before = np.asarray(sheet_module.contact_sheet(rows, reference, "reference: x"))
+    assert now.dtype == before.dtype and np.array_equal(now, before)
+
+
+def test_contact_sheet_with_filmic_keeps_a_bright_region_distinct():
+    """Values from 1x to 30x white are all code 255 on a clip sheet; through filmic they keep distinct codes,
+    increasing with the value, and the tiles are images.to_srgb8(..., tonemap="filmic")."""
+    from caustica.bench.sheet import LABEL_HEIGHT, contact_sheet
+    from caustica.images import to_srgb8
+
+    rows, reference = _sheet_inputs()
+    clip = np.asarray(contact_sheet(rows, reference, tonemap="clip"))
+    filmic = np.asarray(contact_sheet(rows, reference, tonemap="filmic"))
+    ramp = rows[0][1]
+    bright = (ramp >= 1.0).all(axis=2)
+    clip_tile, filmic_tile = (s[LABEL_HEIGHT:LABEL_HEIGHT + 48, :64] for s in (clip, filmic))
+    assert (clip_tile[bright] == 255).all()
+    assert len(np.unique(filmic_tile[bright])) > 25 and filmic_tile[bright].max() < 255
+    assert (np.diff(filmic_tile[..., 0].astype(int).ravel()) >= 0).all()  # the ramp's codes never go down
+    np.testing.assert_array_equal(filmic_tile, to_srgb8(ramp, tonemap="filmic"))
+    reference_tile = filmic[LABEL_HEIGHT:LABEL_HEIGHT + 48, -64:]
+    np.testing.assert_array_equal(reference_tile, to_srgb8(reference, tonemap="filmic"))
+
+
+def test_compare_tonemap_filmic_sheet_and_bad_value(tmp_path, capsys):
+    sheet = tmp_path / "f.png"
+    code = main(["compare", "caustic-sphere", "--size", "32x32", "--spp", "1", "--reference-spp", "4", "--frames", "1",
+                 "--sheet", str(sheet), "--techniques", "env-map", "--tonemap", "filmic"])
+    assert code == 0 and sheet.stat().st_size > 0
+    capsys.readouterr()
+    assert main(["compare", "glass-sphere", "--tonemap", "aces", "--sheet", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--tonemap" in err and "'aces'" in err and "clip" in err and "filmic" in err
+    assert not (tmp_path / "x.png").exists()

@@ -358,3 +358,112 @@ result.update(gl_error=report.gl_error, live=report.live_objects)
     assert result["composed"]["depth-search.iterations"] == 0 and result["composed_error"] is None
     # Closing after caustic-mapping leaves nothing either (compute dispatches unbind their program: run_compute).
     assert result["gl_error"] == "GL_NO_ERROR" and not any(result["live"].values())
+
+
+FILMIC_SESSION = """
+import numpy as np
+scene = caustica.load_scene("caustic-sphere")
+viewer = Viewer(scene, "auto", size=(192, 160), panel=False, overlay=False, fixed_step=True)
+viewer.run(frames=2, script=[("exposure", 1.0), ("tonemap", "filmic"), ("wait", 1)])
+np.save("window.npy", viewer.grab_window())
+viewer.screenshot("shot.png")
+viewer.screenshot("shot.exr")
+open("scene.pkl", "wb").write(pickle.dumps(viewer.scene_view()))
+result.update(tonemap=viewer.tonemap, exposure=viewer.exposure, error=viewer.error)
+try:
+    viewer.apply(("tonemap", "aces"))
+except caustica.CausticaError as exc:
+    result["refused"] = str(exc)
+result["after_refusal"] = viewer.tonemap
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+"""
+
+
+def test_scripted_session_with_filmic_tonemap_matches_headless_png(display, tmp_path):
+    """With ``("tonemap", "filmic")`` the window and the PNG screenshot are ``images.to_srgb8(headless render,
+    tonemap="filmic")`` (the PNG ``caustica render --tonemap filmic`` writes), within one code; EXR stays linear."""
+    from PIL import Image
+
+    from caustica.images import to_srgb8
+
+    result = run_child(display, FILMIC_SESSION, tmp_path)
+    assert result["error"] is None and result["tonemap"] == "filmic" and result["exposure"] == 1.0
+    assert result["refused"] == "unknown tonemap 'aces'; use one of clip, filmic"
+    assert result["after_refusal"] == "filmic"
+    reference = headless(tmp_path / "scene.pkl", "auto")
+    assert np.abs(read_image(tmp_path / "shot.exr") - reference).max() < 1e-3
+    expected = to_srgb8(reference, 1.0, "filmic").astype(np.int16)
+    png = np.asarray(Image.open(tmp_path / "shot.png").convert("RGB"), np.int16)
+    assert np.abs(png - expected).max() <= 1
+    window = np.load(tmp_path / "window.npy").astype(np.int16)
+    assert window.shape == (160, 192, 3)
+    assert np.abs(window - expected).max() <= 1
+    # The curve took effect: highlights clip would flatten to 255 keep distinct codes below it.
+    clipped = to_srgb8(reference, 1.0, "clip")
+    assert (clipped == 255).any(axis=2).mean() > 0.002
+    assert (png == 255).any(axis=2).mean() < 0.2 * (clipped == 255).any(axis=2).mean()
+    assert len(np.unique(png[(clipped == 255).all(axis=2)])) > 5
+    assert result["gl_error"] == "GL_NO_ERROR" and result["live"] == {}
+
+
+RAMP = """
+import numpy as np
+from caustica.images import to_srgb8
+scene = caustica.load_scene("glass-sphere")
+viewer = Viewer(scene, "env-map", size=(256, 128), panel=False, overlay=False)
+viewer.run(frames=1)
+width, height = 256, 128
+ramp = np.linspace(0.0, 50.0, width * height, dtype=np.float32).reshape(height, width)
+pixels = np.stack([ramp, ramp[::-1], np.sqrt(ramp * 50.0)], axis=2).astype(np.float32)  # texture row 0 = window bottom row
+texture = viewer.ctx.texture((width, height), 3, pixels.tobytes(), dtype="f4")
+worst = {}
+for tonemap in ("clip", "filmic"):
+    for exposure in (0.0, -2.5):
+        viewer.display.draw(texture, (0, 0, width, height), "color", exposure, 1, tonemap=tonemap)
+        shown = np.frombuffer(viewer.ctx.screen.read(viewport=(0, 0, width, height), components=3), np.uint8)
+        shown = shown.reshape(height, width, 3).astype(np.int16)
+        expected = to_srgb8(pixels, exposure, tonemap).astype(np.int16)
+        worst[f"{tonemap} {exposure}"] = int(np.abs(shown - expected).max())
+        worst[f"{tonemap} {exposure} white"] = float((shown[..., 0] == 255).mean())
+texture.release()
+result["worst"] = worst
+report = viewer.close()
+result.update(gl_error=report.gl_error, live=report.live_objects)
+"""
+
+
+def test_display_shader_filmic_curve_matches_images_filmic_on_a_ramp(display, tmp_path):
+    """A 0..50 ramp texture drawn by the display shader and read back from the window: the GLSL filmic (and
+    clip) curve gives ``images.to_srgb8``'s codes within one, at two exposures."""
+    result = run_child(display, RAMP, tmp_path)
+    worst = result["worst"]
+    for tonemap in ("clip", "filmic"):
+        for exposure in (0.0, -2.5):
+            assert worst[f"{tonemap} {exposure}"] <= 1, worst
+    # Red runs 0..50: clip is white from 1 on (98% of the ramp), filmic reaches code 255 only from ~70.
+    assert worst["clip 0.0 white"] > 0.97 and worst["filmic 0.0 white"] == 0.0
+    assert result["gl_error"] == "GL_NO_ERROR" and result["live"] == {}
+
+
+def test_cli_view_tonemap_filmic_screenshot(display, tmp_path):
+    from PIL import Image
+
+    from caustica.images import to_srgb8
+
+    env = {**os.environ, "DISPLAY": display}
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "caustic-sphere", "--frames", "2", "--size",
+                           "96x80", "--exposure", "1", "--tonemap", "filmic", "--screenshot", str(tmp_path / "view.png")],
+                          env=env, check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    reference = caustica.Renderer((96, 80)).render(caustica.load_scene("caustic-sphere"), "auto")
+    shot = np.asarray(Image.open(tmp_path / "view.png").convert("RGB"), np.int16)
+    assert np.abs(shot - to_srgb8(reference, 1.0, "filmic").astype(np.int16)).max() <= 1
+
+
+def test_cli_view_bad_tonemap_is_one_line():
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "glass-sphere", "--tonemap", "aces"],
+                          check=False, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    err = done.stderr.strip()
+    assert len(err.splitlines()) == 1 and "--tonemap" in err and "'aces'" in err and "clip" in err and "filmic" in err

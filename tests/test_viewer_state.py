@@ -261,3 +261,30 @@ def test_the_viewer_reads_and_edits_its_state_under_the_old_names():
     assert viewer.state.spp == 4 and viewer.state.technique == "image-space" and viewer.state.exposure == 1.5
     assert viewer.scene is viewer.state.scene and viewer.scene.objects[0].material.ior == pytest.approx(1.4)
     np.testing.assert_allclose(viewer.camera().position, viewer.state.camera().position)
+
+
+def test_tonemap_is_a_checked_display_setting():
+    """``tonemap`` (the PNG tone curve of the view and its screenshots) is "clip" unless asked; it is only
+    shown, so it re-renders nothing; a bad name is a one-line error naming the choices, before a window."""
+    state = state_of("glass-sphere")
+    assert state.tonemap == "clip"
+    assert state_of("glass-sphere", tonemap="filmic").tonemap == "filmic"
+    state.tonemap = "filmic"
+    assert state.tonemap == "filmic" and state.state_version == 0
+    with pytest.raises(CausticaError) as refused:
+        state.tonemap = "aces"
+    assert str(refused.value) == "unknown tonemap 'aces'; use one of clip, filmic"
+    assert state.tonemap == "filmic"  # unchanged
+    with pytest.raises(CausticaError) as at_start:
+        state_of("glass-sphere", tonemap="reinhard")
+    message = str(at_start.value)
+    assert "\n" not in message and "'reinhard'" in message and "clip, filmic" in message
+
+
+def test_a_bad_tonemap_is_refused_before_a_window_opens(monkeypatch):
+    from caustica.viewer import Viewer
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(CausticaError, match="unknown tonemap 'aces'; use one of clip, filmic"):
+        Viewer(caustica.load_scene("glass-sphere"), "env-map", tonemap="aces")  # not "no display found"

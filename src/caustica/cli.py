@@ -168,6 +168,9 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
+    view.add_argument("--tonemap", choices=TONEMAPS, default="clip",
+                      help="tone curve after the exposure, of the view and PNG screenshots: clip (default) or filmic "
+                           "(as 'render --tonemap'; the panel switches it too)")
     view.add_argument("-p", "--param", type=_param, action="append", default=[],
                       help="technique parameter name=value (repeatable)")
     view.add_argument("--frames", type=FRAMES, help="quit after this many frames (scripted runs)")
@@ -186,6 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
     comp.add_argument("--json", help="write the figures as JSON here")
     comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
+    comp.add_argument("--tonemap", choices=TONEMAPS, default="clip",
+                      help="the sheet's tone curve: clip (default) or filmic (as 'render --tonemap'); the figures do not change")
 
     bench = sub.add_parser("bench", help="ms per frame, per-pass ms, ratio to plain shading, time-to-quality vs Mitsuba")
     bench.add_argument("--scenes", type=_names, default=["glass-sphere", "caustic-sphere"], help="comma-separated scenes or presets")
@@ -303,7 +308,7 @@ def cmd_view(args) -> int:
     from .viewer import Viewer
 
     viewer = Viewer(scene, args.technique, _with_quality(args), size=args.size, spp=args.spp, exposure=args.exposure,
-                    panel=not args.no_panel, fixed_step=args.frames is not None)
+                    panel=not args.no_panel, fixed_step=args.frames is not None, tonemap=args.tonemap)
     try:
         viewer.play(args.play)
         viewer.run(args.frames, script)
@@ -381,7 +386,8 @@ def cmd_compare(args) -> int:
         print(f"wrote {json_path}")
     if sheet_path:
         rows = [(r.technique, r.image, r.error_map) for r in result.results]
-        save_sheet(contact_sheet(rows, result.reference_image, "reference: " + result.reference.split(" (")[0]), sheet_path)
+        save_sheet(contact_sheet(rows, result.reference_image, "reference: " + result.reference.split(" (")[0],
+                                 tonemap=args.tonemap), sheet_path)
         print(f"wrote {sheet_path}")
     return 0
 

@@ -4,15 +4,9 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image, ImageDraw
 
-from ..images import linear_to_srgb
+from ..images import to_srgb8
 
 LABEL_HEIGHT = 18
-
-
-def to_rgb8(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
-    """Linear float image -> 8-bit sRGB."""
-    encoded = linear_to_srgb(np.clip(image * 2.0**exposure, 0.0, 1.0))
-    return (encoded * 255.0 + 0.5).astype(np.uint8)
 
 
 def labelled(tile: np.ndarray, label: str) -> Image.Image:
@@ -25,14 +19,15 @@ def labelled(tile: np.ndarray, label: str) -> Image.Image:
 
 
 def contact_sheet(rows: list[tuple[str, np.ndarray, np.ndarray | None]], reference: np.ndarray,
-                  reference_label: str = "reference") -> Image.Image:
-    """Rows of (label, linear image, FLIP colour map in [0,1] or None) beside the reference."""
+                  reference_label: str = "reference", tonemap: str = "clip") -> Image.Image:
+    """Rows of (label, linear image, FLIP colour map in [0,1] or None) beside the reference; the images and the
+    reference through the PNG tone curve ``tonemap`` (images.TONEMAPS), the error maps as they are."""
     tiles = []
     for label, image, error_map in rows:
-        row = [labelled(to_rgb8(image), label)]
+        row = [labelled(to_srgb8(image, tonemap=tonemap), label)]
         if error_map is not None:
             row.append(labelled((np.clip(error_map, 0, 1) * 255 + 0.5).astype(np.uint8), f"{label}: FLIP error"))
-        row.append(labelled(to_rgb8(reference), reference_label))
+        row.append(labelled(to_srgb8(reference, tonemap=tonemap), reference_label))
         tiles.append(row)
     tile_w, tile_h = tiles[0][0].size
     columns = max(len(r) for r in tiles)

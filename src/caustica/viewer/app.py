@@ -87,6 +87,7 @@ class Viewer:
     params = _StateField()
     spp = _StateField()
     exposure = _StateField()
+    tonemap = _StateField()
     second = _StateField()
     second_params = _StateField()
     difference = _StateField()
@@ -105,10 +106,10 @@ class Viewer:
 
     def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, size=None,
                  spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
-                 title: str | None = None, fixed_step: bool = False):
-        # Validates the technique, parameters and spp before a window opens.
+                 title: str | None = None, fixed_step: bool = False, tonemap: str = "clip"):
+        # Validates the technique, parameters, spp and tone curve before a window opens.
         self.state = ViewerState(scene, technique, params, spp, exposure, panel, overlay,
-                                 viewport=lambda: self.layout()[0][2:])
+                                 viewport=lambda: self.layout()[0][2:], tonemap=tonemap)
         self.profile, self.fixed_step = False, fixed_step
         self.pass_gl_errors: set[str] = set()  # GL errors the technique's passes left (reported, not raised)
         self.frame_index, self.frame_ms = 0, deque(maxlen=60)
@@ -291,16 +292,19 @@ class Viewer:
             if texture is not None:
                 self._draw_channel(texture, rects[0])
                 if self.second and len(rects) > 1 and self.other.color is not None:
-                    self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling)
+                    self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling,
+                                      tonemap=self.tonemap)
                 return
         if self.second and self.difference and self.other.color is not None:
             same_k = self.main.supersampling == self.other.supersampling
             self.display.draw(self.main.color, rects[0], "difference", self.exposure, self.main.supersampling,
                               other=self.other.color if same_k else self.main.color, gain=self.difference_gain)
             return
-        self.display.draw(self.main.color, rects[0], "color", self.exposure, self.main.supersampling)
+        self.display.draw(self.main.color, rects[0], "color", self.exposure, self.main.supersampling,
+                          tonemap=self.tonemap)
         if self.second and len(rects) > 1 and self.other.color is not None:
-            self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling)
+            self.display.draw(self.other.color, rects[1], "color", self.exposure, self.other.supersampling,
+                              tonemap=self.tonemap)
 
     def _draw_channel(self, texture, rect) -> None:
         from .display import auto_mode, value_range
@@ -309,7 +313,7 @@ class Viewer:
         if mode == "range" and self.inspect_auto and self.frame_index % 10 == 0:
             self.inspect_range = value_range(texture)
         k = self.main.supersampling if tuple(texture.size) == tuple(self.main.color.size) else 1
-        self.display.draw(texture, rect, mode, self.exposure, k, self.inspect_range)
+        self.display.draw(texture, rect, mode, self.exposure, k, self.inspect_range, tonemap=self.tonemap)
 
     def _advance_animation(self) -> None:
         now = time.perf_counter()
@@ -396,10 +400,11 @@ class Viewer:
         return box_downsample(read_rgb(self.main.color), self.main.supersampling).astype(np.float32)
 
     def screenshot(self, path) -> str:
-        """Write the last frame: .png (sRGB after the exposure) or .exr (linear float)."""
+        """Write the last frame: .png (sRGB after the exposure and tone curve, as the view shows it) or .exr
+        (linear float)."""
         from ..images import write_image
 
-        return str(write_image(path, self.image(), exposure=self.exposure))
+        return str(write_image(path, self.image(), exposure=self.exposure, tonemap=self.tonemap))
 
     def grab_window(self) -> np.ndarray:
         """Draw one more frame and return the whole window as uint8 (H, W, 3), panel included."""
@@ -556,6 +561,7 @@ EVENTS = {
     "light": Viewer.move_light, "drag_light": Viewer.drag_light,
     "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
     "exposure": lambda v, value: setattr(v, "exposure", float(value)),
+    "tonemap": lambda v, value: setattr(v, "tonemap", value),
     "spp": Viewer.set_spp,
     "overlay": lambda v, on=True: setattr(v, "show_overlay", bool(on)),
     "time": Viewer.set_time, "play": Viewer.play, "panel": lambda v, on=True: on != v.show_panel and v.toggle_panel(),

@@ -1,16 +1,31 @@
 """Drawing textures into the window: tone mapping, channel views and the difference view.
 
 A linear color texture is shown as ``caustica render`` writes PNGs (2**exposure,
-clip, exact sRGB curve), pixel for pixel when the texture is the view's size
-(times the supersampling factor, averaged k x k like the renderer's box
-filter). Any other texture (shadow maps, caustic maps) is letterboxed.
+the tone curve of ``--tonemap``: clip or filmic, exact sRGB curve), pixel for
+pixel when the texture is the view's size (times the supersampling factor,
+averaged k x k like the renderer's box filter). Any other texture (shadow maps,
+caustic maps) is letterboxed. The filmic curve's constants are images.py's,
+written into the shader source, so the window and the PNGs share one definition.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..images import _ACES, FILMIC_INPUT_SCALE, TONEMAPS
+
 MODES = ("color", "signed", "range", "difference")  # how a texture's values become colours
 _LAYER = len(MODES)  # internal mode: the premultiplied UI layer (ui_layer.py), blended over the window
+# The shader's filmic input cap: images.filmic caps at 1e30 for float64; in float32 y * y must stay finite
+# (< 3.4e38). In float32 the curve is within one step of 1.0 from y ~ 1e6 on, so the cap changes no 8-bit code.
+_GLSL_FILMIC_INPUT_MAX = 1e15
+
+
+def _filmic_defines() -> str:
+    """images.filmic's constants as GLSL defines (repr: the shortest text that reads back as the same double)."""
+    names = ("ACES_A", "ACES_B", "ACES_C", "ACES_D", "ACES_E")
+    values = {**dict(zip(names, _ACES)), "FILMIC_INPUT_SCALE": float(FILMIC_INPUT_SCALE),
+              "FILMIC_INPUT_MAX": _GLSL_FILMIC_INPUT_MAX}
+    return "".join(f"#define {name} {float(value)!r}\n" for name, value in values.items())
 
 _VERTEX = """
 #version 430
@@ -20,11 +35,12 @@ void main() {
 }
 """
 
-# Compiled once per (MODE, FIT, K): a CPU rasterizer runs every side of a branch, even a uniform one.
+# Compiled once per (MODE, FIT, K, TONEMAP): a CPU rasterizer runs every side of a branch, even a uniform one.
 _FRAGMENT = """
 #version 430
 // MODE: 0 color, 1 signed (x/2 + 1/2), 2 range (x - lo) / (hi - lo), 3 |a - b| * gain, 4 UI layer.
 // FIT 1: the texture holds K x K samples per view pixel (box average); FIT 0: letterboxed lookup.
+// TONEMAP (MODE 0): 0 clip, 1 filmic (images.filmic; ACES_* and FILMIC_* are defined from images.py).
 uniform sampler2D image_a;
 uniform sampler2D image_b;
 uniform int components;      // of image_a: 1 grey, 2 (r, g, 0), 3/4 rgb
@@ -38,6 +54,20 @@ out vec4 frag_color;
 vec3 srgb(vec3 x) {
     x = clamp(x, 0.0, 1.0);
     return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), x));
+}
+
+// images.filmic: Narkowicz's ACES fit divided by its asymptote, the input pre-scaled so 0.18 stays 0.18.
+vec3 filmic(vec3 x) {
+    vec3 y = min(max(x, 0.0) * FILMIC_INPUT_SCALE, FILMIC_INPUT_MAX);
+    return y * (ACES_A * y + ACES_B) / (y * (ACES_C * y + ACES_D) + ACES_E) * (ACES_C / ACES_A);
+}
+
+vec3 tone_map(vec3 x) {
+#if TONEMAP == 1
+    return filmic(x);
+#else
+    return clamp(x, 0.0, 1.0);
+#endif
 }
 
 vec3 expand(vec4 v) {
@@ -78,7 +108,7 @@ void main() {
     vec3 a = expand(sample_pixel(image_a, pixel, inside));
     if (!inside) { frag_color = vec4(0.08, 0.08, 0.09, 1.0); return; }
 #if MODE == 0
-    vec3 shown = srgb(a * exp2(exposure));
+    vec3 shown = srgb(tone_map(a * exp2(exposure)));
 #elif MODE == 1
     vec3 shown = clamp(a * 0.5 + 0.5, 0.0, 1.0);
 #elif MODE == 2
@@ -122,27 +152,31 @@ class Display:
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self.programs: dict[tuple[int, int, int], tuple] = {}  # key -> (program, its empty vertex array)
+        self.programs: dict[tuple[int, int, int, int], tuple] = {}  # key -> (program, its empty vertex array)
 
-    def variant(self, mode: int, fit: bool, k: int):
-        """The variant for ``mode`` (index in MODES), a view-sized texture of k x k samples or a letterbox."""
-        key = (mode, int(fit), k if fit else 1)
+    def variant(self, mode: int, fit: bool, k: int, tonemap: str = "clip"):
+        """The variant for ``mode`` (index in MODES), a view-sized texture of k x k samples or a letterbox,
+        and (colour mode only) the tone curve ``tonemap`` (one of images.TONEMAPS)."""
+        key = (mode, int(fit), k if fit else 1, TONEMAPS.index(tonemap) if mode == 0 else 0)
         if key not in self.programs:
-            header = f"#version 430\n#define MODE {key[0]}\n#define FIT {key[1]}\n#define K {key[2]}\n"
+            header = (f"#version 430\n#define MODE {key[0]}\n#define FIT {key[1]}\n#define K {key[2]}\n"
+                      f"#define TONEMAP {key[3]}\n{_filmic_defines()}")
             program = self.ctx.program(vertex_shader=_VERTEX, fragment_shader=_FRAGMENT.replace("#version 430\n", header, 1))
             self.programs[key] = (program, self.ctx.vertex_array(program, []))
         return self.programs[key]
 
     def draw(self, texture, rect: tuple[int, int, int, int], mode: str = "color", exposure: float = 0.0,
-             supersampling: int = 1, values: tuple[float, float] = (0.0, 1.0), other=None, gain: float = 4.0) -> None:
-        """Draw ``texture`` into ``rect`` (x, y from the window's lower left, width, height)."""
+             supersampling: int = 1, values: tuple[float, float] = (0.0, 1.0), other=None, gain: float = 4.0,
+             tonemap: str = "clip") -> None:
+        """Draw ``texture`` into ``rect`` (x, y from the window's lower left, width, height); ``tonemap`` is the
+        colour mode's tone curve after the exposure (images.TONEMAPS; the other modes ignore it)."""
         x, y, width, height = (int(v) for v in rect)
         if width <= 0 or height <= 0:
             return
         k = int(supersampling)
         layer = mode == "layer"  # reads the window-sized layer at each pixel: neither fit nor k applies
         fit = not layer and tuple(texture.size) == (width * k, height * k)
-        program, vao = self.variant(_LAYER if layer else MODES.index(mode), fit, k)
+        program, vao = self.variant(_LAYER if layer else MODES.index(mode), fit, k, tonemap)
         screen = self.ctx.screen
         screen.use()
         screen.viewport = (x, y, width, height)

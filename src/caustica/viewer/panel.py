@@ -10,6 +10,7 @@ import statistics
 
 import numpy as np
 
+from ..images import TONEMAPS
 from ..techniques import get_technique, technique_names
 from .display import MODES
 from .frames import channel_textures
@@ -110,6 +111,9 @@ def draw_panel(viewer) -> None:
         viewer.spp = spp
         viewer.changed()
     changed, viewer.exposure = imgui.drag_float("exposure", viewer.exposure, 0.05, -10.0, 10.0, "%.2f")
+    changed, tonemap = _combo(imgui, "tonemap", viewer.tonemap, TONEMAPS)
+    if changed:
+        viewer.tonemap = tonemap
     if imgui.collapsing_header("parameters", imgui.TreeNodeFlags_.default_open):
         _parameters(viewer, imgui, viewer.technique, viewer.params, second=False)
     if imgui.collapsing_header("materials", imgui.TreeNodeFlags_.default_open):

@@ -14,6 +14,7 @@ import inspect
 import numpy as np
 
 from ..errors import CausticaError
+from ..images import TONEMAPS
 from ..scene import Scene
 from ..techniques.base import check_spp, get_technique
 from .display import auto_mode, value_range
@@ -44,10 +45,12 @@ class ViewerState:
     (the scene camera's size unless a window says otherwise)."""
 
     def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, spp: int = 1,
-                 exposure: float = 0.0, panel: bool = True, overlay: bool = True, viewport=None):
+                 exposure: float = 0.0, panel: bool = True, overlay: bool = True, viewport=None,
+                 tonemap: str = "clip"):
         chosen = get_technique(technique)
         chosen.make_params(**(params or {}))  # fail on bad input before opening a window
         check_spp(chosen, int(spp))
+        self.tonemap = tonemap  # the PNG tone curve (images.TONEMAPS) of the views and screenshots; checked
         self.scene = scene
         self.orbit = OrbitCamera(scene.camera)
         self.technique, self.params = technique, dict(params or {})
@@ -66,6 +69,19 @@ class ViewerState:
 
     def changed(self) -> None:
         self.state_version += 1
+
+    @property
+    def tonemap(self) -> str:
+        """The tone curve after the exposure, as ``caustica render --tonemap``: "clip" or "filmic".
+
+        Display only (like the exposure): setting it re-renders nothing. A bad name raises CausticaError."""
+        return self._tonemap
+
+    @tonemap.setter
+    def tonemap(self, value: str) -> None:
+        if value not in TONEMAPS:
+            raise CausticaError(f"unknown tonemap '{value}'; use one of {', '.join(TONEMAPS)}")
+        self._tonemap = value
 
     @property
     def side_by_side(self) -> bool:
