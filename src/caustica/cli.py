@@ -82,6 +82,7 @@ MAX_EXPOSURE = 64.0
 SPP = _integer(1, MAX_SPP)  # the renderer's own bound (frame_limits), said at parse time
 FRAMES = _integer(1, MAX_FRAMES)
 EXPOSURE = _number(-MAX_EXPOSURE, MAX_EXPOSURE)
+BUDGET = _number(0.001, 1e6)  # auto's frame-time budget, milliseconds (0 or less is no budget: refused)
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
 # so argparse does not read the value as an option.
 _VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--reference-spp", "--quality-size", "--max-spp",
@@ -149,6 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("-t", "--technique", default="auto",
                         help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
     render.add_argument("--quality", choices=QUALITIES, help="auto's quality (default balanced)")
+    render.add_argument("--budget", type=BUDGET, metavar="MS",
+                        help="auto: the highest quality whose frame time here fits MS milliseconds (measured, cached)")
     render.add_argument("--explain", action="store_true", help="print auto's plan: each object's technique and why")
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
@@ -165,6 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("-t", "--technique", default="auto",
                       help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
     view.add_argument("--quality", choices=QUALITIES, help="auto's quality (default balanced)")
+    view.add_argument("--budget", type=BUDGET, metavar="MS",
+                      help="auto: the highest quality whose frame time here fits MS milliseconds (measured, cached)")
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
@@ -279,11 +284,10 @@ def cmd_render(args) -> int:
     scene = load_scene(args.scene)
     renderer = Renderer(args.size)
     params = _with_quality(args)
-    if args.explain and args.technique == "auto":
-        from .techniques.auto import plan
-
-        print(plan(scene, params.get("quality", "balanced")).describe())
     image, ms = renderer.render_timed(scene, args.technique, args.spp, **params)
+    if args.explain:
+        print(renderer.last_plan.describe() if renderer.last_plan is not None else
+              f"technique: {args.technique} (named; 'caustica plan' shows what auto would choose)")
     timings = [ms]
     if technique.uses_gl:
         timings = [renderer.render_timed(scene, args.technique, args.spp, **params)[1] for _ in range(args.frames)]
@@ -470,13 +474,16 @@ def cmd_plan(args) -> int:
 
 
 def _with_quality(args) -> dict:
-    """The -p parameters, with --quality for auto (an error for any other technique)."""
+    """The -p parameters, with --quality and --budget for auto (an error for any other technique)."""
     params = dict(args.param)
-    if args.quality is not None:
+    for option, name in (("quality", "quality"), ("budget", "budget_ms")):
+        value = getattr(args, option)
+        if value is None:
+            continue
         if args.technique != "auto":
-            raise TechniqueError(f"--quality applies to the auto technique, not '{args.technique}'; "
+            raise TechniqueError(f"--{option} applies to the auto technique, not '{args.technique}'; "
                                  "drop it or use -t auto")
-        params["quality"] = args.quality
+        params[name] = value
     return params
 
 
