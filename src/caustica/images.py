@@ -205,18 +205,18 @@ TONEMAPS = ("clip", "filmic")  # PNG tone curves; "clip" is the default and toda
 # (by 0.6) to pick the exposure; we pick the pre-scale that keeps mid-grey 0.18 at 0.18 exactly, so the
 # filmic and clip PNGs of a mid-grey pixel are the same 8-bit code. f' has numerator
 # (ad - bc) x^2 + 2ae x + be > 0 (a, b, c, d, e the five constants), so the curve is strictly increasing.
-_ACES = (2.51, 0.03, 2.43, 0.59, 0.14)
+ACES_FIT = (2.51, 0.03, 2.43, 0.59, 0.14)
 FILMIC_MID_GREY = 0.18
 
 
 def _aces(y):
-    a, b, c, d, e = _ACES
+    a, b, c, d, e = ACES_FIT
     return y * (a * y + b) / (y * (c * y + d) + e) * (c / a)
 
 
 def _mid_grey_scale() -> float:
     """s with _aces(s * 0.18) = 0.18: the positive root of a quadratic in y = s * 0.18."""
-    a, b, c, d, e = _ACES
+    a, b, c, d, e = ACES_FIT
     t = FILMIC_MID_GREY * a / c  # _aces(y) = 0.18 <=> y (a y + b) = t (y (c y + d) + e)
     qa, qb, qc = a - t * c, b - t * d, -t * e
     return (-qb + np.sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa) / FILMIC_MID_GREY

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..images import _ACES, FILMIC_INPUT_SCALE, TONEMAPS
+from ..images import ACES_FIT, FILMIC_INPUT_SCALE, TONEMAPS
 
 MODES = ("color", "signed", "range", "difference")  # how a texture's values become colours
 _LAYER = len(MODES)  # internal mode: the premultiplied UI layer (ui_layer.py), blended over the window
@@ -23,7 +23,7 @@ _GLSL_FILMIC_INPUT_MAX = 1e15
 def _filmic_defines() -> str:
     """images.filmic's constants as GLSL defines (repr: the shortest text that reads back as the same double)."""
     names = ("ACES_A", "ACES_B", "ACES_C", "ACES_D", "ACES_E")
-    values = {**dict(zip(names, _ACES)), "FILMIC_INPUT_SCALE": float(FILMIC_INPUT_SCALE),
+    values = {**dict(zip(names, ACES_FIT)), "FILMIC_INPUT_SCALE": float(FILMIC_INPUT_SCALE),
               "FILMIC_INPUT_MAX": _GLSL_FILMIC_INPUT_MAX}
     return "".join(f"#define {name} {float(value)!r}\n" for name, value in values.items())
 
