@@ -22,7 +22,8 @@ views they draw in are ``passes/light_views.py``, the cache across frames
   fixed-point sums, ``passes/fixed_flux.py``, where GL_NV_shader_atomic_float
   exists, else Gaussian point sprites with additive blending into three r32f
   targets: the same kernel, so both deposit the same flux; either way the
-  bytes do not depend on thread scheduling).
+  bytes do not depend on thread scheduling). Photons made on a grid get
+  Gaussians sized by their footprints (``caustic_footprint.comp``).
 - :class:`ResolveCausticMaps` (irradiance = flux / receiver area of the texel,
   alpha = the receiver's distance to the light, into the ``caustic_maps``
   contract of ``passes/caustics.py``).
@@ -31,8 +32,9 @@ views they draw in are ``passes/light_views.py``, the cache across frames
   they make and land the photons.
 
 Photons live in :class:`Photons`: an SSBO of ``{vec4 position (w = 1 landed);
-vec4 flux (W, RGB)}``, the format every splat here reads; :func:`dispatch_photons`
-runs a compute shader that writes one (``photon_land.comp``).
+vec4 flux (W, RGB)}``, the format every splat here reads, with the light-space
+grid they were made on where there is one; :func:`dispatch_photons` runs a
+compute shader that writes one (``photon_land.comp``).
 """
 from __future__ import annotations
 
@@ -54,6 +56,10 @@ PHOTON_BYTES = 32  # vec4 position + vec4 flux
 # view fitted around the landed photons holds the caustic (caustic-mapping's footprint pass, photon-splats).
 COARSE_NEWTON_STEPS = 6
 COARSE_MAP_SIZE = 256  # texels a side of the coarse views at most
+# Footprint splats (SplatPhotons, caustic_footprint.comp): a photon's sigma per landed grid cell (a regular
+# grid under a 3-sigma Gaussian of 0.7 cells sums flat to a few 1e-3), and the largest sigma (texels).
+FOOTPRINT_SCALE = 0.7
+FOOTPRINT_CAP = 32.0
 
 
 @dataclass
@@ -63,6 +69,11 @@ class Photons:
     buffer: object
     count: int
     stats: dict = field(default_factory=dict)
+    # The light-space grid the photons were made on, (width, height) texels (a cube atlas: six faces of
+    # height texels side by side), entry (row * width + column) * channels + channel; None: no grid
+    # (then SplatPhotons cannot size splats by footprint).
+    grid: tuple[int, int] | None = None
+    channels: int = 1
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (n, 3), flux (n, 3)) of the photons that landed."""
@@ -81,7 +92,8 @@ def dispatch_photons(frame: Frame, program, size: tuple[int, int], count: int, i
     (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
     run_compute(program, (size[0] + 7) // 8, (size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
-    return Photons(buffer, count, stats)
+    width, height = int(size[0]), int(size[1])
+    return Photons(buffer, count, stats, (width, height), max(count // max(width * height, 1), 1))
 
 
 # Passes -----------------------------------------------------------------------
@@ -241,9 +253,22 @@ class SplatPhotons(Pass):
     same bytes; core GL 4.3), 'points' draws additive Gaussian point sprites
     (blending in primitive order: deterministic too), 'auto' picks compute
     where GL_NV_shader_atomic_float exists (as before the compute splat went
-    fixed-point), else points. Both use the normalised kernel of caustic_light_space.glsl
-    (radius ``radius`` texels, sigma = radius / 2), so a photon deposits
-    exactly its flux whichever path runs. Writes three r32f textures per light.
+    fixed-point), else points. Both use the same normalised kernels, so a
+    photon deposits exactly its flux whichever path runs. Writes three r32f
+    textures per light.
+
+    Kernels: photons made on a light-space grid (``Photons.grid``: caustic-mapping,
+    photon-splats) get footprint splats (``caustic_footprint.comp``): a Gaussian
+    of covariance sigma0^2 I + FOOTPRINT_SCALE^2 J J^T, sigma0 = ``radius`` / 2 and
+    J the ray differential of the landing point over the grid (from the grid
+    neighbours' landing points), cut at 3 sigma. A regular photon grid splatted
+    with a fixed kernel beats against the map's texels (moire rings, issue 19)
+    wherever the photons land about a texel apart or more; footprint splats
+    cover each photon's landed cell and sum flat there. Degenerate footprints
+    (grazing photons landing far apart) are clamped to FOOTPRINT_CAP texels a
+    sigma, the photon's flux scaled by the kept fraction of its footprint area.
+    Other photons (no grid: transport-table) get caustic_light_space.glsl's
+    fixed kernel (sigma = ``radius`` / 2, cut at 2 sigma).
     """
 
     def __init__(self, photons: str, views: str = "caustic_views", mode: str = "auto", radius: float = 1.5):
@@ -260,35 +285,66 @@ class SplatPhotons(Pass):
             if view is None or photons is None:
                 out.append(None)
                 continue
-            out.append((self._compute if mode == "compute" else self._points)(frame, view, photons))
+            if photons.grid is None:
+                out.append(self._splat(frame, mode, view, photons, None))
+                continue
+            with frame.scoped(self._footprints(frame, view, photons)) as footprints:
+                out.append(self._splat(frame, mode, view, photons, footprints))
         frame.write("caustic_flux", out)
 
-    def _compute(self, frame: Frame, view: LightView, photons: Photons) -> list:
+    def _splat(self, frame: Frame, mode: str, view: LightView, photons: Photons, footprints) -> list:
+        return (self._compute if mode == "compute" else self._points)(frame, view, photons, footprints)
+
+    def _footprints(self, frame: Frame, view: LightView, photons: Photons):
+        """A buffer of vec4 per photon: its kernel's shape (A = Sigma^-1: xx, xy, yy) and flux scale."""
+        buffer = frame.gpu.ctx.buffer(reserve=max(photons.count, 1) * 16)
+        program = frame.gpu.shaders.compute("passes/caustic_footprint.comp")
+        view.bind(program)
+        width, height = photons.grid
+        set_uniform(program, "grid", (width, height))
+        set_uniform(program, "channels", int(photons.channels))
+        set_uniform(program, "splat_radius", self.radius)
+        set_uniform(program, "footprint_scale", FOOTPRINT_SCALE)
+        set_uniform(program, "footprint_cap", FOOTPRINT_CAP)
+        photons.buffer.bind_to_storage_buffer(0)
+        buffer.bind_to_storage_buffer(1)
+        run_compute(program, (width + 7) // 8, (height + 7) // 8)
+        frame.gpu.ctx.memory_barrier()
+        return buffer
+
+    def _compute(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
         def dispatch(bind, bound: int) -> None:
-            program = frame.gpu.shaders.compute("passes/caustic_splat.comp", {"FLUX_BOUND": bound})
+            defines = {"FLUX_BOUND": bound, "FOOTPRINT": int(footprints is not None)}
+            program = frame.gpu.shaders.compute("passes/caustic_splat.comp", defines)
             bind(program)
             view.bind(program)
             set_uniform(program, "photon_count", int(photons.count))
             set_uniform(program, "splat_radius", self.radius)
             photons.buffer.bind_to_storage_buffer(0)
+            if footprints is not None:
+                footprints.bind_to_storage_buffer(1)
             run_compute(program, (photons.count + 63) // 64)
 
         return splat_fixed_point(frame, view.atlas_size, dispatch)
 
-    def _points(self, frame: Frame, view: LightView, photons: Photons) -> list:
+    def _points(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
         ctx = frame.gpu.ctx
         targets = [frame.zeroed(view.atlas_size, "r32f") for _ in range(3)]
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
         fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
-        program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag")
+        defines = {"FOOTPRINT": int(footprints is not None)}
+        program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag", defines)
         view.bind(program)
         set_uniform(program, "splat_radius", self.radius)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         ctx.blend_equation = moderngl.FUNC_ADD
-        with frame.scoped(ctx.vertex_array(program, [(photons.buffer, "4f 4f", "in_position", "in_flux")])) as vao:
+        content = [(photons.buffer, "4f 4f", "in_position", "in_flux")]
+        if footprints is not None:
+            content.append((footprints, "4f", "in_shape"))
+        with frame.scoped(ctx.vertex_array(program, content)) as vao:
             vao.render(moderngl.POINTS, vertices=photons.count)
         ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.DEFAULT_BLENDING

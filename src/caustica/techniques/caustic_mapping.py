@@ -44,8 +44,12 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    wider than a frustum, or ``point_map='cube'``, gets the omnidirectional cube
    atlas), the receivers are rendered again in it and the photons retraced.
    Splat (III-F): compute shader with fixed-point atomics, or additive Gaussian
-   point sprites (``splat``), radius ``splat_radius`` texels; irradiance = flux /
-   receiver area of the texel; alpha = receiver distance to the light.
+   point sprites (``splat``), each Gaussian sized by the photon's footprint (the
+   area its grid cell lands on, from the grid neighbours' landing points: a ray
+   differential; ``passes/light_space.py``, SplatPhotons) and at least
+   ``splat_radius`` texels: a fixed kernel beat against the map's texels where the
+   photons spread apart (moire rings, issue 19). Irradiance = flux / receiver area
+   of the texel; alpha = receiver distance to the light.
    The maps are rebuilt only when lights, objects or materials change.
 
 Approximate: the exit point through the back buffer (one layer: concave or
@@ -55,7 +59,9 @@ a few steps; near receiver discontinuities, e.g. a mirror's reflection onto
 another wall, it can land on the wrong surface, as the paper notes for
 reflections), the first caster layer only (light through two glass objects in
 a row, or glass then mirror, is not followed), one photon per grid texel
-(aliasing where the grid is coarse against the focus), Fresnel-reflected light
+(the footprint splats blur the caustic to the photons' spacing where they
+spread apart, and clamp a grazing photon's footprint, dropping the flux
+beyond), Fresnel-reflected light
 off glass is not splatted. Limits: receivers must be seen from the light
 (the receiver texture holds one layer: a caustic on a surface hidden from the
 light behind another diffuse object is lost); at most 32 casters.

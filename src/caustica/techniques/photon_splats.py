@@ -30,7 +30,10 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    land again on that view's receivers, ``land_iterations`` steps from the first hits.
 3. Caustic map ("Rendering the Caustic Map"): Gaussian splats of radius
    ``splat_radius`` caustic-map texels (sigma = radius / 2; the paper's 7 x 7
-   splats are radius 3), additive point sprites as in the paper or a compute
+   splats are radius 3) at least, widened to each photon's footprint (the area
+   its photon-buffer texel lands on, from the neighbours' landing points:
+   ``passes/light_space.py``, SplatPhotons; fixed splats beat against the map's
+   texels where the photons spread apart), additive point sprites as in the paper or a compute
    shader with fixed-point atomics (``splat``). Energy: the paper's weights sum to
    R = pixelsInCausticMap / totalPhotons, counting photons; ours carry
    physical flux (the light's intensity times the texel's solid angle, the
@@ -52,7 +55,8 @@ one back-face layer (farthest) for all refractors, exit TIR handled by
 ``tir_mode`` instead of internal bounces, the first caster layer only, the
 receiver found by an estimate against one light-space layer (a receiver hidden
 from the light gets no caustic), Fresnel-reflected light off glass is not
-splatted, one photon per texel (aliasing where the photon buffer is coarse).
+splatted, one photon per texel (where the photons spread apart the footprint
+splats blur the caustic to their spacing).
 Limits: at most 32 casters.
 """
 from __future__ import annotations
