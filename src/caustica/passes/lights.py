@@ -3,8 +3,11 @@
 Directional lights: orthographic map fitted around the scene. Spot lights: a
 perspective map over the outer cone. Point lights (and each point of a line
 light): a six-face atlas, 6N x N, in the face layout of ``CUBE_FORWARD`` /
-``CUBE_UP``. Every map stores the distance to the light in r32f, so receivers
-compare distances directly (with a small relative bias and 3x3 PCF).
+``CUBE_UP``. Every map stores the distance to the light in r32f. Receivers
+(common/lighting.glsl) filter 3x3 texels, comparing each texel's distance with
+where that texel's ray from the light meets the receiver's tangent plane, moved
+SHADOW_NORMAL_OFFSET texel widths along the normal: no self-shadowing at grazing
+angles, and the shadow of an occluder resting on the receiver stays attached.
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ from ..scene.transform import (
 )
 from .base import Channel, Frame, Pass
 
+SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
 CUBE_FORWARD = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
 CUBE_UP = np.array([[0, 1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1], [0, 1, 0], [0, 1, 0]], dtype=np.float64)
@@ -128,8 +132,10 @@ class ShadowMaps(Pass):
         return color
 
 
-def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int, shadow_bias: float = 2e-3) -> None:
-    """Set the lighting.glsl uniforms and bind shadow maps from texture unit ``first_unit``."""
+def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int,
+                shadow_bias: float = SHADOW_NORMAL_OFFSET) -> None:
+    """Set the lighting.glsl uniforms and bind shadow maps from texture unit ``first_unit``; ``shadow_bias``
+    is the receiver's normal offset in texel widths of its map."""
     count = len(samples)
     set_uniform(program, "light_count", count)
     if count == 0:

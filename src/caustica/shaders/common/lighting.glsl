@@ -16,20 +16,20 @@ uniform mat4 light_clip_from_world[MAX_LIGHTS]; // directional and spot shadow p
 uniform sampler2D shadow_map[MAX_LIGHTS];      // r32f: distance to the light (atlas of 6 faces for points)
 uniform vec3 cube_forward[6];
 uniform vec3 cube_up[6];
-uniform float shadow_bias;
+uniform float shadow_bias;                     // normal offset, in the map's texels at the receiver
 uniform vec3 irradiance_sh[9];
 
-// Stored occluder distance at a texel, 3x3 percentage-closer filtered against `dist`.
-float shadow_pcf(sampler2D map, vec2 uv, vec2 lo, vec2 hi, float dist) {
-    vec2 texel = 1.0 / vec2(textureSize(map, 0));
-    float lit = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x) {
-            vec2 p = clamp(uv + vec2(x, y) * texel, lo + 0.5 * texel, hi - 0.5 * texel);
-            lit += (texture(map, p).r >= dist) ? 1.0 : 0.0;
-        }
-    return lit / 9.0;
-}
+// Shadows: a 3x3 percentage-closer filter against the receiver plane (the tangent plane at p, normal n).
+// A texel stores the distance to the nearest surface along its own ray from the light, so each tap
+// compares it with where that ray meets the receiver plane, not with p's distance: a receiver sloped away
+// from the light then agrees with every tap at any angle. (A constant bias does not: at grazing angles
+// the plane's distance changes by more than the bias across one texel, and floors shadowed themselves
+// in stripes.) The plane is first moved shadow_bias texel widths along n (a normal offset), which covers
+// rounding, the rasterizer's sub-texel snapping and the shading normal's departure from the mesh's
+// facets; as the offset is along n, the point still sees an occluder resting on the surface, so contact
+// shadows stay attached. A tap is shadowed only by a surface nearer the light than the receiver itself:
+// at the foot of a wall that faces the light, the wall hides the plane's continuation behind it, not
+// the receiver, and the corner stays lit.
 
 // Which face of the point-light atlas a direction falls on, and its [0,1]^2 coordinates.
 vec2 cube_atlas_uv(vec3 v, out int face) {
@@ -42,21 +42,69 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
     return vec2(dot(v, r), dot(v, up)) / depth * 0.5 + 0.5;
 }
 
+// Fraction of light i that reaches p (normal n, facing the light).
+//
+// Each map is N x N texels (a cube face of the point atlas: N x N from column x0). Texel t's ray, s its
+// centre in ndc, is axis + s.x a + s.y b with axis, a, b orthogonal and axis unit: from the light for
+// perspective maps (point faces, spot; the metric is the distance from the light), from q + (s - s_q).x a
+// + (s - s_q).y b for the orthographic (directional) one (the metric is q's plus the distance along axis).
+// Where it meets the plane (q, n), the metric is, with s.V = s.x V.x + s.y V.y,
+//     expected = (P + s.U) sqrt(1 + s^2.W) / (dot(axis, n) + s.V)
+// perspective: P = dot(q - light, n), U = 0, W = (a.a, b.b), V = (a.n, b.n);
+// orthographic: P = m_q dot(axis, n) + s_q.V', U = -V', V' = (a.n, b.n), W = V = 0.
+// The denominator is negative where the ray meets the plane from the light's side (the numerator too),
+// so the tap is lit when stored * den <= num * sqrt(..) there, and wherever stored >= m_q (q's metric).
 float light_visibility(int i, vec3 p, vec3 n) {
-    if (light_type[i] == LIGHT_POINT) {
-        vec3 v = p - light_position[i];
-        float dist = length(v);
-        int face;
-        vec2 uv = cube_atlas_uv(v, face);
-        vec2 lo = vec2(float(face) / 6.0, 0.0), hi = vec2(float(face + 1) / 6.0, 1.0);
-        return shadow_pcf(shadow_map[i], vec2((float(face) + uv.x) / 6.0, uv.y), lo, hi, dist - shadow_bias * (1.0 + dist));
+    int N = textureSize(shadow_map[i], 0).y;
+    vec3 light = light_position[i];
+    float width;                 // a texel's width at the receiver
+    vec3 axis, a, b;
+    bool point = light_type[i] == LIGHT_POINT, ortho = light_type[i] == LIGHT_DIRECTIONAL;
+    mat4 m = light_clip_from_world[i];
+    if (point) {
+        // A face's texel spans 2 / N in tangent at unit depth: about 2 dist / N wide at the receiver.
+        width = 2.0 * length(p - light) / float(N);
+    } else {
+        // Rows of clip_from_world: x, y are (the light's right, up) / (half width at unit depth, or half
+        // width); w is the view axis (spot) or (0, 0, 0, 1) (directional). a, b: world per unit of ndc.
+        vec3 row_x = vec3(m[0][0], m[1][0], m[2][0]), row_y = vec3(m[0][1], m[1][1], m[2][1]);
+        a = row_x / dot(row_x, row_x);
+        b = row_y / dot(row_y, row_y);
+        axis = ortho ? light_direction[i] : vec3(m[0][3], m[1][3], m[2][3]);
+        width = 2.0 * length(a) / float(N) * (ortho ? 1.0 : length(p - light));
     }
-    vec4 clip = light_clip_from_world[i] * vec4(p, 1.0);
-    vec3 ndc = clip.xyz / clip.w;
-    if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) return light_type[i] == LIGHT_DIRECTIONAL ? 1.0 : 0.0;
-    float dist = light_type[i] == LIGHT_DIRECTIONAL ? dot(p - light_position[i], light_direction[i])
-                                                    : length(p - light_position[i]);
-    return shadow_pcf(shadow_map[i], ndc.xy * 0.5 + 0.5, vec2(0.0), vec2(1.0), dist - shadow_bias * (1.0 + abs(dist)));
+    vec3 q = p + n * (shadow_bias * width);
+    int x0 = 0;
+    vec2 s_q;
+    if (point) {
+        int face;
+        s_q = cube_atlas_uv(q - light, face) * 2.0 - 1.0;
+        axis = cube_forward[face];
+        b = cube_up[face];
+        a = cross(axis, b);
+        x0 = face * N;
+    } else {
+        vec4 clip = m * vec4(q, 1.0);
+        s_q = clip.xy / clip.w;
+        if (any(greaterThan(abs(s_q), vec2(1.0)))) return ortho ? 1.0 : 0.0;
+    }
+    float m_q = ortho ? dot(q - light, axis) : length(q - light);
+    float an = dot(axis, n);
+    vec2 v = vec2(dot(a, n), dot(b, n));
+    float P = ortho ? m_q * an + dot(s_q, v) : dot(q - light, n);
+    vec2 U = ortho ? -v : vec2(0.0), W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b)), V = ortho ? vec2(0.0) : v;
+    ivec2 c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
+    float lit = 0.0;
+    for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), ivec2(N - 1));
+            vec2 s = (vec2(t) + 0.5) * (2.0 / float(N)) - 1.0;
+            float stored = texelFetch(shadow_map[i], ivec2(x0 + t.x, t.y), 0).r;
+            float den = an + dot(s, V);
+            bool plane = den < 0.0 && stored * den <= (P + dot(s, U)) * sqrt(1.0 + dot(s * s, W));
+            lit += (plane || stored >= m_q) ? 1.0 : 0.0;
+        }
+    return lit / 9.0;
 }
 
 // Irradiance at p with normal n from every light, shadowed.
