@@ -20,7 +20,7 @@ from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_fl
 
 from caustica import scene as sc
 from caustica.passes.casters import CASTER_SOLID, CASTER_SURFACE
-from caustica.passes.light_space import photon_caster_code
+from caustica.passes.casters import caster_code
 from caustica.raytrace.photons import irradiance_histogram, trace_photons
 from caustica.scene.presets import pool_scene
 from caustica.renderer import Renderer
@@ -110,10 +110,10 @@ def test_footprint_splats_keep_the_caustic_flux(keeper, ball_oracle, technique, 
 
 def test_a_glass_mesh_with_small_holes_is_a_solid_to_the_photons():
     bunny = load("caustics-bunny").objects[0]
-    assert bunny.mesh.is_open() and photon_caster_code(bunny) == CASTER_SOLID  # 223 open edges at its base
+    assert bunny.mesh.is_open() and caster_code(bunny) == CASTER_SOLID  # 223 open edges at its base
     water = pool_scene(0.0).objects[0]
-    assert photon_caster_code(water) == CASTER_SURFACE
-    assert photon_caster_code(ball_over_floor(16).objects[0]) == CASTER_SOLID
+    assert caster_code(water) == CASTER_SURFACE
+    assert caster_code(ball_over_floor(16).objects[0]) == CASTER_SOLID
 
 
 def test_bunny_caustic_stays_where_the_photon_trace_puts_it(keeper):

@@ -47,7 +47,6 @@ from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from ..gpu.shaders import run_compute
 from .base import Channel, Frame, Pass
 from .cached_passes import CachedPasses
-from .casters import CASTER_SOLID, CASTER_SURFACE, caster_code
 from .fixed_flux import splat_fixed_point
 from .light_views import LightView, caster_points, coarse_view, cube_view, fit_view
 from .lights import LIGHT_DIRECTIONAL, LIGHT_POINT
@@ -61,36 +60,6 @@ COARSE_MAP_SIZE = 256  # texels a side of the coarse views at most
 # grid under a 3-sigma Gaussian of 0.7 cells sums flat to a few 1e-3), and the largest sigma (texels).
 FOOTPRINT_SCALE = 0.7
 FOOTPRINT_CAP = 32.0
-# A glass mesh with holes whose net vector area is under this fraction of its area is a solid to the photons.
-NEARLY_CLOSED = 0.05
-_NEARLY_CLOSED: dict[str, bool] = {}
-
-
-def nearly_closed(mesh) -> bool:
-    """Whether a mesh's holes are small: its net vector area |sum of n_i A_i| (zero for a closed mesh,
-    about the holes' area, capped, for one with holes; the whole area for a sheet) is under NEARLY_CLOSED
-    of its area. Scanned models keep small holes: the Stanford bunny (223 open edges at its base) has 0.017,
-    a water surface 0.98. Cached per geometry."""
-    key = mesh.content_hash()
-    if key not in _NEARLY_CLOSED:
-        v = np.asarray(mesh.vertices, np.float64)
-        f = np.asarray(mesh.faces)
-        cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-        area = float(np.linalg.norm(cross, axis=1).sum())
-        _NEARLY_CLOSED[key] = area > 0.0 and float(np.linalg.norm(cross.sum(axis=0))) < NEARLY_CLOSED * area
-    return _NEARLY_CLOSED[key]
-
-
-def photon_caster_code(obj) -> int:
-    """What the photon passes do with an object's light: :func:`~caustica.passes.casters.caster_code`,
-    except that a glass mesh with small holes (:func:`nearly_closed`) is a solid (front faces in, back
-    faces out), not a single surface like water: the Stanford bunny's scan holes made caustics-bunny's
-    photons refract once and run on inside the "glass" to the floor, those entering near its
-    silhouette at the critical angle, streaking far across the floor (issue 19)."""
-    code = caster_code(obj)
-    return CASTER_SOLID if code == CASTER_SURFACE and nearly_closed(obj.mesh) else code
-
-
 @dataclass
 class Photons:
     """Photons in an SSBO: ``count`` entries of {vec4 position (w = 1 landed), vec4 flux (W, RGB)}."""

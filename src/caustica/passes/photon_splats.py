@@ -24,9 +24,9 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
-from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, casters
+from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
 from .image_space import DN_ATTRIBUTE, distance_along_normal
-from .light_space import dispatch_photons, photon_caster_code
+from .light_space import dispatch_photons
 from .light_views import LightView, bind_views
 
 TIR_MODES = ("keep-t1", "clamp", "reflect", "drop")
@@ -88,7 +88,7 @@ class RefractFromLight(Pass):
                 self._draw(frame, program, obj, makers)
 
     def _draw(self, frame: Frame, program, obj, makers: list) -> None:
-        kind = photon_caster_code(obj) if obj in makers else CASTER_NONE
+        kind = caster_code(obj) if obj in makers else CASTER_NONE
         gpu_mesh = frame.gpu.meshes.get(obj.mesh)
         if kind == CASTER_SOLID and self.use_dn and DN_ATTRIBUTE not in gpu_mesh.attributes:
             gpu_mesh.set_attribute(DN_ATTRIBUTE, distance_along_normal(obj.mesh))

@@ -24,7 +24,7 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    normal texture; total internal reflection at the exit drops the photon);
    one interface for open meshes (water surfaces: the photon continues to the
    receiver; a mesh with small holes, a scanned model, is closed:
-   ``light_space.photon_caster_code``); a single specular bounce off Mirror objects (reflective caustics).
+   ``casters.caster_code``); a single specular bounce off Mirror objects (reflective caustics).
    Beer-Lambert e^(-sigma_a d) over the inside distance (or, for one surface,
    the distance to the receiver; III-E eq. 7). RGB dispersion: where a glass
    has ``ior_rgb`` that differ, three photons per texel, one per channel.
@@ -75,8 +75,8 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
-from ..passes.casters import MAX_CASTERS, casters
-from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain, photon_caster_code
+from ..passes.casters import MAX_CASTERS, caster_code, casters
+from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -131,7 +131,7 @@ class TracePhotons(Pass):
         dispersive = False
         for i, obj in enumerate(casters(scene)):
             material = obj.material
-            types[i] = photon_caster_code(obj)
+            types[i] = caster_code(obj)
             if material.kind == "mirror":
                 colors[i] = material.color
             else:

@@ -19,7 +19,7 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    is ``photon_buffer_size`` texels a side, fitted around the refractors (the
    paper couples it to the shadow map; fitting spends every photon on the
    refractors). Water (open meshes, not those with small holes:
-   ``light_space.photon_caster_code``) refracts once; mirrors reflect once
+   ``casters.caster_code``) refracts once; mirrors reflect once
    ("any interactive reflection or refraction scheme").
 2. Photon hits (the photon buffer): each exit ray lands on the receivers found
    from a distance estimate (:class:`LandPhotons`: Newton-Raphson steps of
