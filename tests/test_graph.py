@@ -220,6 +220,10 @@ def test_graph_command_prints_and_writes_dot(tmp_path, capsys):
     assert target.read_text().startswith('digraph "impostors"')
     assert main(["graph", "exact"]) == 2
     assert "no render graph" in capsys.readouterr().err
+    assert main(["graph", "auto"]) == 2
+    assert "add --scene" in capsys.readouterr().err
+    assert main(["graph", "auto", "--scene", "caustic-sphere"]) == 0
+    assert "impostors+caustic-mapping" in capsys.readouterr().out
     assert main(["graph", "depth-serch"]) == 2
     assert "depth-search" in capsys.readouterr().err
 

@@ -229,6 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
     graph.add_argument("name", help="a technique (or view+caustics)")
     graph.add_argument("-p", "--param", type=_param, action="append", default=[],
                        help="technique parameter name=value (repeatable): the graph for those parameters")
+    graph.add_argument("--scene", help="auto: the scene it plans for (a .toml file or a preset)")
     graph.add_argument("--dot", metavar="FILE", help="write the graph as Graphviz to FILE ('-': print it)")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
@@ -495,7 +496,15 @@ def cmd_graph(args) -> int:
     if not technique.uses_gl:
         raise TechniqueError(f"'{technique.name}' runs on the CPU and has no render graph; "
                              "try a rasterized technique such as depth-search")
-    graph = RenderGraph(technique.build_passes(technique.make_params(**dict(args.param))))
+    params = technique.make_params(**dict(args.param))
+    if args.scene is not None or not hasattr(technique, "build_passes"):  # a planner (auto) needs its scene
+        if args.scene is None:
+            raise TechniqueError(f"'{technique.name}' plans its graph from the scene; add --scene SCENE "
+                                 "(a .toml file or a preset)")
+        from . import load_scene
+
+        technique, params = technique.for_scene(load_scene(args.scene), params)
+    graph = RenderGraph(technique.build_passes(params))
     if args.dot is None:
         print(f"{technique.name}: {technique.summary}")
         print(graph.describe())
