@@ -252,3 +252,17 @@ def test_render_bad_tonemap_is_one_line(tmp_path, capsys):
     code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "o.png", "--tonemap", "aces"], capsys)
     assert_one_line_error(code, err, "--tonemap", "'aces'", "clip", "filmic")
     assert not (tmp_path / "o.png").exists()
+
+
+def test_a_closed_pipe_ends_quietly():
+    """`caustica techniques --json | head -1`: the reader leaves early; no traceback, SIGPIPE's exit code."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-m", "caustica.cli", "techniques", "--json"], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE)
+    child.stdout.read(10)
+    child.stdout.close()
+    err = child.stderr.read().decode()
+    assert child.wait(timeout=120) == 141, err
+    assert "Traceback" not in err and err == ""

@@ -260,6 +260,11 @@ def main(argv: list[str] | None = None) -> int:
             return _fail("interrupted", 130)
         except Terminated as stop:
             return _fail(f"{stop}", 128 + stop.signum)
+        except BrokenPipeError:  # the reader of stdout left (| head): stop quietly, as a SIGPIPE would
+            import os
+
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit's flush
+            return 128 + 13
     for warning in caught:
         print(f"caustica: warning: {_shown(first_line(warning.message), MAX_MESSAGE)}", file=sys.stderr)
     return code
