@@ -255,14 +255,19 @@ def test_render_bad_tonemap_is_one_line(tmp_path, capsys):
 
 
 def test_a_closed_pipe_ends_quietly():
-    """`caustica techniques --json | head -1`: the reader leaves early; no traceback, SIGPIPE's exit code."""
+    """`caustica techniques --json | head -1`: the reader is gone; no traceback, SIGPIPE's exit code. The
+    pipe's read end is closed before the child starts, so its first write fails whatever the output's size."""
+    import os
     import subprocess
     import sys
 
-    child = subprocess.Popen([sys.executable, "-m", "caustica.cli", "techniques", "--json"], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE)
-    child.stdout.read(10)
-    child.stdout.close()
-    err = child.stderr.read().decode()
-    assert child.wait(timeout=120) == 141, err
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        done = subprocess.run([sys.executable, "-m", "caustica.cli", "techniques", "--json"], stdout=write_end,
+                              stderr=subprocess.PIPE, timeout=120)
+    finally:
+        os.close(write_end)
+    err = done.stderr.decode()
+    assert done.returncode == 141, err
     assert "Traceback" not in err and err == ""
