@@ -467,3 +467,24 @@ def test_cli_view_bad_tonemap_is_one_line():
     assert done.returncode == 2
     err = done.stderr.strip()
     assert len(err.splitlines()) == 1 and "--tonemap" in err and "'aces'" in err and "clip" in err and "filmic" in err
+
+
+def test_live_frames_honour_auto_budget(tmp_path, monkeypatch):
+    """The viewer's frames resolve auto's budget through their renderer (no window needed: a headless device)."""
+    from caustica.gpu.device import GpuDevice
+    from caustica.viewer.frames import LiveRenderer
+
+    monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path))
+    scene = caustica.load_scene("caustic-sphere")
+    camera = scene.camera.with_size(32, 24)
+    device = GpuDevice()
+    live = LiveRenderer(device)
+    try:
+        image = live.render("main", scene, camera, "auto", {"budget_ms": 1e5})
+        assert image.color is not None and image.technique == "impostors+caustic-mapping"
+        assert len(list((tmp_path / "costs").iterdir())) == 1  # high was measured and fitted
+        with pytest.raises(caustica.TechniqueError, match="cheapest plan"):
+            live.render("main", scene, camera, "auto", {"budget_ms": 0.001})
+    finally:
+        live.release()
+        device.release()
