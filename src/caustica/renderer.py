@@ -102,14 +102,7 @@ class Renderer:
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
         check_spp(tech, spp)
-
-        def measured(candidate, values) -> float:  # auto's budget: a candidate's frame time here
-            self._check_frame(candidate, scene, camera, values, spp)
-            return self.frame_ms(candidate, scene, camera, values, int(spp))
-
-        planner = tech
-        tech, parameters = tech.for_scene(scene, parameters, measured)
-        self.last_plan = getattr(planner, "plan_used", None)  # auto's Plan, None for a named technique
+        tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         self._check_frame(tech, scene, camera, parameters, spp)
         start = time.perf_counter()
         if tech.uses_gl:
@@ -119,12 +112,28 @@ class Renderer:
             image = tech.render(scene, camera, parameters, int(spp))
         return image, (time.perf_counter() - start) * 1000.0
 
+    def resolve(self, tech, scene: Scene, camera, parameters, spp: int = 1):
+        """The technique and parameters that render ``scene``: ``tech`` itself, or a planner's (``auto``)
+        choice, whose budget candidates are checked against the frame limits and timed here
+        (:meth:`frame_ms`); the plan is kept in ``last_plan`` (None for a named technique)."""
+        def measured(candidate, values) -> float:
+            self._check_frame(candidate, scene, camera, values, spp)
+            return self.frame_ms(candidate, scene, camera, values, int(spp))
+
+        resolved, values = tech.for_scene(scene, parameters, measured)
+        self.last_plan = getattr(tech, "plan_used", None)
+        return resolved, values
+
     def render_frame(self, tech, scene: Scene, camera, parameters, spp: int = 1, keep=None) -> Frame:
-        """Run a rasterized technique's graph at the supersampled size (``supersampling_factor(spp)``
-        times ``camera``'s) and return its frame, whose channels stay lent until ``frame.give_back()``
-        (``keep``: the channels wanted afterwards; None keeps all). ``pass_ms`` holds the per-pass
-        milliseconds when ``profile_passes``."""
-        tech, parameters = tech.for_scene(scene, parameters)
+        """Run a rasterized technique's graph (a planner's resolved first) at the supersampled size
+        (``supersampling_factor(spp)`` times ``camera``'s) and return its frame, whose channels stay lent
+        until ``frame.give_back()`` (``keep``: the channels wanted afterwards; None keeps all).
+        ``pass_ms`` holds the per-pass milliseconds when ``profile_passes``."""
+        tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
+        return self._run_frame(tech, scene, camera, parameters, spp, keep)
+
+    def _run_frame(self, tech, scene: Scene, camera, parameters, spp: int, keep) -> Frame:
+        """render_frame for a resolved technique."""
         k = supersampling_factor(spp)
         width, height = camera.size
         frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
@@ -170,7 +179,7 @@ class Renderer:
         """The technique's image: its graph run, the colour averaged over k x k samples on the GPU,
         read back; every texture given back but those kept for inspection (``keep_channels``)."""
         self._give_back_kept()
-        frame = self.render_frame(tech, scene, camera, parameters, spp, keep=None if self._keep else ("color",))
+        frame = self._run_frame(tech, scene, camera, parameters, spp, keep=None if self._keep else ("color",))
         try:
             k = supersampling_factor(spp)
             color = frame.read("color")

@@ -62,9 +62,7 @@ class LiveRenderer:
                profile: bool = False, state_key=None) -> LiveImage:
         """The frame of ``technique`` for ``slot`` ('main', 'second'); ``state_key`` names the view for CPU reuse."""
         tech = get_technique(technique)
-        # auto's budget measures candidates through the same renderer (cached on disk after the first time).
-        tech, parameters = tech.for_scene(scene, tech.make_params(**params),
-                                          lambda t, p: self.renderer.frame_ms(t, scene, camera, p, spp))
+        tech, parameters = self.renderer.resolve(tech, scene, camera, tech.make_params(**params), spp)
         if isinstance(tech, RasterTechnique):
             return self._render_raster(slot, tech, scene, camera, parameters, spp, profile)
         return self._render_cpu(slot, technique, scene, camera, params, spp, state_key)
