@@ -92,7 +92,7 @@ def plan(scene, quality: str = "balanced") -> Plan:
     diffuse = [o for o in objects if o.material.kind == "diffuse"]
     lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
     view_params: dict = {"shadow_map_size": shadow_size}
-    if glass and len(objects) > len(glass) or len(glass) > 1:
+    if glass and len(objects) > 1:  # glass with anything else, another glass object included
         view = "impostors"
         view_params.update(internal_bounces=bounces, impostor_size=impostor_size)
         why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2), exits by "
