@@ -11,9 +11,14 @@ from . import rules
 
 @dataclass
 class Diffuse:
-    """Lambertian receiver with albedo ``color``."""
+    """Lambertian receiver with albedo ``color``, times ``texture`` where given.
+
+    ``texture`` is an (H, W, 3) float32 linear-RGB image in [0, 1] (row 0 at the top), looked
+    up at the mesh's ``uvs``; a mesh without uvs ignores it.
+    """
 
     color: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
+    texture: np.ndarray | None = field(default=None, repr=False)
     kind = "diffuse"
 
     def __post_init__(self):
@@ -22,6 +27,8 @@ class Diffuse:
     def validate(self) -> None:
         """Check and normalize the fields (the loader and Scene.validate share these rules)."""
         self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
+        if self.texture is not None:
+            self.texture = rules.texture(self.texture, "texture")
 
 
 @dataclass
@@ -45,13 +52,16 @@ class Glass:
 
     ``absorption_color`` is the transmittance after ``absorption_distance`` scene
     units inside (Beer-Lambert: T(d) = color ** (d / distance)); white means clear.
-    ``abbe`` (optional) spreads ``ior`` into one IOR per RGB channel.
+    ``abbe`` (optional) spreads ``ior`` into one IOR per RGB channel. ``thickness``
+    (optional, scene units) is glTF's KHR_materials_volume thicknessFactor, kept for
+    export; caustica traces the real geometry and does not read it.
     """
 
     ior: float = 1.5
     absorption_color: np.ndarray = field(default_factory=lambda: np.ones(3))
     absorption_distance: float = 1.0
     abbe: float | None = None
+    thickness: float | None = None
     kind = "glass"
 
     def __post_init__(self):
@@ -64,6 +74,8 @@ class Glass:
         self.absorption_color = rules.rgb(self.absorption_color, "absorption_color", 1.0)  # a transmittance
         self.absorption_distance = rules.number(self.absorption_distance, "absorption_distance", rules.MIN_LENGTH,
                                                 1e12, hint=" scene units")
+        if self.thickness is not None:
+            self.thickness = rules.number(self.thickness, "thickness", 0.0, 1e12, hint=" scene units")
         if self.abbe is not None:
             self.abbe = rules.number(self.abbe, "abbe", 0.0, 1e6, open_low=True,
                                      hint=" (crown glass is about 60, dense flint 30)")

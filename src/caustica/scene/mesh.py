@@ -22,7 +22,8 @@ class Mesh:
 
     ``vertices`` (N,3) float32, ``normals`` (N,3) float32 unit length (smooth: the
     exact oracle interpolates them), ``faces`` (M,3) int32 counter-clockwise seen
-    from outside.
+    from outside, ``uvs`` (N,2) float32 texture coordinates or None (glTF's TEXCOORD_0
+    convention: (0, 0) is the image's top-left corner).
     """
 
     vertices: np.ndarray
@@ -32,6 +33,7 @@ class Mesh:
     # (center, radius) in object space when the mesh tessellates an exact sphere:
     # the exact oracle then intersects the true sphere (raytrace/embree_scene.py).
     analytic_sphere: tuple | None = None
+    uvs: np.ndarray | None = None
     _hash: str | None = field(default=None, repr=False, compare=False)
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
     _open: bool | None = field(default=None, repr=False, compare=False)
@@ -57,6 +59,12 @@ class Mesh:
         if normals.shape != vertices.shape or not -2.0 <= float(normals.min()) <= float(normals.max()) <= 2.0:
             raise MeshError(f"{label} has invalid normals; drop them so caustica recomputes them")
         self.normals = np.ascontiguousarray(normals, dtype=np.float32)
+        if self.uvs is not None:
+            uvs = _numeric(self.uvs, label, "texture coordinates")
+            if uvs.shape != (len(vertices), 2) or not np.all(np.isfinite(uvs)):
+                raise MeshError(f"{label} has {short(uvs.shape)} texture coordinates for {len(vertices)} vertices; "
+                                "give one finite (u, v) per vertex or none")
+            self.uvs = np.ascontiguousarray(uvs, dtype=np.float32)
         self._bounds = bounds.astype(np.float32)
 
     @property
@@ -132,7 +140,7 @@ class Mesh:
         n = self.normals @ normal_matrix(m).T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
         faces = self.faces if np.linalg.det(m[:3, :3]) > 0 else self.faces[:, ::-1]
-        return Mesh(v, n, faces, name=self.name)
+        return Mesh(v, n, faces, name=self.name, uvs=self.uvs)
 
 
 def _numeric(value, label: str, what: str) -> np.ndarray:

@@ -141,6 +141,25 @@ def rgb(value, name: str, high: float, error=SceneError) -> np.ndarray:
     return arr
 
 
+def texture(value, name: str, error=SceneError) -> np.ndarray:
+    """An (H, W, 3) image of finite values in [0, 1], at least 1x1 and at most MAX_IMAGE_SIZE a side, as
+    contiguous float32."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)
+    if not np.issubdtype(arr.dtype, np.number) or np.issubdtype(arr.dtype, np.complexfloating) or arr.ndim != 3 \
+            or arr.shape[2] != 3 or min(arr.shape[:2]) < 1 or max(arr.shape[:2]) > MAX_IMAGE_SIZE:
+        raise error(f"{name} must be an RGB image (H, W, 3) of at most {MAX_IMAGE_SIZE} pixels a side "
+                    f"(got shape {short(getattr(arr, 'shape', None))})")
+    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    low, high = float(arr.min()), float(arr.max())
+    if not (np.isfinite(low) and np.isfinite(high)) or low < 0.0 or high > 1.0:
+        raise error(f"{name} must hold linear RGB values in [0, 1] (got {low:.3g} to {high:.3g}); "
+                    "divide 8-bit images by 255 and decode sRGB first")
+    return arr
+
+
 def scale(value, name: str = "scale", error=SceneError) -> np.ndarray:
     """One number (uniform) or three, each in SCALE_RANGE."""
     low, high = SCALE_RANGE
