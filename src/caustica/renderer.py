@@ -8,10 +8,10 @@ import numpy as np
 
 from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
-from .gpu.meshes import set_uniform
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .passes.base import Frame
 from .passes.graph import run_graph
+from .passes.resolve import ANTIALIAS_MODES, resolved
 from .scene import Scene, rules
 from .scene.scene import check_scene
 from .techniques.base import check_spp, get_technique
@@ -87,15 +87,19 @@ class Renderer:
         camera = scene.camera if self.size is None else scene.camera.with_size(*self.size)
         return camera
 
-    def render(self, scene: Scene, technique: str = "auto", spp: int = 1, **params) -> np.ndarray:
+    def render(self, scene: Scene, technique: str = "auto", spp: int = 1, *, antialias: str = "none",
+               **params) -> np.ndarray:
         """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
-        techniques`` lists them) or a Technique instance."""
-        image, _ = self.render_timed(scene, technique, spp, **params)
+        techniques`` lists them) or a Technique instance. ``antialias``: ``none`` or ``edge``, a
+        post-process on rasterized images (passes/resolve.py; CPU techniques ignore it)."""
+        image, _ = self.render_timed(scene, technique, spp, antialias=antialias, **params)
         return image
 
-    def render_timed(self, scene: Scene, technique: str = "auto", spp: int = 1, **params):
+    def render_timed(self, scene: Scene, technique: str = "auto", spp: int = 1, *, antialias: str = "none",
+                     **params):
         """Render and return (image, milliseconds), the GPU finished before the clock stops."""
         self._check_open()  # exact never touches the device
+        check_antialias(antialias)
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
@@ -106,7 +110,7 @@ class Renderer:
         self._check_frame(tech, scene, camera, parameters, spp)
         start = time.perf_counter()
         if tech.uses_gl:
-            image = self._render_graph(tech, scene, camera, parameters, int(spp))
+            image = self._render_graph(tech, scene, camera, parameters, int(spp), antialias)
             self.device.finish()
         else:
             image = tech.render(scene, camera, parameters, int(spp))
@@ -175,16 +179,15 @@ class Renderer:
             pass  # a cache that cannot be written only costs a measurement
         return ms
 
-    def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int) -> np.ndarray:
-        """The technique's image: its graph run, the colour averaged over k x k samples on the GPU,
-        read back; every texture given back but those kept for inspection (``keep_channels``)."""
+    def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int, antialias: str = "none") -> np.ndarray:
+        """The technique's image: its graph run, the colour resolved on the GPU (averaged over k x k
+        samples, edge anti-aliased with ``antialias``), read back; every texture given back but those kept
+        for inspection (``keep_channels``)."""
         self._give_back_kept()
         frame = self._run_frame(tech, scene, camera, parameters, spp, keep=None if self._keep else ("color",))
         try:
-            k = supersampling_factor(spp)
-            color = frame.read("color")
-            # Averaged on the GPU: a k^2 smaller readback, no CPU pass over every sample.
-            image = read_rgb(color if k == 1 else _box_downsampled(frame, color, k))
+            # Resolved on the GPU: a k^2 smaller readback, no CPU pass over every sample.
+            image = read_rgb(resolved(frame, frame.read("color"), supersampling_factor(spp), antialias))
         except BaseException:
             frame.give_back()
             raise
@@ -241,17 +244,8 @@ class Renderer:
         return self.device.info
 
 
-def _box_downsampled(frame: Frame, texture, k: int):
-    """``texture`` (rgba32f) averaged over k x k blocks on the GPU, into a texture k times smaller lent to ``frame``."""
-    import moderngl
 
-    gpu = frame.gpu
-    width, height = texture.size
-    out = frame.texture((width // k, height // k), "rgba32f")
-    gpu.targets.framebuffer([out]).use()
-    gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-    program = gpu.shaders.program("passes/fullscreen.vert", "passes/box_downsample.frag", {"K": int(k)})
-    texture.use(0)
-    set_uniform(program, "source", 0)
-    gpu.draw_fullscreen(program)
-    return out
+def check_antialias(antialias) -> None:
+    """RenderOptionError unless ``antialias`` is one of ANTIALIAS_MODES."""
+    if antialias not in ANTIALIAS_MODES:
+        raise RenderOptionError(f"antialias {antialias!r} is unknown; choose one of {', '.join(ANTIALIAS_MODES)}")

@@ -1,0 +1,41 @@
+"""Resolve: the supersampled colour to the output pixels (box filter), and post-process edge anti-aliasing."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
+    from .base import Frame
+
+ANTIALIAS_MODES = ("none", "edge")
+"""``none``: pixels as rendered (k x k supersampling with spp > 1); ``edge``: the post-process edge blend
+(docs/antialiasing.md) after the box filter."""
+
+EDGE_SEARCH_STEPS = 12  # 29 pixels each way (steps of 1, 2, 4 and 8 pixels)
+
+
+def resolved(frame: Frame, texture, k: int, antialias: str = "none"):
+    """``texture`` (rgba32f, k times the output size) as the output's pixels: averaged over k x k blocks,
+    then edge anti-aliased when ``antialias`` is ``edge``. New textures are lent to ``frame``."""
+    if k > 1:
+        texture = _fullscreen(frame, texture, "passes/box_downsample.frag", {"K": int(k)}, k)
+    if antialias == "edge":
+        texture = _fullscreen(frame, texture, "passes/edge_antialias.frag", {"MAX_STEPS": EDGE_SEARCH_STEPS}, 1)
+    return texture
+
+
+def _fullscreen(frame: Frame, texture, shader: str, defines: dict, k: int):
+    """A fullscreen pass of ``shader`` reading ``texture`` into a new rgba32f texture k times smaller."""
+    import moderngl
+
+    from ..gpu.meshes import set_uniform
+
+    gpu = frame.gpu
+    width, height = texture.size
+    out = frame.texture((width // k, height // k), "rgba32f")
+    gpu.targets.framebuffer([out]).use()
+    gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+    program = gpu.shaders.program("passes/fullscreen.vert", shader, defines)
+    texture.use(0)
+    set_uniform(program, "source", 0)
+    gpu.draw_fullscreen(program)
+    return out
