@@ -12,6 +12,7 @@ from pathlib import Path
 from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
+from .passes.resolve import ANTIALIAS_MODES
 from .scene.rules import IOR_RANGE
 from .techniques.auto import QUALITY
 
@@ -155,6 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--explain", action="store_true", help="print auto's plan: each object's technique and why")
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
+    render.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
+                        help="none (default) or edge: a post-process blend across edges, about 1.2x the cost of a "
+                             "frame, for jagged outlines at 1 spp (docs/antialiasing.md; --spp is more accurate)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
     render.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                         help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "
@@ -290,14 +294,15 @@ def cmd_render(args) -> int:
     scene = load_scene(args.scene)
     renderer = Renderer(args.size)
     params = _with_quality(args)
-    image, ms = renderer.render_timed(scene, args.technique, args.spp, **params)
+    image, ms = renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)
     if args.explain:
         print(renderer.last_plan.describe() if renderer.last_plan is not None else
               f"technique: {args.technique} (named; 'caustica plan' shows what auto would choose)")
     timings = [ms]
     if technique.uses_gl:
-        timings = [renderer.render_timed(scene, args.technique, args.spp, **params)[1] for _ in range(args.frames)]
-        image = renderer.render(scene, args.technique, args.spp, **params)
+        timings = [renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)[1]
+                   for _ in range(args.frames)]
+        image = renderer.render(scene, args.technique, args.spp, antialias=args.antialias, **params)
     write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
