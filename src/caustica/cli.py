@@ -138,6 +138,27 @@ def _param(text: str) -> tuple[str, object]:
     return key, parsed
 
 
+def _environment_option(parser: argparse.ArgumentParser) -> None:
+    from .scene.environment import PROCEDURAL_ENVIRONMENTS
+
+    parser.add_argument("--environment", metavar="FILE|NAME",
+                        help=f"replace the scene's environment: an image file (.exr, .hdr, .png, .jpg) or one of "
+                             f"{', '.join(PROCEDURAL_ENVIRONMENTS)}")
+
+
+def _scenes(names: list[str], args) -> list:
+    """The scenes ``names`` load, each with ``--environment`` in place of its own when given."""
+    from . import load_scene
+    from .scene.environment import environment_option
+
+    environment = environment_option(args.environment) if args.environment is not None else None
+    scenes = [load_scene(name) for name in names]
+    for scene in scenes:
+        if environment is not None:
+            scene.environment = environment
+    return scenes
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -164,6 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "
                              "off towards white, mid-grey kept); EXR ignores it (linear float)")
     render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
+    _environment_option(render)
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
 
@@ -188,6 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--script", help="a JSON list of events, e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"]]")
     view.add_argument("--no-panel", action="store_true", help="start with the panel hidden (Tab toggles it)")
     view.add_argument("--play", action="store_true", help="start the animation of an animated preset (caustics-pool)")
+    _environment_option(view)
 
     comp = sub.add_parser("compare", help="every technique against the reference: time, PSNR, relMSE, SSIM, FLIP per region")
     comp.add_argument("scene", help="a .toml scene file or a preset name")
@@ -196,6 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
     comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
     comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
+    _environment_option(comp)
     comp.add_argument("--json", help="write the figures as JSON here")
     comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
     comp.add_argument("--tonemap", choices=TONEMAPS, default="clip",
@@ -206,6 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated techniques")
     bench.add_argument("--sizes", type=_sizes, default=[256, 512, 1024], help="comma-separated image sides (default 256,512,1024)")
     bench.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
+    _environment_option(bench)
     bench.add_argument("--quality-size", type=_integer(1, 4096), default=256, help="image side of the time-to-quality runs (default 256)")
     bench.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=1024, help="spp of the reference for time-to-quality (cached)")
     bench.add_argument("--max-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="largest Mitsuba spp tried for time-to-quality")
@@ -283,7 +308,6 @@ def _fail(message: str, code: int) -> int:
 
 
 def cmd_render(args) -> int:
-    from . import load_scene
     from .images import write_image
     from .renderer import Renderer
     from .techniques.base import check_spp, get_technique
@@ -291,7 +315,7 @@ def cmd_render(args) -> int:
     output = _check_output(args.output, OUTPUT_SUFFIXES)
     technique = get_technique(args.technique)
     check_spp(technique, args.spp)
-    scene = load_scene(args.scene)
+    scene, = _scenes([args.scene], args)
     renderer = Renderer(args.size)
     params = _with_quality(args)
     image, ms = renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)
@@ -312,14 +336,13 @@ def cmd_render(args) -> int:
 
 
 def cmd_view(args) -> int:
-    from . import load_scene
     from .viewer.app import check_display
 
     check_display()
     screenshot = _check_output(args.screenshot, OUTPUT_SUFFIXES)
     window_shot = _check_output(args.window_screenshot, (".png",))
     script = _read_script(args.script)
-    scene = load_scene(args.scene)
+    scene, = _scenes([args.scene], args)
     from .viewer import Viewer
 
     viewer = Viewer(scene, args.technique, _with_quality(args), size=args.size, spp=args.spp, exposure=args.exposure,
@@ -379,7 +402,6 @@ def _write_json(path: Path, data) -> None:
 
 
 def cmd_compare(args) -> int:
-    from . import load_scene
     from .bench.compare import compare, format_table
     from .bench.sheet import contact_sheet, save_sheet
     from .techniques.base import check_spp, get_technique
@@ -392,7 +414,7 @@ def cmd_compare(args) -> int:
     optional_module("flip_evaluator", "flip-evaluator")
     for name in args.techniques:
         check_spp(get_technique(name), args.spp)
-    scene = load_scene(args.scene)
+    scene, = _scenes([args.scene], args)
     result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.frames,
                      reference_spp=args.reference_spp, log=lambda m: print(m, file=sys.stderr))
     print(format_table(result))
@@ -408,7 +430,6 @@ def cmd_compare(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from . import load_scene
     from .bench.harness import plot, speed_rows, time_to_quality
     from .techniques import get_technique
 
@@ -416,7 +437,7 @@ def cmd_bench(args) -> int:
     plot_path = _check_output(args.plot, (".png",))
     for name in args.techniques:
         get_technique(name)
-    scenes = [load_scene(name) for name in args.scenes]
+    scenes = _scenes(args.scenes, args)
     rows, quality = [], []
     for scene in scenes:
         rows += speed_rows(scene, args.techniques, args.sizes, args.frames)

@@ -4,6 +4,11 @@ Mapping (the same as Mitsuba 3, so scenes export unchanged):
 u = atan2(d.x, -d.z) / 2pi mod 1, v = acos(d.y) / pi, row 0 at +Y.
 Lookups follow Mitsuba's bilinear sampling exactly: texel column at
 u * W - 0.5 (wrapping) and row at v * (H - 1) (clamped).
+
+Rotation and strength (``[environment] rotation`` / ``strength``) are baked
+into the image by :meth:`Environment.rotated` and :meth:`Environment.scaled`,
+so every technique, the exact oracle, the SH irradiance and the Mitsuba export
+see one image; docs/scenes.md gives the convention.
 """
 from __future__ import annotations
 
@@ -12,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import EnvironmentImageError, short
+from ..errors import EnvironmentImageError, closest_name, short
 from . import rules
 
 PROCEDURAL_ENVIRONMENTS = ("sky-checker", "black", "white")
+MAX_ROTATION = 1e6  # degrees either way: any angle a scene means, and no float that has lost its fraction
 
 
 def direction_to_uv(d: np.ndarray) -> np.ndarray:
@@ -37,10 +43,16 @@ def uv_to_direction(uv: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Environment:
-    """Radiance image (H, W, 3) float32, linear RGB, and where it came from."""
+    """Radiance image (H, W, 3) float32, linear RGB, and where it came from.
+
+    ``rotation`` (degrees) and ``strength`` record what :meth:`rotated` and :meth:`scaled` baked
+    into ``image`` since ``source`` was read; they are not constructor arguments.
+    """
 
     image: np.ndarray
     source: str = "procedural:sky-checker"
+    rotation: float = field(default=0.0, init=False)
+    strength: float = field(default=1.0, init=False)
     _sh: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
@@ -64,6 +76,43 @@ class Environment:
             raise EnvironmentImageError(f"environment image {self.source} holds values up to {max(-low, high):.3g}, "
                                         f"above {rules.MAX_INTENSITY:g}; rescale the image")
         self.image = np.ascontiguousarray(image, dtype=np.float32)
+
+    def rotated(self, degrees: float) -> "Environment":
+        """This environment turned by ``degrees`` about +Y, right-handed (counter-clockwise seen from above):
+        the radiance arriving from d comes from R_y(degrees) d. A new image: columns shift cyclically,
+        exactly for multiples of 360 / W degrees, else linearly interpolated along each row."""
+        degrees = _angle(degrees)
+        h, w = self.image.shape[:2]
+        # The new radiance at u is the old at u + degrees / 360 (u grows clockwise seen from above).
+        shift = (degrees % 360.0) / 360.0 * w
+        whole = int(np.floor(shift))
+        frac = shift - whole
+        if frac > 1.0 - 1e-9:
+            whole, frac = whole + 1, 0.0
+        image = np.roll(self.image, -whole, axis=1)
+        if frac > 1e-9:
+            image = (image * (1.0 - frac) + np.roll(image, -1, axis=1) * frac).astype(np.float32)
+        return self._derived(image, self.rotation + degrees, self.strength)
+
+    def scaled(self, strength: float) -> "Environment":
+        """This environment with its radiance times ``strength`` (>= 0)."""
+        strength = rules.number(strength, "environment.strength", 0.0, rules.MAX_INTENSITY,
+                                error=EnvironmentImageError, hint=" (a radiance multiplier; 1 keeps the image)")
+        return self._derived(self.image * np.float32(strength), self.rotation, self.strength * strength)
+
+    def _derived(self, image: np.ndarray, rotation: float, strength: float) -> "Environment":
+        env = Environment(image, source=self.source)
+        env.rotation, env.strength = float(rotation), float(strength)
+        return env
+
+    def describe(self) -> str:
+        """One line: the source and what was baked into it."""
+        parts = [self.source]
+        if self.rotation:
+            parts.append(f"rotated {self.rotation:g} degrees about +Y")
+        if self.strength != 1.0:
+            parts.append(f"strength {self.strength:g}")
+        return ", ".join(parts)
 
     def texel_coordinates(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Continuous texel coordinates (x, y) Mitsuba samples for directions ``d``."""
@@ -163,6 +212,11 @@ def sky_checker(width: int = 1024, height: int = 512, sun_direction=(0.4, 0.6, -
     return img.astype(np.float32)
 
 
+def _angle(degrees) -> float:
+    return rules.number(degrees, "environment.rotation", -MAX_ROTATION, MAX_ROTATION, error=EnvironmentImageError,
+                        hint=" degrees about +Y")
+
+
 def procedural_environment(name: str) -> Environment:
     if name == "sky-checker":
         return Environment(sky_checker(), source="procedural:sky-checker")
@@ -170,8 +224,6 @@ def procedural_environment(name: str) -> Environment:
         return Environment(np.zeros((16, 32, 3), np.float32), source="procedural:black")
     if name == "white":
         return Environment(np.ones((16, 32, 3), np.float32), source="procedural:white")
-    from ..errors import closest_name
-
     raise EnvironmentImageError(
         f"unknown procedural environment '{name}'{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
         f"choose one of {', '.join(PROCEDURAL_ENVIRONMENTS)}"
@@ -183,3 +235,20 @@ def load_environment(path: str | Path) -> Environment:
     from ..images import read_image
 
     return Environment(read_image(path, error=EnvironmentImageError), source=str(path))
+
+
+def environment_option(spec: str) -> Environment:
+    """The environment a command line names: a procedural name or an image file (``--environment``)."""
+    if spec in PROCEDURAL_ENVIRONMENTS:
+        return procedural_environment(spec)
+    from ..images import READ_SUFFIXES
+
+    path = Path(spec)
+    if not path.is_file() and not path.suffix and len(path.parts) == 1:
+        raise EnvironmentImageError(
+            f"environment {short(spec)} is neither a procedural name nor a file{closest_name(spec, PROCEDURAL_ENVIRONMENTS)}; "
+            f"give one of {', '.join(PROCEDURAL_ENVIRONMENTS)} or an image file ({', '.join(READ_SUFFIXES)})")
+    if not path.is_file():
+        raise EnvironmentImageError(f"environment file not found: {short(spec)}; check the path (relative to the "
+                                    f"current directory) or give one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
+    return load_environment(path)

@@ -239,17 +239,26 @@ def _image_size(table: _Table) -> tuple[int, int]:
 
 
 def _environment(data: dict, base_dir: Path) -> Environment:
-    table = _Table(data, "environment", {"file": STRING, "procedural": STRING})
+    table = _Table(data, "environment", {"file": STRING, "procedural": STRING, "rotation": NUMBER,
+                                         "strength": NUMBER})
     if "file" in table and "procedural" in table:
         raise SceneError("environment has both file and procedural; give only one of them")
-    with rules.context("environment", ("file", "procedural")):
+    rotation, strength = table.get("rotation", NUMBER, 0.0), table.get("strength", NUMBER, 1.0)
+    with rules.context("environment", ("file", "procedural", "rotation", "strength")):
         if "file" in table:
-            return load_environment(base_dir / _path(table.get("file", STRING), "environment.file"))
-        name = table.get("procedural", STRING, "sky-checker")
-        if name not in PROCEDURAL_ENVIRONMENTS:
-            raise SceneError(f"procedural {short(name)} is unknown{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
-                             f"choose one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
-        return procedural_environment(name)
+            env = load_environment(base_dir / _path(table.get("file", STRING), "environment.file"))
+        else:
+            name = table.get("procedural", STRING, "sky-checker")
+            if name not in PROCEDURAL_ENVIRONMENTS:
+                raise SceneError(f"procedural {short(name)} is unknown{closest_name(name, PROCEDURAL_ENVIRONMENTS)}; "
+                                 f"choose one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
+            env = procedural_environment(name)
+        # Only what the table asks for touches the image: a scene without these keys renders as before.
+        if rotation != 0.0:
+            env = env.rotated(rotation)
+        if strength != 1.0:
+            env = env.scaled(strength)
+        return env
 
 
 def _typed(data: dict, where: str, kinds: dict, role: str) -> tuple[str, dict]:
