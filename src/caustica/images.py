@@ -45,7 +45,7 @@ def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError)
         raise error(f"image file not found: {path}; check the path (relative paths are relative to the scene file)")
     if suffix not in READ_SUFFIXES:
         raise error(f"unsupported image format '{path.suffix}' for {path}; use one of {', '.join(READ_SUFFIXES)}")
-    reader = {".exr": _read_exr, ".hdr": _read_hdr}.get(suffix, _read_8bit)
+    reader = {".exr": _read_exr, ".hdr": _read_hdr}.get(suffix, decode_8bit)
     try:
         image = reader(path)
     except Exception as exc:  # our decoders raise ValueError; OpenEXR and Pillow raise many types
@@ -71,11 +71,11 @@ def _read_exr(path: Path) -> np.ndarray:
     return np.stack([np.asarray(p, dtype=np.float32) for p in planes], axis=-1)
 
 
-def _read_8bit(path: Path) -> np.ndarray:
-    """PNG/JPEG through Pillow, decoded from sRGB to linear."""
+def decode_8bit(source) -> np.ndarray:
+    """PNG/JPEG (a path or a binary file object) through Pillow, decoded from sRGB to linear."""
     from PIL import Image
 
-    with Image.open(path) as img:
+    with Image.open(source) as img:
         img.load()
         if img.mode in ("I;16", "I;16B", "I;16L", "I"):
             gray = np.asarray(img, dtype=np.float64) / 65535.0

@@ -3,7 +3,7 @@
 Every pool is bounded, so that a process rendering new scenes for ever keeps a flat footprint:
 render targets and meshes not used for ``IDLE_FRAMES`` frames are released (targets.py,
 meshes.py), environment textures are kept by image content for the ``ENVIRONMENT_TEXTURES``
-most recent images, and ``cache`` (results reused across frames) holds at most ``CACHE_ENTRIES``
+most recent images, albedo textures likewise for the ``ALBEDO_TEXTURES`` most recent, and ``cache`` (results reused across frames) holds at most ``CACHE_ENTRIES``
 entries, least recently used first out. ``release`` frees all of it; the context stays (shared).
 """
 from __future__ import annotations
@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 
 from ..cache import LruCache
+from ..errors import SceneError
 from .context import collect_dropped, describe, is_inherited, shared_context
 from .meshes import MeshCache
 from .shaders import ShaderLibrary
@@ -24,6 +25,7 @@ from .targets import TargetPool
 
 CACHE_ENTRIES = 128  # results kept across frames in GpuDevice.cache (a frame stores about ten)
 ENVIRONMENT_TEXTURES = 4  # environment images kept on the GPU, by content
+ALBEDO_TEXTURES = 64  # diffuse receivers' textures kept on the GPU, by content
 
 
 class GpuDevice:
@@ -38,6 +40,7 @@ class GpuDevice:
         # Results reused across frames (e.g. shadow maps), keyed by scene state.
         self.cache = LruCache(CACHE_ENTRIES, lambda value: release_all(value, self.targets))
         self._environments = LruCache(ENVIRONMENT_TEXTURES, lambda texture: texture.release())
+        self._albedos = LruCache(ALBEDO_TEXTURES, lambda texture: texture.release())
         self._fullscreen: dict[int, object] = {}  # program GL name -> attribute-less vertex array
 
     @property
@@ -56,6 +59,25 @@ class GpuDevice:
             texture.repeat_x, texture.repeat_y = True, False
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._environments[key] = texture
+        return texture
+
+    def albedo_texture(self, image: np.ndarray):
+        """A diffuse receiver's texture (scene/textures.py: (H, W, 3) linear RGB, row 0 at the top) as an
+        RGB32F texture, rows uploaded top first so that GL's (u, v) is glTF's: trilinear (mipmaps),
+        repeating (kept by the image's content, as environments are). SceneError above this GL's
+        texture size."""
+        key = array_digest(image)
+        texture = self._albedos.get(key)
+        if texture is None:
+            h, w = image.shape[:2]
+            if max(w, h) > self.max_texture_size:
+                raise SceneError(f"a {w}x{h} texture is above this GL's limit of {self.max_texture_size} pixels "
+                                 "a side; downscale it")
+            texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(image, dtype="f4").tobytes(), dtype="f4")
+            texture.build_mipmaps()
+            texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            texture.repeat_x = texture.repeat_y = True
+            self._albedos[key] = texture
         return texture
 
     def draw_fullscreen(self, program, vertices: int = 3) -> None:
@@ -78,7 +100,8 @@ class GpuDevice:
     def counts(self) -> dict[str, int]:
         """How many entries each pool and cache holds (for leak checks; see also census.live_gl_names)."""
         return {"programs": self.shaders.count(), **self.targets.counts(), "meshes": len(self.meshes),
-                "environments": len(self._environments), "cached": len(self.cache),
+                "environments": len(self._environments), "albedo_textures": len(self._albedos),
+                "cached": len(self.cache),
                 "fullscreen_arrays": len(self._fullscreen)}
 
     def release(self) -> None:
@@ -86,7 +109,8 @@ class GpuDevice:
         was made, only forget them: the inherited context must not be called."""
         if os.getpid() == self.pid and not is_inherited(self.ctx):
             release_all(list(self.cache.values()), self.targets)
-            release_all([list(self._environments.values()), list(self._fullscreen.values())])
+            release_all([list(self._environments.values()), list(self._albedos.values()),
+                         list(self._fullscreen.values())])
             self.shaders.release()
             self.targets.release()
             self.meshes.release()
@@ -94,6 +118,7 @@ class GpuDevice:
             self.ctx.gc_mode = None  # dropped wrappers must not release (gc_mode 'auto') or queue anything
         self.cache.clear()
         self._environments.clear()
+        self._albedos.clear()
         self._fullscreen.clear()
 
 

@@ -16,10 +16,12 @@ MAX_MESHES = 4096  # GPU meshes kept at most, however recently used
 # Strict uniforms (the tests turn them on): writing a uniform that the program's source does not
 # declare is an error (a misspelling); one declared but optimised away by the driver stays silent.
 STRICT_UNIFORMS = os.environ.get("CAUSTICA_STRICT_UNIFORMS") == "1"
+UV_ATTRIBUTE = "in_uv"  # a mesh's texture coordinates (Mesh.uvs)
 
 
 class GpuMesh:
-    """Interleaved object-space positions and normals plus triangle indices."""
+    """Interleaved object-space positions and normals plus triangle indices (and the uvs, where the
+    mesh has them, as the attribute UV_ATTRIBUTE)."""
 
     def __init__(self, ctx, mesh):
         data = np.hstack([mesh.vertices, mesh.normals]).astype("f4")
@@ -30,6 +32,8 @@ class GpuMesh:
         self.attributes: dict[str, tuple[object, int]] = {}  # shader input name -> (buffer, components)
         self.vertex_count = len(mesh.vertices)
         self.last_used = 0  # MeshCache's frame count when last handed out
+        if mesh.uvs is not None:  # read by textured receivers' programs only (common/albedo_vertex.glsl)
+            self.set_attribute(UV_ATTRIBUTE, mesh.uvs)
 
     def set_attribute(self, name: str, values: np.ndarray) -> None:
         """An extra per-vertex float attribute (e.g. Wyman's d_N) bound to shader input ``name``."""

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..scene.codes import MATERIAL_CODES
+from ..scene.textures import texture_of
 from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
@@ -19,6 +20,7 @@ from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
+ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
 
 
 class RefractorSurfaces(Pass):
@@ -246,16 +248,18 @@ class ShadeSurfaces(Pass):
         drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
         # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
         # rasterizers pay for every side of a branch, even one on a uniform.
-        variants = sorted({_variant(material) for _, material in drawn})
+        variants = sorted({self._variant(obj, material) for obj, material in drawn})
         capturing = bool(deferring_targets) and "glass" in deferring_targets
         if capturing:  # glass first: the front-surface buffer must hold the refractors alone
             variants.sort(key=lambda variant: variant[0] != "glass")
         later = []  # the deferred (object, material, variant defines) in G-buffer id order
-        for kind, dispersion in variants:
-            variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion)}
+        for kind, dispersion, textured in variants:
+            variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion),
+                               **({"ALBEDO_TEXTURE": 1} if textured else {})}
             program_defines = variant_defines
+            defer = kind in self.deferred and not textured  # the G-buffer holds no uvs
             if deferring_targets:
-                mode = DEFER_GBUFFER if kind in self.deferred else DEFER_SHADE_NOW
+                mode = DEFER_GBUFFER if defer else DEFER_SHADE_NOW
                 variant_defines["DEFERRED_SHADING"] = mode
                 if capturing and kind == "glass":
                     program_defines = {**variant_defines, "CAPTURE_FRONT_SURFACE": 1}
@@ -267,9 +271,9 @@ class ShadeSurfaces(Pass):
             if deferring_targets:
                 deferred.set_ray_uniforms(program, camera)
             for obj, material in drawn:
-                if _variant(material) != (kind, dispersion):
+                if self._variant(obj, material) != (kind, dispersion, textured):
                     continue
-                if deferring_targets and kind in self.deferred:
+                if deferring_targets and defer:
                     later.append((obj, material, variant_defines))
                     set_uniform(program, "deferred_id", float(len(later)))
                 else:
@@ -285,11 +289,28 @@ class ShadeSurfaces(Pass):
         if material.kind == "glass":
             set_uniform(program, "ior_rgb", material.ior_rgb.astype("f4"))
             set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
+        texture = self.albedo_texture(obj, material)
+        if texture is not None:
+            frame.gpu.albedo_texture(texture).use(ALBEDO_UNIT)
+            set_uniform(program, "albedo_texture", ALBEDO_UNIT)
         tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, obj)
+
+    def albedo_texture(self, obj, material):
+        """The texture ``obj`` shows drawn with ``material`` (scene/textures.py texture_of); under an
+        untextured diffuse ``material_override`` (plain's grey), the object's own: the texture belongs
+        to the surface, the override replaces its colour."""
+        if material is self.material_override and material.kind == "diffuse" and material.texture is None:
+            return texture_of(obj)
+        return texture_of(obj, material)
+
+    def _variant(self, obj, material) -> tuple[str, bool, bool]:
+        """(kind, dispersive, textured): which compiled shader variant shades ``obj`` drawn with ``material``."""
+        dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
+        return material.kind, dispersive, self.albedo_texture(obj, material) is not None
 
     def set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
@@ -343,12 +364,6 @@ def _distance_to_bounds(point, bounds: np.ndarray) -> float:
     """Distance from ``point`` to the box ``bounds`` (2, 3); 0 inside it."""
     point = np.asarray(point, np.float64)
     return float(np.linalg.norm(point - np.clip(point, bounds[0], bounds[1])))
-
-
-def _variant(material) -> tuple[str, bool]:
-    """(kind, dispersive): which compiled shader variant shades a material."""
-    dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
-    return material.kind, dispersive
 
 
 def _material_color(material) -> np.ndarray:

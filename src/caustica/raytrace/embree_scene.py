@@ -51,6 +51,7 @@ class Hits:
     geometric_normal: np.ndarray  # (N,3) float64 face normal
     object_index: np.ndarray  # (N,) int32 index into the scene's objects
     face: np.ndarray  # (N,) int64 face index in the object's mesh, -1 for analytic spheres
+    barycentric: np.ndarray  # (N,3) float64 weights of the face's corners (world mesh order), 0 off triangles
 
 
 @dataclass
@@ -74,11 +75,11 @@ class _Geometry:
 def world_sphere(mesh: Mesh, world_from_object: np.ndarray) -> tuple[np.ndarray, float] | None:
     """The world-space (center, radius) of ``mesh.analytic_sphere``, or None.
 
-    None when the mesh has no such attribute or the transform does not scale
-    uniformly (the sphere would become an ellipsoid).
+    None when the mesh has no such attribute, has uvs (a texture is looked up on its triangles), or the
+    transform does not scale uniformly (the sphere would become an ellipsoid).
     """
     sphere = getattr(mesh, "analytic_sphere", None)
-    if sphere is None:
+    if sphere is None or mesh.uvs is not None:
         return None
     m = np.asarray(world_from_object, dtype=np.float64)
     scales = np.linalg.norm(m[:3, :3], axis=0)
@@ -250,6 +251,7 @@ class RayScene:
             geometric_normal=np.zeros((n, 3)),
             object_index=np.full(n, -1, np.int32),
             face=np.full(n, -1, np.int64),
+            barycentric=np.zeros((n, 3)),
         )
 
         def run(sl: slice) -> None:
@@ -293,6 +295,7 @@ class RayScene:
             idx = np.arange(sl.start, sl.stop)[tri]
             out.position[idx], out.normal[idx], out.geometric_normal[idx] = p, ns, ng
             out.face[idx] = f - self._face_start[f]
+            out.barycentric[idx] = bary
         # Sphere hits: the point snapped onto the sphere, the exact radial normal.
         for index, center, radius in self.spheres:
             on = (obj == index) & (prim < 0)

@@ -36,6 +36,7 @@ import numpy as np
 from ..scene.codes import MATERIAL_CODES, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.mesh import Mesh
+from ..scene.textures import sample_texture, texture_of
 from .embree_scene import RayScene
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
@@ -69,6 +70,8 @@ class Materials:
     color: np.ndarray  # (K,3) diffuse albedo or mirror reflectance
     ior_rgb: np.ndarray  # (K,3), 1 for non-glass
     sigma: np.ndarray  # (K,3) absorption coefficient, 0 for non-glass
+    # object index -> (texture (H, W, 3), uvs of each world-mesh face's corners (M, 3, 2)): textured receivers
+    textures: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, scene) -> "Materials":
@@ -77,7 +80,25 @@ class Materials:
         color = np.array([getattr(m, "color", np.ones(3)) for m in mats]).reshape(-1, 3)
         ior = np.array([m.ior_rgb if m.kind == "glass" else np.ones(3) for m in mats]).reshape(-1, 3)
         sigma = np.array([m.absorption_coefficient if m.kind == "glass" else np.zeros(3) for m in mats]).reshape(-1, 3)
-        return cls(kind, color, ior, sigma)
+        textures = {}
+        for k, obj in enumerate(scene.objects):
+            texture = texture_of(obj)
+            if texture is not None:
+                world = obj.world_mesh()  # its faces are the ones hit (reversed under a mirroring transform)
+                textures[k] = (texture, world.uvs[world.faces])
+        return cls(kind, color, ior, sigma, textures)
+
+    def albedo(self, hits, where: np.ndarray) -> np.ndarray:
+        """Diffuse albedo (n, 3) at the ``where`` hits: colour times the texture (scene/textures.py's
+        bilinear, repeating lookup) at the uvs interpolated with the hit's barycentrics."""
+        index = hits.object_index[where]
+        albedo = self.color[index]
+        for k, (texture, corner_uvs) in self.textures.items():
+            on = np.flatnonzero(where)[index == k]
+            if len(on):
+                uv = np.einsum("ik,ikj->ij", hits.barycentric[on], corner_uvs[hits.face[on]])
+                albedo[index == k] *= sample_texture(texture, uv)
+        return albedo
 
     @property
     def dispersive(self) -> bool:
@@ -237,7 +258,7 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
         diffuse = kind == MATERIAL_DIFFUSE
         if diffuse.any():
             _, ns, ng = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
-            albedo = materials.color[hits.object_index[diffuse]]
+            albedo = materials.albedo(hits, diffuse)
             radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo)
             _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)
         specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)

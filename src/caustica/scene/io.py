@@ -30,6 +30,7 @@ from .materials import Diffuse, Glass, Mirror, water
 from .mesh import Mesh, load_mesh
 from .scene import Scene, SceneObject
 from .shapes import SHAPES
+from .textures import PROCEDURAL_TEXTURES, load_texture, procedural_texture
 from .transform import Transform
 
 MAX_IMAGE_SIZE = rules.MAX_IMAGE_SIZE
@@ -56,7 +57,7 @@ _GLASS_KEYS = {"ior": NUMBER, "absorption_color": RGB, "absorption_distance": NU
 MATERIALS = {
     "glass": (Glass, _GLASS_KEYS),
     "water": (water, _GLASS_KEYS),
-    "diffuse": (Diffuse, {"color": RGB}),
+    "diffuse": (Diffuse, {"color": RGB, "texture": STRING}),
     "mirror": (Mirror, {"color": RGB}),
 }
 OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, "position": VEC3,
@@ -293,8 +294,9 @@ def _light(data: dict, where: str):
                          table.get("outer_angle", NUMBER, 30.0))
 
 
-def _material(data, where: str):
-    """A material table (or just its type name as a string); diffuse grey when absent."""
+def _material(data, where: str, base_dir: Path = Path(".")):
+    """A material table (or just its type name as a string); diffuse grey when absent. A diffuse
+    ``texture`` is a PNG/JPEG file relative to ``base_dir`` or a procedural texture's name."""
     if data is None:
         return Diffuse()
     if isinstance(data, str):
@@ -302,8 +304,20 @@ def _material(data, where: str):
     kind, keys = _typed(data, where, {k: v[1] for k, v in MATERIALS.items()}, "material")
     table = _Table(data, where, keys)
     values = {key: table.get(key, keys[key]) for key in data if key != "type"}
+    if "texture" in values:
+        values["texture"] = _texture(values["texture"], base_dir, table.name("texture"))
     with rules.context(where, keys):
         return MATERIALS[kind][0](**values)
+
+
+def _texture(value: str, base_dir: Path, where: str):
+    """A ``texture`` key's image: a procedural texture's name, else a file relative to ``base_dir``."""
+    if value in PROCEDURAL_TEXTURES:
+        return procedural_texture(value)
+    if Path(value).suffix == "":
+        raise SceneError(f"{where} {short(value)} is no procedural texture{closest_name(value, PROCEDURAL_TEXTURES)} "
+                         f"nor an image file; give one of {', '.join(PROCEDURAL_TEXTURES)} or a .png/.jpg file")
+    return load_texture(base_dir / _path(value, where), where)
 
 
 def _shape_keys(shape: str) -> dict:
@@ -365,7 +379,10 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) ->
             rotation=table.get("rotation", VEC3, np.zeros(3)),
             scale=table.get("scale", _numbers(3), np.ones(3)),
         )
-    material = _material(data.get("material"), f"{where}.material")
+    material = _material(data.get("material"), f"{where}.material", base_dir)
+    if getattr(material, "texture", None) is not None and mesh.uvs is None:
+        raise SceneError(f"{where}.material.texture needs texture coordinates, which {short(shape or data['mesh'])} "
+                         "has none; texture a plane or a box, or a mesh file with uvs")
     name = table.get("name", STRING, shape or Path(data.get("mesh", "mesh")).stem)
     return SceneObject(name, mesh, material, transform)
 

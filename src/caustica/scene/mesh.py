@@ -75,13 +75,16 @@ class Mesh:
         return self._bounds
 
     def content_hash(self) -> str:
-        """A stable hash of the geometry, for on-disk caches."""
+        """A stable hash of the geometry (and the uvs, where given), for on-disk caches."""
         if self._hash is None:
             import hashlib
 
             h = hashlib.sha1()
             h.update(self.vertices.tobytes())
             h.update(self.faces.tobytes())
+            if self.uvs is not None:  # a textured mesh is drawn with its uvs (GPU meshes are kept by this hash)
+                h.update(b"uvs")
+                h.update(self.uvs.tobytes())
             self._hash = h.hexdigest()[:16]
         return self._hash
 

@@ -149,12 +149,16 @@ def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
 
 
 def plane(size=(2.0, 2.0), resolution: int = 1) -> Mesh:
-    """A ``size`` = (width along X, depth along Z) rectangle at y = 0 facing +Y, ``resolution`` cells a side."""
-    return heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane")
+    """A ``size`` = (width along X, depth along Z) rectangle at y = 0 facing +Y, ``resolution`` cells a side.
+
+    Its uvs span [0, 1]^2: u along +X, v along +Z, so that a texture seen from above with -Z up on the
+    screen (a floor seen from the front) stands upright."""
+    return heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane", uvs=True)
 
 
-def heightfield(size, resolution: int, height, name: str) -> Mesh:
-    """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz)."""
+def heightfield(size, resolution: int, height, name: str, uvs: bool = False) -> Mesh:
+    """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz); with ``uvs``,
+    texture coordinates (x / width + 1/2, z / depth + 1/2)."""
     width, depth = _dims(size, 2)
     n = _count("resolution", resolution, 1) + 1
     _budget(2 * (n - 1) ** 2, resolution=n - 1)
@@ -163,13 +167,15 @@ def heightfield(size, resolution: int, height, name: str) -> Mesh:
     y, dydx, dydz = height(x, z)
     vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
     normals = _unit(np.stack([-dydx, np.ones_like(y), -dydz], axis=-1)).reshape(-1, 3)
-    return Mesh(vertices, normals, _grid_faces(n, n), name=name)
+    uv = np.stack([x / width + 0.5, z / depth + 0.5], axis=-1).reshape(-1, 2) if uvs else None
+    return Mesh(vertices, normals, _grid_faces(n, n), name=name, uvs=uv)
 
 
 def box(size=(1.0, 1.0, 1.0)) -> Mesh:
-    """Axis-aligned box of edge lengths ``size``: 24 vertices, flat face normals."""
+    """Axis-aligned box of edge lengths ``size``: 24 vertices, flat face normals, each face's uvs
+    spanning [0, 1]^2."""
     half = _dims(size, 3) / 2.0
-    vertices, normals, faces = [], [], []
+    vertices, normals, faces, uvs = [], [], [], []
     for axis in range(3):
         u_axis, v_axis = (axis + 1) % 3, (axis + 2) % 3  # e_u x e_v = e_axis
         for sign in (1.0, -1.0):
@@ -180,11 +186,12 @@ def box(size=(1.0, 1.0, 1.0)) -> Mesh:
                 p = np.zeros(3)
                 p[axis], p[u_axis], p[v_axis] = sign * half[axis], du * sign * half[u_axis], dv * half[v_axis]
                 corners.append(p)
+                uvs.append([(du + 1) / 2, (1 - dv) / 2])
             base = len(vertices)
             vertices += corners
             normals += [normal] * 4
             faces += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-    return Mesh(np.array(vertices) * 1.0, np.array(normals), np.array(faces), name="box")
+    return Mesh(np.array(vertices) * 1.0, np.array(normals), np.array(faces), name="box", uvs=np.array(uvs))
 
 
 def torus(major_radius: float = 1.0, minor_radius: float = 0.3, segments: int = 96, sides: int = 48) -> Mesh:

@@ -1,5 +1,7 @@
-// Shared vertex stage for meshes: object -> world -> clip. Writes world position and normal.
+// Shared vertex stage for meshes: object -> world -> clip. Writes world position and normal (and
+// surface_uv: host define ALBEDO_TEXTURE, common/albedo_vertex.glsl).
 #version 430 core
+#include "common/albedo_vertex.glsl"
 uniform mat4 world_from_object;
 uniform mat3 world_normal_from_object;
 uniform mat4 clip_from_world;
@@ -13,5 +15,6 @@ void main() {
     vec4 p = world_from_object * vec4(in_position, 1.0);
     world_position = p.xyz;
     world_normal = world_normal_from_object * in_normal;
+    pass_surface_uv();
     gl_Position = clip_from_world * p;
 }

@@ -4,7 +4,7 @@
 // for glass (v: unit view direction towards the surface, n: outward unit normal facing the
 // eye), then includes "common/surface_main.glsl", which shades every material.
 // Host defines: MATERIAL_DIFFUSE, _MIRROR, _GLASS (scene/codes.py: material_kind's and SURFACE_KIND's
-// codes; the shader library sets them in every program).
+// codes; the shader library sets them in every program); ALBEDO_TEXTURE (0; 1: a textured diffuse receiver).
 #include "common/optics.glsl"
 #include "common/environment.glsl"
 #include "common/lighting.glsl"
@@ -67,6 +67,22 @@ vec3 world_normal;
 #else
 in vec3 world_position;
 in vec3 world_normal;
+#endif
+
+// Diffuse albedo: material_color, times the texture at the surface's uvs in the textured variant
+// (ALBEDO_TEXTURE 1: linear RGB, bilinear with mipmaps, repeating; scene/textures.py's convention).
+#ifndef ALBEDO_TEXTURE
+#define ALBEDO_TEXTURE 0
+#endif
+#if ALBEDO_TEXTURE && DEFERRED_SHADING == DEFER_RESOLVE
+#error "a textured receiver is shaded per fragment (its uvs are not in the G-buffer)"
+#endif
+#if ALBEDO_TEXTURE
+uniform sampler2D albedo_texture;
+in vec2 surface_uv;
+vec3 surface_albedo() { return material_color * texture(albedo_texture, surface_uv).rgb; }
+#else
+vec3 surface_albedo() { return material_color; }
 #endif
 #if DEFERRED_SHADING == DEFER_GBUFFER
 layout(location = 0) out vec4 deferred_surface_out;

@@ -39,7 +39,7 @@ void main() {
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
     if (kind == MATERIAL_DIFFUSE) {
         vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n) + caustic_irradiance(world_position, n);
-        radiance = material_color / PI * e;
+        radiance = surface_albedo() / PI * e;
     }
 #endif
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_MIRROR

@@ -1,7 +1,9 @@
 // transport-table-view: the shared mesh vertex stage plus the per-vertex table lookup of the view ray
 // (Iwasaki et al. 5.3): world exit direction and transmittance after the entry (per channel), set by
-// the host per frame as vertex attributes; zero on meshes without them (opaque objects).
+// the host per frame as vertex attributes; zero on meshes without them (opaque objects). Host defines:
+// ALBEDO_TEXTURE (common/albedo_vertex.glsl).
 #version 430 core
+#include "common/albedo_vertex.glsl"
 uniform mat4 world_from_object;
 uniform mat3 world_normal_from_object;
 uniform mat4 clip_from_world;
@@ -21,5 +23,6 @@ void main() {
     world_normal = world_normal_from_object * in_normal;
     exit_dir_world = in_exit_dir;
     exit_t = in_exit_t;
+    pass_surface_uv();
     gl_Position = clip_from_world * p;
 }
