@@ -77,7 +77,7 @@ import numpy as np
 
 from ..cache import cache_dir, load_array, slug, store_array
 from ..errors import ReferenceUnavailableError, first_line
-from .mitsuba_export import environment_hash, has_absorbing_glass, has_dispersion, mesh_file_hash, scene_to_mitsuba
+from .mitsuba_export import has_absorbing_glass, has_dispersion, image_hash, mesh_file_hash, scene_to_mitsuba
 
 REFERENCE_VERSION = "1"
 PREFERRED_VARIANT = "llvm_ad_rgb"
@@ -154,6 +154,13 @@ def _round(x) -> list:
     return [float(f"{v:.9g}") for v in np.asarray(x, dtype=np.float64).reshape(-1)]
 
 
+def _material_value(key: str, value):
+    """A material field as the cache key holds it: a texture by its hash, numbers rounded."""
+    if isinstance(value, str):
+        return value
+    return image_hash(value) if key == "texture" else _round(value)
+
+
 def cache_key(scene, camera, spp: int, max_depth: int, variant: str, analytic_spheres: bool) -> str:
     """Hash of everything the reference image depends on."""
     desc = {
@@ -171,7 +178,7 @@ def cache_key(scene, camera, spp: int, max_depth: int, variant: str, analytic_sp
                 "sphere": None if getattr(o.mesh, "analytic_sphere", None) is None
                 else [_round(o.mesh.analytic_sphere[0]), _round(o.mesh.analytic_sphere[1])],
                 "transform": _round(o.world_from_object()),
-                "material": {k: (_round(v) if not isinstance(v, str) else v) for k, v in sorted(vars(o.material).items())
+                "material": {k: _material_value(k, v) for k, v in sorted(vars(o.material).items())
                              if v is not None} | {"kind": o.material.kind},
             }
             for o in scene.objects
@@ -179,7 +186,7 @@ def cache_key(scene, camera, spp: int, max_depth: int, variant: str, analytic_sp
         "lights": [
             {k: _round(v) for k, v in sorted(vars(light).items())} | {"kind": light.kind} for light in scene.lights
         ],
-        "environment": environment_hash(scene.environment.image),
+        "environment": image_hash(scene.environment.image),
         "intensity_scale": float(scene.intensity_scale),
     }
     return hashlib.sha1(json.dumps(desc, sort_keys=True).encode()).hexdigest()[:24]
