@@ -65,17 +65,20 @@ def _decoded(source, label: str, name: str) -> np.ndarray:
 
     from ..images import decode_8bit
 
+    too_large = (f"{label} is larger than the {rules.MAX_IMAGE_SIZE} pixels a side and {MAX_TEXTURE_PIXELS:,} "
+                 "pixels caustica takes for a texture; downscale it")
     try:
         with Image.open(source) as img:
             width, height = img.size
             kind = img.format
+    except Image.DecompressionBombError:  # Pillow's own limit, checked from the header too
+        raise SceneError(too_large) from None
     except Exception as exc:  # Pillow raises many types for a file it cannot identify
         raise SceneError(f"cannot read {label}: {first_line(exc)}; give a valid PNG or JPEG image") from None
     if kind not in ("PNG", "JPEG"):
         raise SceneError(f"{label} is a {kind} image; give a PNG or JPEG image")
     if max(width, height) > rules.MAX_IMAGE_SIZE or width * height > MAX_TEXTURE_PIXELS:
-        raise SceneError(f"{label} is {width}x{height} pixels, above the {rules.MAX_IMAGE_SIZE} a side and "
-                         f"{MAX_TEXTURE_PIXELS:,} pixels caustica takes for a texture; downscale it")
+        raise SceneError(too_large.replace(" is larger", f" is {width}x{height} pixels, larger"))
     if hasattr(source, "seek"):
         source.seek(0)
     try:

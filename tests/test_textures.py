@@ -1,0 +1,270 @@
+"""Textured diffuse receivers (issue 20, materials): Diffuse.texture looked up at Mesh.uvs by every raster
+technique and by the exact oracle, in one convention (scene/textures.py: glTF TEXCOORD_0, (0, 0) the
+image's top-left corner, row 0 its top row, GL texel centres, bilinear, repeating).
+
+Scenes are 96x72. The floor is a 4 x 4 plane (u along +X, v along +Z) with a texture of 4 x 4 coloured
+squares (8 texels each), magnified on screen, so GL's mipmaps stay at level 0 and GPU and CPU lookups agree.
+"""
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import caustica
+from caustica.cli import main as cli_main
+from caustica.errors import SceneError
+from caustica.metrics.images import psnr_linear
+from caustica.renderer import Renderer
+from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
+                            procedural_environment)
+from caustica.scene.mesh import Mesh
+from caustica.scene.shapes import plane, sphere
+from caustica.scene.textures import checker, load_texture, sample_texture
+
+SIZE = (96, 72)
+FLOOR = 4.0  # the floor's side (scene units)
+RNG = np.random.default_rng(3)
+SQUARES = np.repeat(np.repeat(RNG.uniform(0.1, 0.95, (4, 4, 3)), 8, axis=0), 8, axis=1).astype(np.float32)
+GREY = [0.8] * 3  # plain's override colour: plain keeps a receiver's texture over it
+FRONT = Camera(position=[0.0, 3.0, 3.5], look_at=[0.0, 0.0, 0.0], fov_y=45.0, size=SIZE)
+LIGHT = PointLight([1.0, 4.0, 1.0], [30.0] * 3)
+
+
+def floor(texture=SQUARES, color=GREY) -> SceneObject:
+    return SceneObject("floor", plane((FLOOR, FLOOR)), Diffuse(list(color), texture=texture))
+
+
+def flat_floor() -> SceneObject:
+    """The floor with the texture's mean colour as a flat albedo."""
+    return floor(None, np.asarray(GREY) * SQUARES.reshape(-1, 3).mean(axis=0))
+
+
+def scene_of(objects, camera=FRONT, light=LIGHT, environment="sky-checker") -> Scene:
+    return Scene(camera=camera, objects=objects, lights=[light], environment=procedural_environment(environment))
+
+
+def sphere_mask(camera: Camera, center, radius: float) -> np.ndarray:
+    """Pixels whose primary ray meets the sphere."""
+    origin, direction = (a[:, :, 0] for a in camera.primary_rays())
+    oc = origin - np.asarray(center, np.float64)
+    b = np.einsum("hwk,hwk->hw", oc, direction)
+    c = np.einsum("hwk,hwk->hw", oc, oc) - radius * radius
+    return b * b - c > 0.0
+
+
+def floor_uv(camera: Camera) -> np.ndarray:
+    """Per pixel, the uv where the primary ray meets the floor plane y = 0."""
+    origin, direction = (a[:, :, 0] for a in camera.primary_rays())
+    hit = origin - (origin[..., 1] / direction[..., 1])[..., None] * direction
+    return np.stack([hit[..., 0] / FLOOR + 0.5, hit[..., 2] / FLOOR + 0.5], axis=-1)
+
+
+# The convention ------------------------------------------------------------------------------------
+
+
+def test_lookup_convention_texel_centres_bilinear_and_repeat():
+    texture = np.zeros((2, 4, 3), np.float32)
+    texture[0, 0] = [1.0, 0.0, 0.0]  # top-left texel
+    texture[1, 3] = [0.0, 0.0, 1.0]  # bottom-right texel
+    uv = np.array([[0.125, 0.25],  # texel (0, 0)'s centre: (0 + 0.5) / 4, (0 + 0.5) / 2
+                   [0.875, 0.75],  # texel (3, 1)'s centre
+                   [1.125, -0.75],  # (0, 0) again, one period away in u and v
+                   [0.0, 0.25],  # halfway between column 0 and (wrapping) column 3, row 0
+                   [0.125, 0.5]])  # halfway between rows 0 and 1, column 0
+    got = sample_texture(texture, uv)
+    np.testing.assert_allclose(got, [[1, 0, 0], [0, 0, 1], [1, 0, 0], [0.5, 0, 0], [0.5, 0, 0]], atol=1e-12)
+
+
+def test_red_quadrant_lands_in_the_same_corner_on_gpu_and_in_exact(renderer):
+    """uv (0, 0) is the image's top-left corner: the plane's -X, -Z corner. Seen from above with -Z up
+    on the screen, a texture whose top-left quadrant is red shows red in the image's top-left quadrant."""
+    texture = np.full((8, 8, 3), 0.8, np.float32)
+    texture[:4, :4] = [0.9, 0.05, 0.05]
+    camera = Camera(position=[0.0, 6.0, 0.0], look_at=[0.0, 0.0, 0.0], up=[0.0, 0.0, -1.0], fov_y=40.0, size=SIZE)
+    scene = scene_of([floor(texture)], camera, PointLight([0.0, 3.0, 0.0], [20.0] * 3), "black")
+    height, width = SIZE[1], SIZE[0]
+    for image in (renderer.render(scene, "plain"), renderer.render(scene, "exact")):
+        red = (image[..., 0] > 3.0 * image[..., 1]) & (image[..., 0] > 0.02)
+        rows, cols = np.nonzero(red)
+        assert red.sum() > 100
+        assert rows.max() < height / 2 and cols.max() < width / 2  # all of it in the top-left quadrant
+        assert red[: height // 2, : width // 2].mean() > 0.4
+
+
+# Direct view and exact ----------------------------------------------------------------------------
+
+
+def test_plain_matches_exact_on_a_textured_floor_and_a_flat_albedo_does_not(renderer):
+    """Known answer: both shade albedo / pi (direct + SH ambient) with the same lookup; measured 68.9 dB
+    against 10.1 dB for the texture's mean colour as a flat albedo."""
+    exact = renderer.render(scene_of([floor()]), "exact")
+    textured = renderer.render(scene_of([floor()]), "plain")
+    flat = renderer.render(scene_of([flat_floor()]), "plain")
+    assert psnr_linear(textured, exact) > 50.0
+    assert psnr_linear(flat, exact) < 20.0
+
+
+def test_untextured_scenes_render_as_before(renderer):
+    """uvs alone change nothing: a plane with uvs (no texture) renders bit-identically to the same mesh
+    without them; a texture on a mesh without uvs is ignored (Diffuse's contract)."""
+    with_uvs = plane((FLOOR, FLOOR))
+    without = Mesh(with_uvs.vertices, with_uvs.normals, with_uvs.faces, name="plane")
+    assert with_uvs.uvs is not None and without.uvs is None
+    images = [renderer.render(scene_of([SceneObject("floor", mesh, Diffuse(GREY, texture=texture))]), "env-map")
+              for mesh, texture in ((with_uvs, None), (without, None), (without, SQUARES))]
+    assert np.array_equal(images[0], images[1]) and np.array_equal(images[0], images[2])
+
+
+def test_toml_texture_file_and_procedural_checker(tmp_path, renderer):
+    """texture = 'floor.png' (sRGB PNG, relative to the scene file) and texture = 'checker' load as linear
+    images; the file's texels come back decoded from sRGB."""
+    pixels = np.zeros((4, 4, 3), np.uint8)
+    pixels[:2, :2] = [255, 0, 0]
+    pixels[2:, 2:] = [188, 188, 188]  # sRGB 188 is linear 0.5029
+    (tmp_path / "tex").mkdir()
+    Image.fromarray(pixels).save(tmp_path / "tex" / "floor.png")
+    (tmp_path / "s.toml").write_text(
+        '[camera]\nsize = [32, 24]\n'
+        '[[objects]]\nshape = "plane"\nmaterial = { type = "diffuse", texture = "tex/floor.png" }\n'
+        '[[objects]]\nshape = "box"\nposition = [0, 0.5, 0]\nmaterial = { type = "diffuse", texture = "checker" }\n')
+    scene = caustica.load_scene(tmp_path / "s.toml")
+    texture = scene.objects[0].material.texture
+    np.testing.assert_allclose(texture[0, 0], [1.0, 0.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(texture[3, 3], [0.5029] * 3, atol=1e-4)
+    np.testing.assert_array_equal(scene.objects[1].material.texture, checker())
+    assert renderer.render(scene, "env-map").shape == (24, 32, 3)
+
+
+# Seen through glass and in mirrors ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("technique, options, measured", [("impostors", {}, (24.8, 16.3)),
+                                                           ("depth-search", {"nearby": "search-secant"}, (20.6, 16.3))])
+def test_textured_floor_through_a_glass_ball_matches_exact(renderer, technique, options, measured):
+    """A black-and-white checker floor under a glass ball: in the ball's pixels (refraction and
+    reflection of the floor) the textured render is closer to exact's than the render with the
+    checker's mean grey as a flat albedo (``measured``: dB, textured and flat)."""
+    board = checker(32, 4, dark=0.05, light=0.95)
+    ball = SceneObject("ball", sphere(0.6, 4), Glass(1.5), Transform(position=[0.0, 0.6, 0.0]))
+    exact = renderer.render(scene_of([floor(board), ball]), "exact")
+    mask = sphere_mask(FRONT, [0.0, 0.6, 0.0], 0.6)
+    textured = psnr_linear(renderer.render(scene_of([floor(board), ball]), technique, **options), exact, mask)
+    mean = np.asarray(GREY) * board.reshape(-1, 3).mean(axis=0)
+    flat = psnr_linear(renderer.render(scene_of([floor(None, mean), ball]), technique, **options), exact, mask)
+    assert mask.sum() > 300
+    assert textured > flat + 3.0 and textured > measured[0] - 1.5
+
+
+@pytest.mark.parametrize("technique", ["per-vertex", "impostors"])
+def test_textured_floor_in_a_mirror(renderer, technique):
+    """A mirror leaning over the floor shows it: per-vertex's reflection map and impostors' textures are
+    shaded with the texture (measured 40.6 / 43.8 dB against exact, 17.9 dB with the flat albedo)."""
+    camera = Camera(position=[0.0, 1.2, 3.5], look_at=[0.0, 0.5, -1.0], fov_y=45.0, size=SIZE)
+    mirror = SceneObject("mirror", plane((3.0, 1.6), resolution=8), Mirror([0.95] * 3),
+                         Transform(position=[0.0, 0.9, -1.4], rotation=[112.0, 0.0, 0.0]))
+    light = PointLight([1.0, 4.0, 2.0], [30.0] * 3)
+    exact = renderer.render(scene_of([floor(), mirror], camera, light), "exact")
+    textured = renderer.render(scene_of([floor(), mirror], camera, light), technique)
+    flat = renderer.render(scene_of([flat_floor(), mirror], camera, light), technique)
+    assert psnr_linear(textured, exact) > 32.0
+    assert psnr_linear(flat, exact) < psnr_linear(textured, exact) - 10.0
+
+
+# Caustics ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("technique", ["caustic-mapping", "photon-splats", "impostor-caustics"])
+def test_caustic_light_is_scaled_by_the_texel_albedo(renderer, technique):
+    """A ball focuses a point light onto a floor whose texture is 0.3 on the left half and 0.9 on the
+    right, the caustic across the seam. Against the same floor with a white texture, each caustic pixel
+    is scaled by its texel's albedo (the lookup at the pixel's floor point), on both sides."""
+    halves = np.full((16, 16, 3), 0.9, np.float32)
+    halves[:, :8] = 0.3
+    ball = SceneObject("ball", sphere(0.5, 4), Glass(1.5), Transform(position=[0.0, 1.0, 0.0]))
+    light = PointLight([0.0, 3.5, 0.0], [20.0] * 3)
+    images = {name: renderer.render(scene_of([floor(texture), ball], light=light, environment="black"), name_tech)
+              for name, texture, name_tech in (("halves", halves, technique), ("white", np.ones((1, 1, 3), np.float32),
+                                                                               technique),
+                                               ("direct", np.ones((1, 1, 3), np.float32), "env-map"))}
+    caustic = (images["white"] - images["direct"])[..., 1] > 0.3
+    caustic &= ~sphere_mask(FRONT, [0.0, 1.0, 0.0], 0.5)
+    expected = sample_texture(halves, floor_uv(FRONT).reshape(-1, 2))[:, 1].reshape(caustic.shape)
+    ratio = images["halves"][..., 1] / np.maximum(images["white"][..., 1], 1e-9)
+    assert (caustic & (expected < 0.31)).sum() >= 8 and (caustic & (expected > 0.89)).sum() >= 8  # 12, 12 of 48
+    np.testing.assert_allclose(ratio[caustic], expected[caustic], atol=1e-3)  # measured 3e-6
+
+
+# GPU resources ----------------------------------------------------------------------------------
+
+
+def test_texture_uploaded_once_per_content_and_released_with_the_device():
+    from caustica.gpu.census import live_gl_names
+
+    second = SceneObject("floor2", plane((1.0, 1.0)), Diffuse(GREY, texture=SQUARES.copy()),
+                         Transform(position=[0.0, 0.01, 0.0]))
+    with Renderer(SIZE) as renderer:
+        renderer.render(scene_of([floor(), second]), "env-map")
+        renderer.render(scene_of([floor(SQUARES.copy()), second]), "env-map")  # equal content, new arrays
+        assert renderer.device.counts()["albedo_textures"] == 1
+        renderer.render(scene_of([floor(checker()), second]), "env-map")
+        assert renderer.device.counts()["albedo_textures"] == 2
+        device = renderer.device
+        names = live_gl_names(device.ctx)["total"]
+    assert device.counts()["albedo_textures"] == 0
+    assert live_gl_names(device.ctx)["total"] < names
+
+
+# Bad input --------------------------------------------------------------------------------------
+
+
+def _png_header_claiming(path, width: int, height: int) -> None:
+    """A PNG whose header says width x height (its data is one 1x1 image's): decoding would be huge."""
+    Image.new("RGB", (1, 1)).save(path)
+    data = bytearray(path.read_bytes())
+    ihdr = struct.pack(">II", width, height) + bytes(data[24:29])
+    data[16:29] = ihdr
+    data[29:33] = struct.pack(">I", zlib.crc32(b"IHDR" + ihdr))
+    path.write_bytes(bytes(data))
+
+
+def test_bad_texture_files_are_one_line_scene_errors(tmp_path):
+    (tmp_path / "cut.png").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
+    Image.new("RGB", (2, 2)).save(tmp_path / "image.gif")
+    (tmp_path / "named.png").write_bytes((tmp_path / "image.gif").read_bytes())  # a GIF named .png
+    _png_header_claiming(tmp_path / "huge.png", 20000, 20000)
+    cases = {"missing.png": "not found", "cut.png": "cannot read", "image.gif": "not a PNG or JPEG",
+             "named.png": "is a GIF image", "huge.png": "downscale it"}
+    for name, message in cases.items():
+        with pytest.raises(SceneError, match=message) as info:
+            load_texture(tmp_path / name)
+        assert "\n" not in str(info.value)
+
+
+def test_bad_texture_keys_in_a_scene_file(tmp_path, capsys):
+    Image.new("RGB", (2, 2)).save(tmp_path / "ok.png")
+    cases = {'{ type = "diffuse", texture = "nothere.png" }': "objects[0].material.texture file not found",
+             '{ type = "diffuse", texture = "chequer" }': "did you mean 'checker'",
+             '{ type = "diffuse", texture = 3 }': "must be a string",
+             '{ type = "mirror", texture = "ok.png" }': "unknown key 'texture'"}
+    for material, message in cases.items():
+        (tmp_path / "s.toml").write_text(f'[[objects]]\nshape = "plane"\nmaterial = {material}\n')
+        with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]")):
+            caustica.load_scene(tmp_path / "s.toml")
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "sphere"\nmaterial = { type = "diffuse", texture = "ok.png" }\n')
+    assert cli_main(["render", str(tmp_path / "s.toml"), "-o", str(tmp_path / "out.png")]) == 2
+    assert "needs texture coordinates" in capsys.readouterr().err
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_bad_texture_arrays_and_a_texture_above_the_gl_limit(renderer, monkeypatch):
+    for value, message in ((np.zeros((4, 4)), "RGB image"), (np.full((2, 2, 3), 2.0), r"in \[0, 1\]"),
+                           (np.full((2, 2, 3), np.nan), r"in \[0, 1\]")):
+        with pytest.raises(SceneError, match=message):
+            Diffuse(GREY, texture=value)
+    monkeypatch.setitem(renderer.device.info, "max_texture_size", 100)
+    with pytest.raises(SceneError, match="128x128 texture is above this GL's limit of 100"):
+        renderer.device.albedo_texture(np.ones((128, 128, 3), np.float32))
