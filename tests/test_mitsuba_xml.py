@@ -236,3 +236,32 @@ def test_write_needs_no_mitsuba(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "mitsuba", None)  # import mitsuba now raises ImportError
     out = write_mitsuba_xml(textured_floor(quadrant_texture()), tmp_path / "f.xml")
     assert out.is_file() and len(os.listdir(files_folder(out))) == 3  # mesh, texture, environment
+
+
+CHECKER_FLOOR = """
+[camera]
+position = [0, 3, 2]
+look_at = [0, 0, 0]
+size = [48, 32]
+[environment]
+procedural = "white"
+[[objects]]
+shape = "plane"
+size = [4, 4]
+material = { type = "diffuse", texture = "checker" }
+"""
+
+
+def test_textured_floor_matches_the_exact_oracle(tmp_path):
+    """The checker floor of a TOML scene in Mitsuba (the XML, 64 spp) against caustica's exact oracle: 33.8 dB
+    measured, where two Mitsuba seeds differ by 30.7 dB (its noise) and the v-flipped export scores 6.7 dB."""
+    from caustica.renderer import Renderer
+
+    mi = mitsuba()
+    (tmp_path / "floor.toml").write_text(CHECKER_FLOOR)
+    scene = caustica.load_scene(tmp_path / "floor.toml")
+    mitsuba_image = np.array(mi.render(mi.load_file(str(write_mitsuba_xml(scene, tmp_path / "f.xml", spp=64))),
+                                       seed=1), dtype=np.float64)[..., :3]
+    exact = Renderer().render(scene, "exact", spp=16)
+    assert psnr(mitsuba_image, exact) > 28.0
+    assert mitsuba_image.mean() == pytest.approx(float(exact.mean()), rel=0.03)

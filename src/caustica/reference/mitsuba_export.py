@@ -127,11 +127,7 @@ def look_at_to_world(origin, target, up) -> np.ndarray:
 
 def mesh_file_hash(mesh: Mesh) -> str:
     """Hash of what the PLY holds: vertices, normals and faces (and uvs, when the mesh has them)."""
-    if mesh.uvs is None:
-        return mesh.geometry_hash()
-    h = hashlib.sha1(mesh.geometry_hash().encode())
-    h.update(np.ascontiguousarray(mesh.uvs, dtype="<f4").tobytes())
-    return h.hexdigest()[:16]
+    return mesh.geometry_hash()
 
 
 def ply_bytes(mesh: Mesh) -> bytes:
