@@ -15,11 +15,12 @@ from .errors import (
 __version__ = "0.1.0"
 
 
-def load_scene(path_or_preset):
-    """Load a TOML scene file or a built-in preset by name."""
+def load_scene(path_or_preset, camera: str | None = None):
+    """Load a TOML scene file, a glTF 2.0 file (.glb, .gltf) or a built-in preset by name; ``camera``
+    picks a glTF camera by name."""
     from .scene.io import load_scene as _load
 
-    return _load(path_or_preset)
+    return _load(path_or_preset, camera)
 
 
 def __getattr__(name):

@@ -11,12 +11,17 @@ that names the key as ``table[index].key`` and says how to fix it. The format:
     [[lights]]                     # type = "point" | "directional" | "spot" | "line"
     [[objects]]                    # shape = "sphere" (+ its parameters) or mesh = "file.obj";
                                    # position (alias center), rotation (degrees), scale, material = {type = ...}
+                                   # or gltf = "model.glb" (its objects and lights; position, rotation, scale, lights)
+
+``.glb``/``.gltf`` files load as whole scenes (scene/gltf, docs/gltf.md); :func:`export_scene` writes
+a scene as glTF or Mitsuba XML by the output's suffix.
 """
 from __future__ import annotations
 
 import errno
 import inspect
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +30,7 @@ from ..errors import SceneError, closest_name, short
 from . import rules
 from .camera import Camera, fov_y_from_fov_x
 from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment, procedural_environment
+from .gltf import GLTF_SUFFIXES
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
 from .mesh import Mesh, load_mesh
@@ -62,11 +68,19 @@ MATERIALS = {
 }
 OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, "position": VEC3,
                "rotation": VEC3, "scale": "scale", "material": "material"}
+GLTF_OBJECT_KEYS = {"gltf": STRING, "position": VEC3, "rotation": VEC3, "scale": "scale", "lights": BOOLEAN}
+EXPORT_SUFFIXES = GLTF_SUFFIXES + (".xml",)
 
 
-def load_scene(source: str | Path) -> Scene:
-    """A built-in preset by name, or a TOML scene file."""
+def load_scene(source: str | Path, camera: str | None = None) -> Scene:
+    """A built-in preset by name, a TOML scene file or a glTF 2.0 file (``.glb``, ``.gltf``); ``camera``
+    names one of the scene's glTF cameras (a glTF file's, or those of a TOML's ``gltf`` entries)."""
     from .presets import PRESETS
+
+    if camera is not None and not isinstance(camera, str):
+        raise SceneError(f"camera {short(camera)} must be the name of a glTF camera (a string)")
+    if camera is not None and isinstance(source, str) and source in PRESETS:
+        raise SceneError(f"preset {source!r} has no glTF cameras to choose from; drop the camera name")
 
     if not isinstance(source, (str, Path)):
         raise SceneError(f"a scene is a preset name or a .toml file path, not {short(source)}; "
@@ -83,7 +97,30 @@ def load_scene(source: str | Path) -> Scene:
         raise SceneError(f"scene file not found: {path}; check the path, or run 'caustica presets' for the built-in scenes")
     if not path.is_file():
         raise SceneError(f"scene path {path} is not a file; give a .toml scene file")
-    return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem)
+    if path.suffix.lower() in GLTF_SUFFIXES:
+        from .gltf import load_gltf
+
+        return load_gltf(path, camera)
+    return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem, camera=camera)
+
+
+def export_scene(scene: Scene, path: str | Path) -> Path:
+    """Write ``scene`` by the suffix of ``path``: ``.glb``/``.gltf`` (glTF 2.0, scene/gltf) or ``.xml``
+    (Mitsuba 3, reference/mitsuba_export); OutputError for another suffix."""
+    from ..errors import OutputError
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in GLTF_SUFFIXES:
+        from .gltf import write_gltf
+
+        return write_gltf(scene, path)
+    if suffix == ".xml":
+        from ..reference.mitsuba_export import write_mitsuba_xml
+
+        write_mitsuba_xml(scene, path)
+        return path
+    raise OutputError(f"cannot export to '{path.name}': the output must end in {', '.join(EXPORT_SUFFIXES)}")
 
 
 def _path(name, what: str) -> Path:
@@ -107,8 +144,11 @@ def _exists(path: Path, what: str) -> bool:
 def _read_toml(path: Path) -> dict:
     """The TOML document in ``path``, or SceneError with the parser's line and column."""
     try:
-        text = path.read_bytes().decode("utf-8")
+        data = path.read_bytes()
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
+        if data[:4] == b"glTF":
+            raise SceneError(f"scene file {path} is a binary glTF; name it .glb to load it as one") from None
         raise SceneError(f"scene file {path} is not UTF-8 text; save it as UTF-8 TOML") from None
     except OSError as exc:
         raise SceneError(f"cannot read scene file {path}: {exc.strerror or exc}; check its permissions") from None
@@ -118,19 +158,36 @@ def _read_toml(path: Path) -> dict:
         raise SceneError(f"TOML syntax error in {path}: {str(exc).splitlines()[0]}; fix the scene file") from None
 
 
-def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "scene") -> Scene:
-    """A Scene from a parsed TOML document; relative file paths resolve against ``base_dir``."""
+def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "scene",
+                camera: str | None = None) -> Scene:
+    """A Scene from a parsed TOML document; relative file paths resolve against ``base_dir``.
+
+    ``gltf`` entries of ``[[objects]]`` add their file's objects and (unless ``lights = false``) lights.
+    The camera is the ``[camera]`` table; without one, or when ``camera`` names a glTF camera, the glTF
+    entries' camera (the first, or the one named; without any, one framing the scene)."""
+    from .gltf.read import choose_camera
+
     top = _Table(data, "", {"name": STRING, "intensity_scale": NUMBER, "camera": "table", "environment": "table",
                             "lights": "array", "objects": "array"})
     base_dir = Path(base_dir)
-    return Scene(
+    imports = []
+    scene = Scene(
         camera=_camera(top.table("camera")),
-        objects=_objects(top.tables("objects"), base_dir),
+        objects=_objects(top.tables("objects"), base_dir, imports),
         lights=[_light(t, f"lights[{i}]") for i, t in enumerate(top.tables("lights"))],
         environment=_environment(top.table("environment"), base_dir),
         intensity_scale=rules.intensity_scale(top.get("intensity_scale", NUMBER, 1.0)),
         name=top.get("name", STRING, default_name),
     )
+    for imported, with_lights in imports:
+        if with_lights:
+            scene.lights += imported.lights
+    if camera is not None and not imports:
+        raise SceneError(f"camera {short(camera)} names a glTF camera, and this scene has no gltf objects; "
+                         "drop the camera name or set [camera] in the scene")
+    if imports and (camera is not None or "camera" not in top):
+        scene.camera = choose_camera([g for g, _ in imports], camera, scene.bounds())
+    return scene
 
 
 class _Table:
@@ -336,10 +393,22 @@ def _shape_keys(shape: str) -> dict:
     return keys
 
 
-def _objects(entries: list[dict], base_dir: Path) -> list[SceneObject]:
+def _objects(entries: list[dict], base_dir: Path, imports: list) -> list[SceneObject]:
+    """The objects of ``[[objects]]``; each ``gltf`` entry's file contents are appended to ``imports``
+    as (GltfScene, whether its lights are wanted)."""
     objects, meshes, owner = [], {}, {}
     for i, data in enumerate(entries):
         where = f"objects[{i}]"
+        if isinstance(data, dict) and "gltf" in data:
+            imported, with_lights = _gltf_entry(data, where, base_dir)
+            imports.append((imported, with_lights))
+            for obj in imported.objects:
+                base, n = obj.name, 2
+                while obj.name in owner:
+                    obj.name, n = f"{base}-{n}", n + 1
+                owner[obj.name] = where
+                objects.append(obj)
+            continue
         obj = _object(data, where, base_dir, meshes)
         if obj.name in owner:
             if "name" in data:
@@ -349,6 +418,24 @@ def _objects(entries: list[dict], base_dir: Path) -> list[SceneObject]:
         owner[obj.name] = where
         objects.append(obj)
     return objects
+
+
+def _gltf_entry(data: dict, where: str, base_dir: Path):
+    """A ``gltf = "model.glb"`` entry: the file read with the entry's placement, and its ``lights`` flag."""
+    from .gltf.read import read_gltf
+
+    table = _Table(data, where, GLTF_OBJECT_KEYS)
+    name = table.get("gltf", STRING)
+    path = base_dir / _path(name, f"{where}.gltf")
+    if path.suffix.lower() not in GLTF_SUFFIXES:
+        raise SceneError(f"{where}.gltf {short(name)} must be a .glb or .gltf file; use mesh = for other formats")
+    if not _exists(path, f"{where}.gltf") or not path.is_file():
+        raise SceneError(f"{where}.gltf: file {path} not found; check the path (relative to the scene file)")
+    with rules.context(where, table.keys):
+        placement = Transform(position=table.get("position", VEC3, np.zeros(3)),
+                              rotation=table.get("rotation", VEC3, np.zeros(3)),
+                              scale=table.get("scale", _numbers(3), np.ones(3))).world_from_object()
+    return read_gltf(path, placement), table.get("lights", BOOLEAN, True)
 
 
 def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) -> SceneObject:
@@ -371,6 +458,10 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) ->
             mesh = _shape(shape, {key: table.get(key, kind) for key, kind in shape_keys.items() if key in table}, where)
         else:
             path = (base_dir / _path(table.get("mesh", STRING), f"{where}.mesh")).resolve()
+            if path.suffix.lower() in GLTF_SUFFIXES:
+                warnings.warn(f"{where}.mesh {short(path.name)} merges the glTF's nodes into one mesh with this "
+                              f"entry's one material; write gltf = {path.name!r} to keep its objects, materials "
+                              "and lights", stacklevel=2)
             if path not in meshes:
                 meshes[path] = load_mesh(path)
             mesh = meshes[path]
