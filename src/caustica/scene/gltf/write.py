@@ -1,0 +1,267 @@
+"""A caustica Scene as glTF 2.0: the inverse of :mod:`.read`, so a round trip renders the same image.
+
+One node per object (TRS from its Transform) with one mesh primitive (POSITION, NORMAL, TEXCOORD_0,
+uint32 or uint16 indices), materials with KHR_materials_transmission / _ior / _volume / _dispersion,
+KHR_lights_punctual lights in photometric units, the camera, and textures as embedded PNG. ``.glb``
+holds one binary chunk; ``.gltf`` embeds the same buffer as a base64 data URI, so either is one
+self-contained file. What glTF cannot say (the environment, line lights, colours above 1) is said in
+one warning.
+"""
+from __future__ import annotations
+
+import base64
+import io
+import json
+import math
+import struct
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ...atomic import write_atomic
+from ...errors import OutputError
+from ..lights import DirectionalLight, LineLight, PointLight, SpotLight
+from ..materials import Diffuse, Glass, Mirror
+from ..transform import rotation_from_euler_degrees, up_hint
+from .container import GLB_BIN, GLB_JSON, GLB_MAGIC
+from .matrices import quaternion_from_matrix
+from .units import photometric
+
+FLOAT, USHORT, UINT = 5126, 5123, 5125
+ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
+DEFAULT_ENVIRONMENT = "procedural:sky-checker"
+
+
+def write_gltf(scene, path: str | Path) -> Path:
+    """Write ``scene`` to ``path`` (``.glb`` or ``.gltf``) atomically; warns once about what glTF cannot hold."""
+    path = Path(path)
+    binary = path.suffix.lower() == ".glb"
+    if path.suffix.lower() not in (".glb", ".gltf"):
+        raise OutputError(f"glTF output '{path.name}' must end in .glb or .gltf")
+    writer = _Writer(scene)
+    doc, blob = writer.document()
+    if writer.notes:
+        warnings.warn(f"{path.name}: {'; '.join(writer.notes)}", stacklevel=3)
+    if binary:
+        data = glb_bytes(doc, blob)
+    else:
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode("ascii")
+        data = json.dumps(doc, indent=1).encode("utf-8")
+    return write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
+
+
+def glb_bytes(doc: dict, blob: bytes) -> bytes:
+    """A GLB container: header, JSON chunk (space padded), BIN chunk (zero padded)."""
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    blob = bytes(blob) + b"\0" * (-len(blob) % 4)
+    total = 12 + 8 + len(text) + 8 + len(blob)
+    return b"".join([GLB_MAGIC, struct.pack("<II", 2, total), struct.pack("<II", len(text), GLB_JSON), text,
+                     struct.pack("<II", len(blob), GLB_BIN), blob])
+
+
+def _clamped(color, what: str, notes: list[str]) -> list[float]:
+    color = np.asarray(color, dtype=np.float64)
+    if color.max() > 1.0:
+        notes.append(f"{what} colour {np.round(color, 3).tolist()} clamped to 1 (glTF's limit)")
+    return [float(c) for c in np.clip(color, 0.0, 1.0)]
+
+
+def frame_quaternion(forward, up=None) -> list[float]:
+    """The rotation (x, y, z, w) that turns -Z to ``forward`` and +Y towards ``up`` (a glTF camera or light)."""
+    forward = np.asarray(forward, dtype=np.float64)
+    forward = forward / np.linalg.norm(forward)
+    up = up_hint(forward) if up is None else np.asarray(up, dtype=np.float64)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+    return [float(q) for q in quaternion_from_matrix(np.stack([right, true_up, -forward], axis=1))]
+
+
+class _Writer:
+    def __init__(self, scene):
+        self.scene = scene
+        self.blob = bytearray()
+        self.doc: dict = {"asset": {"version": "2.0", "generator": _generator()}, "scene": 0,
+                          "scenes": [{"name": scene.name, "nodes": []}], "nodes": [], "meshes": [],
+                          "materials": [], "accessors": [], "bufferViews": [], "buffers": []}
+        self.used: set[str] = set()
+        self.notes: list[str] = []
+        self.geometry: dict[int, dict] = {}
+        self.meshes: dict[tuple[int, int], int] = {}
+        self.materials: dict[int, int] = {}
+        self.textures: dict[int, int] = {}
+
+    def document(self) -> tuple[dict, bytes]:
+        scene, doc = self.scene, self.doc
+        for i, obj in enumerate(scene.objects):
+            t = obj.transform
+            node = {"name": obj.name, "mesh": self._mesh(obj, f"objects[{i}]"),
+                    "translation": [float(x) for x in t.position],
+                    "rotation": [float(q) for q in quaternion_from_matrix(rotation_from_euler_degrees(t.rotation))],
+                    "scale": [float(s) for s in t.scale]}
+            self._add_node(node)
+        self._camera()
+        for i, light in enumerate(scene.lights):
+            self._light(light, i)
+        if scene.environment.source != DEFAULT_ENVIRONMENT or scene.intensity_scale != 1.0:
+            self.notes.insert(0, f"the environment ({scene.environment.source}, times intensity_scale "
+                              f"{scene.intensity_scale:g}) is not part of glTF: give it again with --environment or "
+                              "a TOML [environment] (lights carry intensity_scale)")
+        doc["buffers"].append({"byteLength": len(self.blob)})
+        if self.used:
+            doc["extensionsUsed"] = sorted(self.used)
+        for key in ("materials", "meshes", "accessors", "bufferViews"):
+            if not doc[key]:
+                del doc[key]
+        return doc, bytes(self.blob)
+
+    def _add_node(self, node: dict) -> None:
+        self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]))
+        self.doc["nodes"].append(node)
+
+    # Buffers ----------------------------------------------------------------------
+
+    def _view(self, data: bytes, target: int | None = None) -> int:
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        view = {"buffer": 0, "byteOffset": len(self.blob), "byteLength": len(data)}
+        if target is not None:
+            view["target"] = target
+        self.blob += data
+        self.doc["bufferViews"].append(view)
+        return len(self.doc["bufferViews"]) - 1
+
+    def _accessor(self, array: np.ndarray, kind: str, component: int, target: int, bounds: bool = False) -> int:
+        dtype = {FLOAT: "<f4", USHORT: "<u2", UINT: "<u4"}[component]
+        data = np.ascontiguousarray(array, dtype=dtype)
+        accessor = {"bufferView": self._view(data.tobytes(), target), "componentType": component,
+                    "count": int(len(data)), "type": kind}
+        if bounds:
+            accessor["min"] = [float(x) for x in data.min(axis=0)]
+            accessor["max"] = [float(x) for x in data.max(axis=0)]
+        self.doc["accessors"].append(accessor)
+        return len(self.doc["accessors"]) - 1
+
+    # Meshes and materials ---------------------------------------------------------
+
+    def _mesh(self, obj, where: str) -> int:
+        mesh, material = obj.mesh, obj.material
+        key = (id(mesh), id(material))
+        if key not in self.meshes:
+            if id(mesh) not in self.geometry:
+                attributes = {"POSITION": self._accessor(mesh.vertices, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True),
+                              "NORMAL": self._accessor(mesh.normals, "VEC3", FLOAT, ARRAY_BUFFER)}
+                if mesh.uvs is not None:
+                    attributes["TEXCOORD_0"] = self._accessor(mesh.uvs, "VEC2", FLOAT, ARRAY_BUFFER)
+                small = len(mesh.vertices) < 65536
+                indices = self._accessor(mesh.faces.reshape(-1), "SCALAR", USHORT if small else UINT,
+                                         ELEMENT_ARRAY_BUFFER)
+                primitive = {"attributes": attributes, "indices": indices, "mode": 4}
+                if mesh.analytic_sphere is not None:
+                    center, radius = mesh.analytic_sphere
+                    primitive["extras"] = {"caustica": {"analytic_sphere": [float(c) for c in center] + [float(radius)]}}
+                self.geometry[id(mesh)] = primitive
+            primitive = dict(self.geometry[id(mesh)], material=self._material(material, obj, where))
+            self.doc["meshes"].append({"name": mesh.name, "primitives": [primitive]})
+            self.meshes[key] = len(self.doc["meshes"]) - 1
+        return self.meshes[key]
+
+    def _material(self, material, obj, where: str) -> int:
+        if id(material) in self.materials:
+            return self.materials[id(material)]
+        entry: dict = {"name": f"{obj.name}-{material.kind}"}
+        if isinstance(material, Glass):
+            entry["pbrMetallicRoughness"] = {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,
+                                             "roughnessFactor": 0.0}
+            entry["extensions"] = self._glass(material, obj, where)
+        elif isinstance(material, Mirror):
+            entry["pbrMetallicRoughness"] = {"baseColorFactor": _clamped(material.color, where, self.notes) + [1.0],
+                                             "metallicFactor": 1.0, "roughnessFactor": 0.0}
+        elif isinstance(material, Diffuse):
+            pbr = {"baseColorFactor": _clamped(material.color, where, self.notes) + [1.0], "metallicFactor": 0.0,
+                   "roughnessFactor": 1.0}
+            if material.texture is not None:
+                pbr["baseColorTexture"] = {"index": self._texture(material.texture)}
+            entry["pbrMetallicRoughness"] = pbr
+        self.doc["materials"].append(entry)
+        self.materials[id(material)] = len(self.doc["materials"]) - 1
+        return self.materials[id(material)]
+
+    def _glass(self, glass: Glass, obj, where: str) -> dict:
+        lo, hi = obj.mesh.bounds.astype(np.float64)
+        thickness = glass.thickness if glass.thickness is not None else float((hi - lo).min())
+        volume = {"thicknessFactor": float(thickness)}
+        if np.any(glass.absorption_color < 1.0):
+            volume["attenuationColor"] = [float(c) for c in glass.absorption_color]
+            volume["attenuationDistance"] = float(glass.absorption_distance)
+        extensions = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                      "KHR_materials_ior": {"ior": float(glass.ior)}, "KHR_materials_volume": volume}
+        if glass.ior < 1.0:
+            self.notes.append(f"{where}: ior {glass.ior:g} is below KHR_materials_ior's minimum of 1 (caustica reads "
+                              "it back; other viewers may not)")
+        if glass.abbe is not None:
+            extensions["KHR_materials_dispersion"] = {"dispersion": 20.0 / float(glass.abbe)}
+        self.used.update(extensions)
+        return extensions
+
+    def _texture(self, texture: np.ndarray) -> int:
+        if id(texture) not in self.textures:
+            from PIL import Image
+
+            from ...images import linear_to_srgb
+
+            codes = np.rint(np.clip(linear_to_srgb(texture), 0.0, 1.0) * 255.0).astype(np.uint8)
+            encoded = io.BytesIO()
+            Image.fromarray(codes, "RGB").save(encoded, format="PNG")
+            doc = self.doc
+            doc.setdefault("images", []).append({"bufferView": self._view(encoded.getvalue()), "mimeType": "image/png"})
+            doc.setdefault("samplers", [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
+            doc.setdefault("textures", []).append({"source": len(doc["images"]) - 1, "sampler": 0})
+            self.textures[id(texture)] = len(doc["textures"]) - 1
+        return self.textures[id(texture)]
+
+    # Camera and lights ------------------------------------------------------------
+
+    def _camera(self) -> None:
+        camera = self.scene.camera
+        forward = camera.look_at - camera.position
+        width, height = camera.size
+        self.doc["cameras"] = [{"name": "camera", "type": "perspective",
+                                "perspective": {"yfov": math.radians(camera.fov_y), "aspectRatio": width / height,
+                                                "znear": float(camera.near), "zfar": float(camera.far)},
+                                "extras": {"caustica": {"size": [int(width), int(height)],
+                                                        "focus_distance": float(np.linalg.norm(forward))}}}]
+        self._add_node({"name": "camera", "camera": 0, "translation": [float(x) for x in camera.position],
+                        "rotation": frame_quaternion(forward, camera.up)})
+
+    def _light(self, light, index: int) -> None:
+        scale = float(self.scene.intensity_scale)
+        if isinstance(light, LineLight):
+            self.notes.append(f"lights[{index}] (a line light) is written as its {light.samples} point lights")
+            for k, (position, intensity) in enumerate(light.point_samples()):
+                self._punctual({"type": "point"}, intensity * scale, f"lights[{index}].{k}",
+                               {"translation": [float(x) for x in position]})
+            return
+        entry, node = {"type": light.kind}, {}
+        if isinstance(light, (PointLight, SpotLight)):
+            node["translation"] = [float(x) for x in light.position]
+        if isinstance(light, (SpotLight, DirectionalLight)):
+            node["rotation"] = frame_quaternion(light.direction)
+        if isinstance(light, SpotLight):
+            entry["spot"] = {"innerConeAngle": math.radians(light.inner_angle),
+                             "outerConeAngle": math.radians(light.outer_angle)}
+        self._punctual(entry, light.intensity * scale, f"lights[{index}]", node)
+
+    def _punctual(self, entry: dict, intensity, name: str, node: dict) -> None:
+        color, value = photometric(intensity)
+        lights = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})["lights"]
+        lights.append(dict(entry, name=name, color=color, intensity=value))
+        self.used.add("KHR_lights_punctual")
+        self._add_node(dict(node, name=name, extensions={"KHR_lights_punctual": {"light": len(lights) - 1}}))
+
+
+def _generator() -> str:
+    from ... import __version__
+
+    return f"caustica {__version__}"
