@@ -209,3 +209,51 @@ def test_budget_options_are_checked(tmp_path, capsys):
     assert main(["render", "glass-sphere", "-o", out, "--size", "32x24", "--frames", "1", "-t", "env-map",
                  "--explain"]) == 0
     assert "named" in capsys.readouterr().out
+
+
+def ring_of_glass():
+    """A glass torus (not convex: light crosses it up to four times) over the table, under a light."""
+    from caustica.scene.shapes import torus
+
+    ring = SceneObject("ring", torus(0.5, 0.18, 32, 12), Glass(ior=1.5), Transform(position=[0.2, 0.4, -0.2]))
+    return scene_of([ring, table()], light=True, size=(48, 36))
+
+
+def test_a_cached_table_gives_the_caustics_of_glass_that_is_not_convex(tmp_path, monkeypatch):
+    from caustica.cli import main
+    from caustica.scene.mesh import load_mesh
+    from caustica.transport.runtime import has_cached_table
+
+    monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path / "cache"))
+    scene = ring_of_glass()
+    ring = scene.objects[0]
+    assert ring.mesh.is_convex() is False and marble().mesh.is_convex() is True
+    before = plan(scene)
+    assert before.technique == "impostors+caustic-mapping"
+    assert any("no light transport table is cached for ring" in note for note in before.notes)
+    # 'caustica precompute' caches the table where the plan and the renders look for it.
+    mesh_file = _obj_of(ring.mesh, tmp_path / "ring.obj")
+    ring.mesh = load_mesh(mesh_file)  # the mesh as the file holds it (what precompute hashes)
+    assert not has_cached_table(ring.mesh, 1.5)
+    assert main(["precompute", str(mesh_file), "--ior", "1.5", "--quiet"]) == 0
+    assert has_cached_table(ring.mesh, 1.5)
+    after = plan(scene)
+    assert after.technique == "impostors+transport-table" and not after.notes
+    assert "light transport table" in after.objects[1].reason
+    with Renderer() as renderer:
+        image = renderer.render(scene)
+        assert renderer.last_plan.technique == "impostors+transport-table" and np.isfinite(image).all()
+    # Convex glass keeps caustic mapping even with its table cached (docs/auto.md: as accurate or more there).
+    convex = scene_of([marble(), table()], light=True)
+    assert main(["precompute", str(_obj_of(convex.objects[0].mesh, tmp_path / "marble.obj")), "--ior", "1.45",
+                 "--quiet"]) == 0
+    convex.objects[0].mesh = load_mesh(tmp_path / "marble.obj")
+    assert has_cached_table(convex.objects[0].mesh, 1.45)
+    assert plan(convex).technique == "impostors+caustic-mapping"
+
+
+def _obj_of(mesh, path):
+    lines = [f"v {x:.7g} {y:.7g} {z:.7g}" for x, y, z in mesh.vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.faces]
+    path.write_text("\n".join(lines) + "\n")
+    return path

@@ -38,6 +38,7 @@ class Mesh:
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
     _open: bool | None = field(default=None, repr=False, compare=False)
     _solid: bool | None = field(default=None, repr=False, compare=False)
+    _convex: bool | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         self.validate(normals_missing=self.normals is None)
@@ -127,6 +128,33 @@ class Mesh:
                 solid = float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum()) > 0.0
             self._solid = bool(solid)
         return self._solid
+
+    def is_convex(self, tolerance: float = 1e-4) -> bool:
+        """Whether the mesh is closed and bends outwards at every edge: the far vertex of each face's
+        neighbour across an edge lies on or behind the face's plane (within ``tolerance`` of the mesh's
+        size). A closed surface convex at every edge bounds a convex body, which a straight ray enters and
+        leaves once: two interfaces (what image-space two-interface refraction assumes, Wyman 2005)."""
+        if self._convex is None:
+            edges, count = self._welded_edges()
+            key = edges[:, 0] * count + edges[:, 1]
+            reverse = edges[:, 1] * count + edges[:, 0]
+            order = np.argsort(key)
+            found = np.clip(np.searchsorted(key[order], reverse), 0, len(key) - 1)
+            other = order[found]
+            convex = bool(np.all(key[other] == reverse))  # every edge has its twin: closed
+            if convex:
+                v = self.vertices.astype(np.float64)
+                corners = v[self.faces]
+                normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+                length = np.linalg.norm(normal, axis=1)
+                face, neighbour = np.arange(len(key)) // 3, other // 3
+                far = self.faces[neighbour, (other % 3 + 2) % 3]  # the neighbour's vertex off the shared edge
+                height = np.einsum("ij,ij->i", normal[face], v[far] - corners[face, 0])
+                size = float(np.ptp(v, axis=0).max())
+                usable = length[face] > 1e-12 * size * size
+                convex = bool(np.all(height[usable] <= tolerance * size * length[face][usable]))
+            self._convex = convex
+        return self._convex
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""

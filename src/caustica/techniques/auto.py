@@ -10,7 +10,9 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
   flat mirror, whose least-squares viewpoint is its mirror image);
 - nothing specular: ``env-map`` (diffuse shading with shadow maps);
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
-  (Shah et al.) is composed with the view technique.
+  (Shah et al.) is composed with the view technique, or ``transport-table`` (Iwasaki et al.) where
+  every caster is glass with a light transport table cached on disk (``caustica precompute``) and
+  some of it is not convex.
 
 ``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes);
 ``budget_ms`` instead takes the highest quality whose frame time, measured on this device at this
@@ -32,6 +34,7 @@ QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels
     "high": (4, 1024, 1024, 2048),
 }
 CAUSTICS = "caustic-mapping"
+TABLE = "transport-table"  # the caustics where every caster is glass with a cached table
 
 
 @dataclass
@@ -113,10 +116,12 @@ def plan(scene, quality: str = "balanced") -> Plan:
         why_glass = why_mirror = ""
     casters = glass + mirrors
     caustics = bool(casters and diffuse and lit)
-    technique = f"{view}+{CAUSTICS}" if caustics else view
+    tabled = caustics and not mirrors and _table_pays(glass)
+    caustics_by = TABLE if tabled else CAUSTICS
+    technique = f"{view}+{caustics_by}" if caustics else view
     params = dict(view_params)
     if caustics:
-        params[f"{CAUSTICS}.map_size"] = map_size
+        params[f"{caustics_by}.map_size"] = map_size
     entries = []
     for obj in objects:
         kind = obj.material.kind
@@ -125,9 +130,11 @@ def plan(scene, quality: str = "balanced") -> Plan:
         elif kind == "mirror":
             entries.append(PlanEntry(obj.name, kind, view, why_mirror or "reflects the environment"))
         elif caustics:
-            entries.append(PlanEntry(obj.name, kind, f"{view} + {CAUSTICS}",
+            how = ("the light transport table cached for each glass object (Iwasaki et al.)" if tabled
+                   else "caustic mapping (Shah et al.)")
+            entries.append(PlanEntry(obj.name, kind, f"{view} + {caustics_by}",
                                      f"diffuse receiver: shadow maps, and caustics from {len(lit)} light(s) through "
-                                     f"{len(casters)} specular object(s) by caustic mapping (Shah et al.)"))
+                                     f"{len(casters)} specular object(s) by {how}"))
         else:
             why = "diffuse: shadow maps and the environment's irradiance"
             if not lit:
@@ -136,9 +143,35 @@ def plan(scene, quality: str = "balanced") -> Plan:
                 why += " (nothing specular casts caustics)"
             entries.append(PlanEntry(obj.name, kind, view, why))
     notes = []
+    from ..passes.casters import nearly_closed
+
+    missing = [o.name for o in glass if not _has_table(o)]
+    if caustics and not mirrors and missing and any(not o.mesh.is_convex() and nearly_closed(o.mesh) for o in glass):
+        notes.append(f"no light transport table is cached for {', '.join(missing)}; 'caustica precompute MESH "
+                     f"--ior N' caches one, and auto then takes the caustics of this non-convex glass from it "
+                     f"({TABLE})")
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
+
+
+def _has_table(obj) -> bool:
+    """Whether a light transport table at the default settings is cached for this glass object (one IOR:
+    dispersive glass keeps caustic mapping, which splits the channels)."""
+    from ..transport.runtime import has_cached_table
+
+    return obj.material.abbe is None and has_cached_table(obj.mesh, obj.material.ior)
+
+
+def _table_pays(glass: list) -> bool:
+    """Whether the caustics come from cached transport tables: each glass object has one and one at least
+    is not convex, where light crosses more than the two interfaces caustic mapping estimates; every one is
+    a solid (Iwasaki et al. 4 trace through closed objects) (docs/auto.md:
+    on convex glass caustic mapping's caustics were as accurate or more)."""
+    from ..passes.casters import nearly_closed
+
+    return (all(_has_table(o) and nearly_closed(o.mesh) for o in glass)  # a solid, not a water sheet
+            and any(not o.mesh.is_convex() for o in glass))
 
 
 class Auto(Technique):

@@ -39,6 +39,7 @@ reflections).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -60,6 +61,18 @@ def table_key(mesh, ior: float, directions: int, max_depth: int) -> tuple:
     return (mesh.geometry_hash(), round(float(ior), 9), int(directions), int(max_depth), TABLE_VERSION)
 
 
+def table_path(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH) -> Path:
+    """Where the quantized table of ``mesh`` as glass of index ``ior`` is cached on disk."""
+    return cache_dir("transport") / f"{mesh.geometry_hash()}-ior{float(ior):.6f}-d{directions}-k{max_depth}-v{TABLE_VERSION}.npz"
+
+
+def has_cached_table(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH) -> bool:
+    """Whether that table is in memory or on disk (``caustica precompute`` or an earlier render made it);
+    its content is checked only when it is loaded."""
+    key = table_key(mesh, ior, directions, max_depth) + (True,)
+    return _TABLES.get(key) is not None or table_path(mesh, ior, directions, max_depth).is_file()
+
+
 def table_for(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH,
               quantized: bool = True, progress: bool = True) -> TransportTable:
     """The (dequantized) transport table of ``mesh`` as glass of index ``ior``: from memory, the disk cache,
@@ -72,7 +85,7 @@ def table_for(mesh, ior: float, directions: int = DEFAULT_DIRECTIONS, max_depth:
     if not quantized:
         table = precompute_table(mesh, ior, directions, max_depth, progress=progress)
     else:
-        path = cache_dir("transport") / f"{mesh.geometry_hash()}-ior{float(ior):.6f}-d{directions}-k{max_depth}-v{TABLE_VERSION}.npz"
+        path = table_path(mesh, ior, directions, max_depth)
         try:
             table = dequantize(load_table(path, mesh.geometry_hash(), ior, directions))
         except TransportTableError:
