@@ -1,4 +1,4 @@
-"""Command line: ``caustica render | view | compare | bench | techniques | graph | presets | info``.
+"""Command line: ``caustica render | view | compare | bench | export | techniques | graph | presets | info``.
 
 Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
 """
@@ -146,13 +146,18 @@ def _environment_option(parser: argparse.ArgumentParser) -> None:
                              f"{', '.join(PROCEDURAL_ENVIRONMENTS)}")
 
 
+def _camera_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--camera", metavar="NAME", help="a glTF camera by its name or its node's (default: the "
+                                                         "file's first)")
+
+
 def _scenes(names: list[str], args) -> list:
     """The scenes ``names`` load, each with ``--environment`` in place of its own when given."""
     from . import load_scene
     from .scene.environment import environment_option
 
     environment = environment_option(args.environment) if args.environment is not None else None
-    scenes = [load_scene(name) for name in names]
+    scenes = [load_scene(name, getattr(args, "camera", None)) for name in names]
     for scene in scenes:
         if environment is not None:
             scene.environment = environment
@@ -167,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     render = sub.add_parser("render", help="render a scene file or preset to PNG or EXR")
-    render.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
+    render.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name (see 'caustica presets')")
     render.add_argument("-o", "--output", required=True, help="output image, .png (sRGB) or .exr (linear float)")
     render.add_argument("-t", "--technique", default="auto",
                         help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
@@ -186,11 +191,12 @@ def build_parser() -> argparse.ArgumentParser:
                              "off towards white, mid-grey kept); EXR ignores it (linear float)")
     render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
     _environment_option(render)
+    _camera_option(render)
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
 
     view = sub.add_parser("view", help="interactive window: orbit, switch techniques, edit parameters, inspect passes")
-    view.add_argument("scene", help="a .toml scene file or a preset name (see 'caustica presets')")
+    view.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name (see 'caustica presets')")
     view.add_argument("-t", "--technique", default="auto",
                       help="technique name (see 'caustica techniques'; default auto: planned for the scene)")
     view.add_argument("--quality", choices=QUALITIES, help="auto's quality (default balanced)")
@@ -211,15 +217,17 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--no-panel", action="store_true", help="start with the panel hidden (Tab toggles it)")
     view.add_argument("--play", action="store_true", help="start the animation of an animated preset (caustics-pool)")
     _environment_option(view)
+    _camera_option(view)
 
     comp = sub.add_parser("compare", help="every technique against the reference: time, PSNR, relMSE, SSIM, FLIP per region")
-    comp.add_argument("scene", help="a .toml scene file or a preset name")
+    comp.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name")
     comp.add_argument("--techniques", type=_names, default=["auto", "exact"], help="comma-separated (default auto,exact)")
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
     comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
     comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
     _environment_option(comp)
+    _camera_option(comp)
     comp.add_argument("--json", help="write the figures as JSON here")
     comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
     comp.add_argument("--tonemap", choices=TONEMAPS, default="clip",
@@ -237,6 +245,13 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--no-mitsuba", action="store_true", help="skip the time-to-quality comparison")
     bench.add_argument("--json", help="write the figures as JSON here")
     bench.add_argument("--plot", help="write ms-vs-resolution and error-vs-time plots (PNG) here")
+
+    export = sub.add_parser("export", help="write a scene as glTF 2.0 (.glb, .gltf) or Mitsuba 3 XML (.xml)")
+    export.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name")
+    export.add_argument("-o", "--output", required=True,
+                        help="out.glb (binary glTF), out.gltf (JSON, data embedded) or out.xml (Mitsuba 3)")
+    _environment_option(export)
+    _camera_option(export)
 
     pre = sub.add_parser("precompute", help="light transport table of a glass mesh (Iwasaki et al.), quantized, to .npz")
     pre.add_argument("mesh", help="a mesh file (.obj, .ply, .stl, .glb, .gltf, .off), in object space")
@@ -461,6 +476,16 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .scene.io import EXPORT_SUFFIXES, export_scene
+
+    output = _check_output(args.output, EXPORT_SUFFIXES)
+    scene, = _scenes([args.scene], args)
+    export_scene(scene, output)
+    print(f"wrote {output} ({len(scene.objects)} objects, {len(scene.lights)} lights)")
+    return 0
+
+
 def cmd_precompute(args) -> int:
     from .scene.mesh import load_mesh
     from .transport.compress import quantization_errors, quantize, save_table
@@ -581,7 +606,7 @@ def cmd_info(args) -> int:
 
 
 COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
-            "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
+            "export": cmd_export, "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())
