@@ -8,14 +8,12 @@ entries, least recently used first out. ``release`` frees all of it; the context
 """
 from __future__ import annotations
 
-import hashlib
 import os
-import weakref
 
 import moderngl
 import numpy as np
 
-from ..cache import LruCache
+from ..cache import LruCache, array_digest
 from ..errors import SceneError
 from .context import collect_dropped, describe, is_inherited, shared_context
 from .meshes import MeshCache
@@ -152,22 +150,3 @@ def release_all(value, targets=None) -> None:
             targets.give_back(obj)
         else:
             obj.release()
-
-
-_DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); an entry goes with its array
-
-
-def array_digest(array: np.ndarray) -> str:
-    """A hash of ``array``'s shape, type and bytes, computed once while the array lives (an
-    environment image is hashed when first seen, not each frame; change an image by assigning a
-    new array, not in place)."""
-    key = id(array)
-    entry = _DIGESTS.get(key)
-    if entry is not None and entry[0]() is array:
-        return entry[1]
-    data = np.ascontiguousarray(array)
-    h = hashlib.blake2b(f"{data.dtype.str}{data.shape}".encode(), digest_size=16)
-    h.update(memoryview(data).cast("B"))
-    digest = h.hexdigest()
-    _DIGESTS[key] = (weakref.ref(array, lambda _, k=key: _DIGESTS.pop(k, None)), digest)
-    return digest

@@ -34,6 +34,7 @@ from ..errors import SceneError
 from ..gpu.meshes import set_uniform, write_uniform_array
 from ..parameters import Params, param
 from ..scene import rules
+from ..scene.textures import texture_of
 from .base import Channel, Frame, Pass
 from .offscreen import aimed_camera, offscreen_channels, scene_subset
 from .surfaces import ShadeSurfaces
@@ -312,12 +313,15 @@ def world_index(frame: Frame, obj) -> int | None:
 
 
 def nearby_planes(scene) -> list[tuple]:
-    """The diffuse planar objects as (centre, normal, half_u, half_v, colour), at most MAX_PLANES."""
+    """The diffuse planar objects as (centre, normal, half_u, half_v, colour), at most MAX_PLANES; a
+    textured one's colour is times its texture's mean (the shader's planes have no uvs)."""
     planes = []
     for obj in scene.objects_of("diffuse"):
         rect = planar_rectangle(obj)
         if rect is not None:
-            planes.append((*rect, np.asarray(obj.material.color, np.float64)))
+            texture = texture_of(obj)
+            mean = 1.0 if texture is None else texture.reshape(-1, 3).mean(axis=0, dtype=np.float64)
+            planes.append((*rect, np.asarray(obj.material.color, np.float64) * mean))
     return planes[:MAX_PLANES]
 
 

@@ -27,8 +27,9 @@ class Diffuse:
     def validate(self) -> None:
         """Check and normalize the fields (the loader and Scene.validate share these rules)."""
         self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
-        if self.texture is not None:
-            self.texture = rules.texture(self.texture, "texture")
+        if self.texture is not None:  # read once per array, as meshes are (renders validate every frame)
+            rules.once_per_arrays(self, ("texture",),
+                                  lambda: setattr(self, "texture", rules.texture(self.texture, "texture")))
 
 
 @dataclass
