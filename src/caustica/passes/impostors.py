@@ -41,6 +41,8 @@ from .surfaces import ShadeSurfaces
 
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
 MAX_PLANES = 8
+MAX_PLANE_TEXTURES = 4  # textured planes with their own texture (units 26..29); more take the mean colour
+FIRST_PLANE_TEXTURE_UNIT = 26  # after ShadeSurfaces' albedo texture (passes/surfaces.py ALBEDO_UNIT, 25)
 IMPOSTOR_UNIT = 24  # the atlas: after ShadeSurfaces' environment, inputs, shadow and caustic maps
 NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
 
@@ -312,28 +314,81 @@ def world_index(frame: Frame, obj) -> int | None:
 # Wyman's options ----------------------------------------------------------------------------
 
 
-def nearby_planes(scene) -> list[tuple]:
-    """The diffuse planar objects as (centre, normal, half_u, half_v, colour), at most MAX_PLANES; a
-    textured one's colour is times its texture's mean (the shader's planes have no uvs)."""
+@dataclass
+class NearbyPlane:
+    """A diffuse planar object as the shader's planes see it (impostors.glsl, NEARBY_PLANES)."""
+
+    center: np.ndarray
+    normal: np.ndarray
+    half_u: np.ndarray  # half extents along the rectangle's sides
+    half_v: np.ndarray
+    color: np.ndarray  # albedo (times the texture's mean where the texture cannot be mapped)
+    texture: np.ndarray | None = None  # mapped affinely: uv = uv_origin + s uv_axes[0] + t uv_axes[1]
+    uv_origin: np.ndarray = field(default_factory=lambda: np.zeros(2))  # uv at the centre
+    uv_axes: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))  # d uv / d s, d uv / d t (s, t: -1..1)
+
+
+def nearby_planes(scene) -> list[NearbyPlane]:
+    """The diffuse planar objects, at most MAX_PLANES; the first MAX_PLANE_TEXTURES textured ones whose
+    uvs are an affine map of the rectangle keep their texture, the others take its mean colour."""
     planes = []
     for obj in scene.objects_of("diffuse"):
         rect = planar_rectangle(obj)
-        if rect is not None:
-            texture = texture_of(obj)
-            mean = 1.0 if texture is None else texture.reshape(-1, 3).mean(axis=0, dtype=np.float64)
-            planes.append((*rect, np.asarray(obj.material.color, np.float64) * mean))
+        if rect is None:
+            continue
+        plane = NearbyPlane(*rect, np.asarray(obj.material.color, np.float64))
+        texture = texture_of(obj)
+        mapping = affine_uvs(obj, plane) if texture is not None else None
+        if mapping is not None and sum(p.texture is not None for p in planes) < MAX_PLANE_TEXTURES:
+            plane.texture, (plane.uv_origin, plane.uv_axes) = texture, mapping
+        elif texture is not None:
+            plane.color = plane.color * texture.reshape(-1, 3).mean(axis=0, dtype=np.float64)
+        planes.append(plane)
     return planes[:MAX_PLANES]
 
 
-def bind_planes(program, scene) -> None:
-    planes = nearby_planes(scene)
+def affine_uvs(obj, plane: NearbyPlane, tolerance: float = 1e-4):
+    """(uv at the centre, (d uv / d s, d uv / d t)) when ``obj``'s uvs are an affine function of the
+    rectangle coordinates s, t (-1..1 along half_u, half_v) within ``tolerance``, else None."""
+    mesh = obj.world_mesh()
+    q = mesh.vertices.astype(np.float64) - plane.center
+    st = np.stack([q @ plane.half_u / (plane.half_u @ plane.half_u), q @ plane.half_v / (plane.half_v @ plane.half_v)], 1)
+    design = np.hstack([np.ones((len(st), 1)), st])
+    fit, *_ = np.linalg.lstsq(design, mesh.uvs.astype(np.float64), rcond=None)
+    if np.abs(design @ fit - mesh.uvs).max() > tolerance:
+        return None
+    return fit[0], fit[1:]
+
+
+def bind_planes(program, frame: Frame) -> None:
+    """Set impostors.glsl's plane uniforms and bind the planes' textures (units from FIRST_PLANE_TEXTURE_UNIT)."""
+    planes = nearby_planes(frame.scene)
     set_uniform(program, "plane_count", len(planes))
     if not planes:
         return
-    for k, name in enumerate(("center", "normal", "u", "v", "color")):
+    for name in ("center", "normal", "half_u", "half_v", "color"):
         values = np.zeros((MAX_PLANES, 3), "f4")
-        values[: len(planes)] = [p[k] for p in planes]
-        write_uniform_array(program, f"plane_{name}", values)
+        values[: len(planes)] = [getattr(p, name) for p in planes]
+        write_uniform_array(program, f"plane_{name.removeprefix('half_')}", values)
+    textured = [k for k, p in enumerate(planes) if p.texture is not None]
+    if not textured or "plane_texture" not in program:
+        return
+    index, origins, axes = np.full(MAX_PLANES, -1, "i4"), np.zeros((MAX_PLANES, 2), "f4"), np.zeros((MAX_PLANES, 4), "f4")
+    for j, k in enumerate(textured):
+        index[k], origins[k], axes[k] = j, planes[k].uv_origin, planes[k].uv_axes.reshape(-1)
+    write_uniform_array(program, "plane_texture_index", index)
+    write_uniform_array(program, "plane_uv_origin", origins)
+    write_uniform_array(program, "plane_uv_axes", axes)
+    units = [FIRST_PLANE_TEXTURE_UNIT + j for j in range(len(textured))]
+    for unit, k in zip(units, textured):
+        frame.gpu.albedo_texture(planes[k].texture).use(unit)
+    program["plane_texture"].write(np.array(units, "i4").tobytes())
+
+
+def plane_defines(frame: Frame) -> dict:
+    """PLANE_TEXTURES for this frame's shaders: how many of its planes are textured (no define for none)."""
+    count = sum(p.texture is not None for p in nearby_planes(frame.scene))
+    return {"PLANE_TEXTURES": count} if count else {}
 
 
 class NearbyView(Pass):
@@ -376,12 +431,14 @@ class NearbyParams(Params):
 
 @dataclass
 class NearbyOption:
-    """What a view technique adds for its ``nearby`` option: passes before shading, inputs, defines, uniforms."""
+    """What a view technique adds for its ``nearby`` option: passes before shading, inputs, defines, uniforms,
+    and defines from the frame (ShadeOptions.frame_defines)."""
 
     passes: list
     inputs: tuple
     defines: dict
     set_uniforms: object
+    frame_defines: object = None
 
 
 def nearby_option(nearby: str, params) -> NearbyOption:
@@ -390,7 +447,8 @@ def nearby_option(nearby: str, params) -> NearbyOption:
     if nearby == "none":
         return NearbyOption([], (), {}, None)
     if nearby == "planes":
-        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, frame.scene))
+        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, frame),
+                            plane_defines)
 
     def set_search(program, frame, obj):
         if obj is not None:

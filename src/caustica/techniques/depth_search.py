@@ -102,6 +102,7 @@ class DepthSearch(RasterTechnique):
             ShadeSurfaces("passes/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
                           set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",),
+                          frame_defines=nearby.frame_defines,
                           captures_front_surface=True,
                           # Back faces first: the search runs in a second resolve stage, only where needed.
                           staged=("glass",) if params.assume_back_first else ()),

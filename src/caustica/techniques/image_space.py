@@ -76,5 +76,6 @@ class ImageSpace(RasterTechnique):
             passes.append(FrontDistanceAlongNormal())
         passes += nearby.passes
         passes.append(ShadeSurfaces("passes/image_space.frag", defines, inputs=inputs + nearby.inputs,
-                                    set_uniforms=nearby.set_uniforms, deferred=("glass",)))
+                                    set_uniforms=nearby.set_uniforms, deferred=("glass",),
+                                    frame_defines=nearby.frame_defines))
         return passes

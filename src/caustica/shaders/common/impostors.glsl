@@ -18,7 +18,8 @@
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
 //   only), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
-//   every iteration a uniform bound allows), MAX_PLANES (8), PHOTON_BUFFER (0): 1 makes a hit
+//   every iteration a uniform bound allows), MAX_PLANES (8), PLANE_TEXTURES (0: the textured planes,
+//   at most passes/impostors.py MAX_PLANE_TEXTURES), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
 //   direction, 1 the nearby hit point (xyz, w = 1 hit), 2 the photon record (u, v, k + 1, w = 1 hit).
@@ -236,6 +237,28 @@ uniform vec3 plane_normal[MAX_PLANES];
 uniform vec3 plane_u[MAX_PLANES];       // half extents along the rectangle's sides
 uniform vec3 plane_v[MAX_PLANES];
 uniform vec3 plane_color[MAX_PLANES];   // diffuse albedo
+#ifndef PLANE_TEXTURES
+#define PLANE_TEXTURES 0
+#endif
+#if PLANE_TEXTURES
+uniform sampler2D plane_texture[PLANE_TEXTURES];
+uniform int plane_texture_index[MAX_PLANES];  // into plane_texture; -1: untextured
+uniform vec2 plane_uv_origin[MAX_PLANES];     // uv at the centre
+uniform vec4 plane_uv_axes[MAX_PLANES];       // d uv / d s (xy), d uv / d t (zw); s, t: -1..1 along u, v
+#endif
+
+// Plane k's albedo at q (from its centre): its colour, times its texture at the uvs, an affine map
+// of the point on the rectangle (level 0: a ray's lookup has no screen derivatives).
+vec3 plane_albedo(int k, vec3 q) {
+    vec3 albedo = plane_color[k];
+#if PLANE_TEXTURES
+    vec2 st = vec2(dot(q, plane_u[k]) / dot(plane_u[k], plane_u[k]), dot(q, plane_v[k]) / dot(plane_v[k], plane_v[k]));
+    vec2 uv = plane_uv_origin[k] + st.x * plane_uv_axes[k].xy + st.y * plane_uv_axes[k].zw;
+    for (int j = 0; j < PLANE_TEXTURES; ++j)  // constant indices into the sampler array
+        if (j == plane_texture_index[k]) albedo *= textureLod(plane_texture[j], uv, 0.0).rgb;
+#endif
+    return albedo;
+}
 
 vec3 nearby_radiance(vec3 o, vec3 d) {
     d = normalize(d);
@@ -254,7 +277,7 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     vec3 n = dot(plane_normal[hit], d) < 0.0 ? plane_normal[hit] : -plane_normal[hit];
     nearby_hit = vec4(p, 1.0);
     vec3 e = direct_irradiance(p, n) + ambient_irradiance(n) + caustic_irradiance(p, n);
-    return plane_color[hit] / PI * e;
+    return plane_albedo(hit, p - plane_center[hit]) / PI * e;
 }
 
 #elif NEARBY >= NEARBY_SEARCH_LINEAR
