@@ -58,10 +58,7 @@ def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError)
 
 def _read_exr(path: Path) -> np.ndarray:
     """R, G, B channels (or a single Y channel, replicated) of an OpenEXR file."""
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as exr:
-        channels = {name: ch.pixels for name, ch in exr.channels().items()}
+    channels = _exr_channels(path)
     if all(c in channels for c in "RGB"):
         planes = [channels[c] for c in "RGB"]
     elif "Y" in channels:
@@ -69,6 +66,25 @@ def _read_exr(path: Path) -> np.ndarray:
     else:
         raise ValueError(f"no R, G, B or Y channel (found {', '.join(sorted(channels)) or 'none'})")
     return np.stack([np.asarray(p, dtype=np.float32) for p in planes], axis=-1)
+
+
+def read_exr_channels(path: str | Path, error: type[Exception] = EnvironmentImageError) -> dict[str, np.ndarray]:
+    """Every channel of an OpenEXR file by its full name ('depth.Z', 'R'), as (H, W) arrays in their
+    stored type; failures raise ``error`` with one line."""
+    path = Path(path)
+    if not path.is_file():
+        raise error(f"image file not found: {path}; check the path")
+    try:
+        return _exr_channels(path)
+    except Exception as exc:  # OpenEXR raises many types
+        raise error(f"cannot read image {path}: {first_line(exc)}; check that it is a valid exr file") from None
+
+
+def _exr_channels(path: Path) -> dict[str, np.ndarray]:
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        return {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
 
 
 def decode_8bit(source) -> np.ndarray:
@@ -292,9 +308,20 @@ def _write_png(tmp: str, pixels: np.ndarray) -> None:
     Image.fromarray(pixels).save(tmp, format="PNG")
 
 
+def write_exr_channels(path: str | Path, channels: dict[str, np.ndarray]) -> Path:
+    """Write one OpenEXR (ZIP compressed, atomically) of named (H, W) float32 or uint32 channels, e.g.
+    {'depth.Z': ..., 'normal.X': ...}: a multi-layer file, each layer's channels 'layer.suffix'."""
+    planes = {name: np.ascontiguousarray(p) for name, p in channels.items()}
+    return write_atomic(Path(path), lambda tmp: _write_exr_planes(tmp, planes))
+
+
 def _write_exr(tmp: str, image: np.ndarray) -> None:
+    _write_exr_planes(tmp, {"RGB": np.ascontiguousarray(image, dtype=np.float32)})
+
+
+def _write_exr_planes(tmp: str, planes: dict) -> None:
     import OpenEXR
 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image, dtype=np.float32)}) as exr:
+    with OpenEXR.File(header, planes) as exr:
         exr.write(tmp)

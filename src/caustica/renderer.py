@@ -9,8 +9,10 @@ import numpy as np
 from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
+from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
 from .passes.base import Frame
 from .passes.graph import run_graph
+from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import ANTIALIAS_MODES, resolved
 from .scene import Scene, rules
 from .scene.scene import check_scene
@@ -87,19 +89,23 @@ class Renderer:
         camera = scene.camera if self.size is None else scene.camera.with_size(*self.size)
         return camera
 
-    def render(self, scene: Scene, technique: str = "auto", spp: int = 1, *, antialias: str = "none",
-               **params) -> np.ndarray:
+    def render(self, scene: Scene, technique: str = "auto", spp: int = 1, *, labels=None, antialias: str = "none",
+               **params):
         """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
         techniques`` lists them) or a Technique instance. ``antialias``: ``none`` or ``edge``, a
-        post-process on rasterized images (passes/resolve.py; CPU techniques ignore it)."""
-        image, _ = self.render_timed(scene, technique, spp, antialias=antialias, **params)
-        return image
+        post-process on rasterized images (passes/resolve.py; CPU techniques ignore it). ``labels``: a
+        list of names from caustica.labels.LABELS; then ``(image, layers)``, layers a {name: array}
+        at the output size (docs/labels.md)."""
+        result, _ = self.render_timed(scene, technique, spp, labels=labels, antialias=antialias, **params)
+        return result
 
-    def render_timed(self, scene: Scene, technique: str = "auto", spp: int = 1, *, antialias: str = "none",
-                     **params):
-        """Render and return (image, milliseconds), the GPU finished before the clock stops."""
+    def render_timed(self, scene: Scene, technique: str = "auto", spp: int = 1, *, labels=None,
+                     antialias: str = "none", **params):
+        """Render and return (image, milliseconds), the GPU finished before the clock stops; with
+        ``labels``, ((image, layers), milliseconds), the layers' time included."""
         self._check_open()  # exact never touches the device
         check_antialias(antialias)
+        names = None if labels is None else check_labels(labels)
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
@@ -108,13 +114,21 @@ class Renderer:
         check_spp(tech, spp)
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         self._check_frame(tech, scene, camera, parameters, spp)
+        if names is not None:
+            check_technique_gives(tech, parameters, names)
         start = time.perf_counter()
         if tech.uses_gl:
-            image = self._render_graph(tech, scene, camera, parameters, int(spp), antialias)
+            image, buffers = self._render_graph(tech, scene, camera, parameters, int(spp), antialias, names)
             self.device.finish()
         else:
             image = tech.render(scene, camera, parameters, int(spp))
-        return image, (time.perf_counter() - start) * 1000.0
+        if names is None:
+            return image, (time.perf_counter() - start) * 1000.0
+        if tech.uses_gl:
+            layers = raster_layers(buffers, names, scene, camera, supersampling_factor(spp))
+        else:
+            layers = traced_layers(scene, camera, int(spp), names, tech, parameters)
+        return (image, layers), (time.perf_counter() - start) * 1000.0
 
     def resolve(self, tech, scene: Scene, camera, parameters, spp: int = 1):
         """The technique and parameters that render ``scene``: ``tech`` itself, or a planner's (``auto``)
@@ -136,14 +150,14 @@ class Renderer:
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         return self._run_frame(tech, scene, camera, parameters, spp, keep)
 
-    def _run_frame(self, tech, scene: Scene, camera, parameters, spp: int, keep) -> Frame:
-        """render_frame for a resolved technique."""
+    def _run_frame(self, tech, scene: Scene, camera, parameters, spp: int, keep, extra=()) -> Frame:
+        """render_frame for a resolved technique; ``extra``: passes run after the technique's (labels)."""
         k = supersampling_factor(spp)
         width, height = camera.size
         frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
                       pass_ms={} if self.profile_passes else None)
         try:
-            run_graph(tech.build_passes(parameters), frame, keep=keep)
+            run_graph([*tech.build_passes(parameters), *extra], frame, keep=keep)
         except BaseException:
             frame.give_back()
             raise
@@ -179,15 +193,21 @@ class Renderer:
             pass  # a cache that cannot be written only costs a measurement
         return ms
 
-    def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int, antialias: str = "none") -> np.ndarray:
+    def _render_graph(self, tech, scene: Scene, camera, parameters, spp: int, antialias: str = "none",
+                      labels=None):
         """The technique's image: its graph run, the colour resolved on the GPU (averaged over k x k
         samples, edge anti-aliased with ``antialias``), read back; every texture given back but those kept
-        for inspection (``keep_channels``)."""
+        for inspection (``keep_channels``). Returns (image, label buffers): with ``labels`` (checked
+        names), passes/labels.py's pass runs last and its buffers are read back too, else None."""
         self._give_back_kept()
-        frame = self._run_frame(tech, scene, camera, parameters, spp, keep=None if self._keep else ("color",))
+        k = supersampling_factor(spp)
+        extra = [] if labels is None else [label_pass(scene, labels, k)]
+        keep = None if self._keep else ("color", *(c.name for p in extra for c in p.writes))
+        frame = self._run_frame(tech, scene, camera, parameters, spp, keep=keep, extra=extra)
         try:
             # Resolved on the GPU: a k^2 smaller readback, no CPU pass over every sample.
-            image = read_rgb(resolved(frame, frame.read("color"), supersampling_factor(spp), antialias))
+            image = read_rgb(resolved(frame, frame.read("color"), k, antialias))
+            buffers = read_label_buffers(frame) if extra else None
         except BaseException:
             frame.give_back()
             raise
@@ -195,7 +215,7 @@ class Renderer:
             self._kept, self.channels = frame, dict(frame.channels)
         else:
             frame.give_back()
-        return image.astype(np.float32)
+        return image.astype(np.float32), buffers
 
     def _give_back_kept(self) -> None:
         """Give back the textures of the frame kept for inspection (the previous one)."""
