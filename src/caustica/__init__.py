@@ -32,6 +32,10 @@ def __getattr__(name):
         from .techniques.auto import plan
 
         return plan
+    if name == "batch":  # the package caustica.batch, callable as the function batch()
+        import importlib
+
+        return importlib.import_module(".batch", __name__)
     if name == "show":
         from .notebook import show
 
@@ -39,6 +43,6 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
-__all__ = ["load_scene", "Renderer", "plan", "show", "CausticaError", "EnvironmentImageError", "GLUnavailableError",
+__all__ = ["load_scene", "Renderer", "plan", "show", "batch", "CausticaError", "EnvironmentImageError", "GLUnavailableError",
            "MeshError", "MissingExtraError", "OutputError", "RendererClosedError", "RenderOptionError", "SceneError",
            "TechniqueError"]

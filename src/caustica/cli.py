@@ -1,4 +1,4 @@
-"""Command line: ``caustica render | view | compare | bench | export | techniques | graph | presets | info``.
+"""Command line: ``caustica render | view | compare | bench | batch | export | techniques | graph | presets | info``.
 
 Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
 """
@@ -87,7 +87,7 @@ BUDGET = _number(0.001, 1e6)  # auto's frame-time budget, milliseconds (0 or les
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
 # so argparse does not read the value as an option.
 _VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--reference-spp", "--quality-size", "--max-spp",
-                  "--ior", "--directions", "--max-depth", "--sizes"}
+                  "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers"}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -246,6 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", help="write the figures as JSON here")
     bench.add_argument("--plot", help="write ms-vs-resolution and error-vs-time plots (PNG) here")
 
+    _batch_parser(sub)
+
     export = sub.add_parser("export", help="write a scene as glTF 2.0 (.glb, .gltf) or Mitsuba 3 XML (.xml)")
     export.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name")
     export.add_argument("-o", "--output", required=True,
@@ -279,6 +281,35 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
     return parser
+
+
+def _batch_parser(sub) -> None:
+    from .batch.sweep import LABEL_FORMATS, MAX_FRAMES as MAX_BATCH_FRAMES
+
+    batch = sub.add_parser("batch", help="render a dataset: many frames of a scene or sweep file, with a manifest "
+                                         "(resumable; spawned workers or Ray)")
+    batch.add_argument("scene", help="a sweep file (.toml with scene = ...; docs/batch.md), a .toml or glTF scene "
+                                     "file, or a preset name")
+    batch.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder: one file set per frame "
+                                                                            "and manifest.jsonl")
+    batch.add_argument("--frames", type=_integer(1, MAX_BATCH_FRAMES), help="number of frames (default: the "
+                                                                              "sweep's, else 1)")
+    batch.add_argument("--orbit", type=_number(-1e6, 1e6), metavar="DEG",
+                       help="turn the camera about its look_at point, +Y up: frame i of N at i * DEG / N degrees")
+    batch.add_argument("--size", type=_size, help="image size WxH (default: the sweep's, else the scene camera's)")
+    batch.add_argument("--spp", type=SPP, help="samples per pixel, a square (default: the sweep's, else 1)")
+    batch.add_argument("-t", "--technique", help="technique name (default: the sweep's, else auto)")
+    batch.add_argument("--labels", type=_names, help="label layers per frame, comma-separated (id, depth, ...)")
+    batch.add_argument("--labels-format", choices=LABEL_FORMATS, help="labels file: exr (multi-layer, default) "
+                                                                     "or npz")
+    batch.add_argument("--workers", type=_integer(1, 256), default=1, help="spawned worker processes, one GL "
+                                                                           "context each (default 1: this process)")
+    batch.add_argument("--ray", metavar="ADDRESS|local", help="render as Ray tasks on the cluster at ADDRESS, or on "
+                                                               "a local Ray (pip install 'caustica[batch]')")
+    batch.add_argument("--force", action="store_true", help="start over in a folder that holds another job's "
+                                                            "(or this job's) frames")
+    _environment_option(batch)
+    _camera_option(batch)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -349,6 +380,27 @@ def cmd_render(args) -> int:
     print(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
           f"{statistics.median(timings):.1f} ms per frame on {where}")
     return 0
+
+
+def cmd_batch(args) -> int:
+    """Exit code 0 when every frame rendered, 1 when some failed (their manifest rows say why)."""
+    from .batch import batch
+    from .batch.progress import ProgressDisplay
+
+    if args.ray is not None and args.workers != 1:
+        raise CausticaError("give --workers or --ray, not both (Ray sizes its own workers)")
+    display = ProgressDisplay()
+    try:
+        rows = batch(args.scene, args.output, args.frames, orbit=args.orbit, size=args.size, spp=args.spp,
+                     technique=args.technique, labels=args.labels, labels_format=args.labels_format,
+                     environment=args.environment, camera=args.camera, workers=args.workers, ray=args.ray,
+                     force=args.force, progress=display)
+    finally:
+        display.close()
+    failed = [row for row in rows if "error" in row]
+    print(f"{len(rows) - len(failed)} of {len(rows)} frames in {args.output} (manifest.jsonl)"
+          + (f"; {len(failed)} failed, e.g. frame {failed[0]['index']}: {failed[0]['error']}" if failed else ""))
+    return 1 if failed else 0
 
 
 def cmd_view(args) -> int:
@@ -606,7 +658,7 @@ def cmd_info(args) -> int:
 
 
 COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
-            "export": cmd_export, "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
+            "export": cmd_export, "batch": cmd_batch, "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,0 +1,42 @@
+"""Batch rendering of datasets: ``caustica.batch(scene_or_sweep, out_dir, ...)`` and ``caustica batch``.
+
+sweep.py reads sweep files, edits.py applies a frame's values to a scene, job.py holds the job and its
+frame loop, manifest.py the output folder's records, frame.py the worker that renders, workers.py the
+backends (in-process, spawned processes, Ray). docs/batch.md describes it all.
+"""
+from __future__ import annotations
+
+import sys
+import types
+
+
+def batch(scene_or_sweep, out_dir, frames: int | None = None, *, orbit: float | None = None, size=None,
+          spp: int | None = None, technique: str | None = None, labels=None, labels_format: str | None = None,
+          image_format: str | None = None, seed: int | None = None, environment: str | None = None,
+          camera: str | None = None, workers: int = 1, ray: str | None = None, force: bool = False,
+          progress=None) -> list[dict]:
+    """Render ``frames`` frames of a scene (preset, file, Scene) or a sweep file into ``out_dir`` and
+    return every frame's manifest row. Finished frames of the same job there are kept; ``progress``
+    is called with a :class:`caustica.batch.job.Progress` after each frame. Arguments given win over
+    the sweep file's settings; ``workers`` spawned processes or a Ray cluster (``ray``: an address or
+    'local') render. Rows of failed frames hold ``error``."""
+    from .job import make_job, run_job
+
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        from ..errors import CausticaError
+
+        raise CausticaError(f"workers must be a positive integer (got {workers!r})")
+    job, base = make_job(scene_or_sweep, out_dir, frames=frames, orbit=orbit, size=size, spp=spp,
+                         technique=technique, labels=labels, labels_format=labels_format,
+                         image_format=image_format, seed=seed, environment=environment, camera=camera)
+    return run_job(job, base, workers=workers, ray=ray, force=force, progress=progress)
+
+
+class _CallableModule(types.ModuleType):
+    """``caustica.batch`` is this package and the function: ``caustica.batch(...)`` calls :func:`batch`."""
+
+    def __call__(self, *args, **kwargs):
+        return batch(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

@@ -1,0 +1,244 @@
+"""caustica batch: orbits and sweeps, workers, resume, refusal, failed frames, bad sweep files, Ray, labels."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import caustica
+from caustica.cli import main
+
+SIZE = (48, 36)
+FAST = dict(size=SIZE, spp=1, technique="plain")
+
+
+def rows_of(folder: Path) -> list[dict]:
+    return [json.loads(line) for line in (folder / "manifest.jsonl").read_text().splitlines()]
+
+
+def pixels(folder: Path, row: dict) -> np.ndarray:
+    return np.asarray(Image.open(folder / row["files"]["image"]))
+
+
+def write_sweep(folder: Path, text: str) -> Path:
+    path = folder / "sweep.toml"
+    path.write_text(text)
+    return path
+
+
+def run_cli(args: list[str], capsys) -> tuple[int, str]:
+    code = main(args)
+    return code, capsys.readouterr().err
+
+
+def test_orbit_with_two_workers_matches_one_worker(tmp_path):
+    one = caustica.batch("caustic-sphere", tmp_path / "one", 12, orbit=360, **FAST)
+    two = caustica.batch("caustic-sphere", tmp_path / "two", 12, orbit=360, workers=2, **FAST)
+    assert [r["index"] for r in two] == list(range(12)) and len(rows_of(tmp_path / "two")) == 12
+    assert sorted(p.name for p in (tmp_path / "two").glob("frame_*.png")) == [f"frame_{i:06d}.png" for i in range(12)]
+    assert [r["values"]["camera.orbit"] for r in two] == pytest.approx([30.0 * i for i in range(12)])
+    assert {r["worker"] for r in one} == {os.getpid()}
+    assert os.getpid() not in {r["worker"] for r in two} and len({r["worker"] for r in two}) <= 2
+    for a, b in zip(one, two):  # a frame is the same whichever process renders it
+        assert np.array_equal(pixels(tmp_path / "one", a), pixels(tmp_path / "two", b))
+    assert not np.array_equal(pixels(tmp_path / "one", one[0]), pixels(tmp_path / "one", one[3]))
+    assert all(r["renderer"] and r["technique"] == "plain" and r["seed"] == 0 and r["ms"] > 0 for r in two)
+
+
+def test_orbit_turns_counter_clockwise_seen_from_above(tmp_path):
+    from caustica.batch.job import make_job
+    from caustica.batch.edits import SceneEditor
+
+    job, base = make_job("glass-sphere", tmp_path, frames=4, orbit=360)  # camera at +Z, look_at the origin
+    editor = SceneEditor(base)
+    positions = [editor.apply(job.values(i)).camera.position for i in range(4)]
+    assert np.allclose(positions, [[0, 0, 4], [4, 0, 0], [0, 0, -4], [-4, 0, 0]], atol=1e-9)
+
+
+def test_interrupted_run_resumes_without_rendering_finished_frames(tmp_path):
+    out = tmp_path / "out"
+
+    def stop_after_three(state):
+        if state.rendered == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        caustica.batch("caustic-sphere", out, 8, orbit=90, progress=stop_after_three, **FAST)
+    first = {r["index"]: r for r in rows_of(out)}
+    assert sorted(first) == [0, 1, 2]
+    seen = []
+    rows = caustica.batch("caustic-sphere", out, 8, orbit=90, progress=lambda s: seen.append(s.row["index"]), **FAST)
+    assert sorted(seen) == [3, 4, 5, 6, 7]  # only the unfinished frames rendered
+    assert [r["index"] for r in rows] == list(range(8)) and [r["index"] for r in rows_of(out)] == list(range(8))
+    assert all(rows[i]["time"] == first[i]["time"] for i in range(3))
+    # A damaged file is not finished: that frame alone renders again.
+    (out / rows[5]["files"]["image"]).write_bytes(b"\x89PNG broken")
+    seen.clear()
+    caustica.batch("caustic-sphere", out, 8, orbit=90, progress=lambda s: seen.append(s.row["index"]), **FAST)
+    assert seen == [5]
+
+
+def test_killed_run_restarts_and_ends_with_every_frame_once(tmp_path):
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "caustica.cli", "batch", "caustic-sphere", "-o", str(out), "--frames", "16",
+               "--orbit", "180", "--size", "48x36", "-t", "env-map", "--workers", "2"]
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        manifest = out / "manifest.jsonl"
+        if manifest.exists() and manifest.read_text().count("\n") >= 3:
+            break
+        time.sleep(0.02)
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    before = {json.loads(line)["index"]: json.loads(line) for line in (out / "manifest.jsonl").read_text().splitlines()
+              if line.endswith("}")}
+    assert 3 <= len(before) < 16
+    time.sleep(0.3)  # the orphaned workers notice their parent is gone
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    rows = rows_of(out)
+    assert [r["index"] for r in rows] == list(range(16))
+    for index, row in before.items():
+        if "error" not in row:
+            assert rows[index]["time"] == row["time"]  # not rendered again
+    assert "frame 16/16" in done.stderr  # plain progress lines when stderr is no terminal
+
+
+def test_sweep_values_land_in_manifest_and_images(tmp_path):
+    sweep = write_sweep(tmp_path, """
+scene = "glass-sphere"
+frames = 4
+seed = 3
+technique = "env-map"
+size = [48, 36]
+[objects.sphere]
+ior = { uniform = [1.1, 1.9] }
+[environment]
+strength = { list = [1.0], cycle = true }
+""")
+    rows = caustica.batch(sweep, tmp_path / "out")
+    iors = [r["values"]["objects.sphere.ior"] for r in rows]
+    assert all(1.1 <= v <= 1.9 for v in iors) and len(set(iors)) == 4
+    assert all(r["values"]["environment.strength"] == 1.0 for r in rows)
+    # Frame i's draw depends on (seed, i, key) only: a longer job draws the same values first.
+    longer = caustica.batch(sweep, tmp_path / "longer", 6)
+    assert [r["values"]["objects.sphere.ior"] for r in longer[:4]] == iors
+    images = [pixels(tmp_path / "out", r).astype(int) for r in rows]
+    centre, corner = (slice(14, 22), slice(20, 28)), (slice(0, 3), slice(0, 3))
+    assert np.abs(images[0][centre] - images[1][centre]).max() > 20  # the glass changed
+    assert all(np.array_equal(images[0][corner], im[corner]) for im in images)  # the background did not
+
+
+def test_auto_records_the_planned_technique(tmp_path):
+    rows = caustica.batch("caustic-sphere", tmp_path / "out", 2, orbit=20, size=SIZE)
+    assert rows[0]["technique"] not in ("auto", "") and rows[0]["technique"] == rows[1]["technique"]
+    assert "+" in rows[0]["technique"]  # a view technique with caustics for a glass ball over a lit floor
+
+
+def test_another_jobs_folder_is_refused_unless_force(tmp_path, capsys):
+    out = str(tmp_path / "out")
+    base = ["batch", "caustic-sphere", "-o", out, "--size", "48x36", "-t", "plain", "--frames", "2"]
+    assert run_cli(base, capsys)[0] == 0
+    code, err = run_cli(base + ["--orbit", "30"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "another job" in err and "--force" in err
+    assert run_cli(base + ["--orbit", "30", "--force"], capsys)[0] == 0
+    assert [r["values"] for r in rows_of(Path(out))] == [{"camera.orbit": 0.0}, {"camera.orbit": 15.0}]
+
+
+def test_failing_frame_is_recorded_and_exit_code_is_1(tmp_path, capsys):
+    # Each value alone is a valid scene; frame 1 puts the scaled sphere beyond the +-1e6 limit.
+    sweep = write_sweep(tmp_path, """
+scene = "glass-sphere"
+frames = 3
+technique = "plain"
+size = [48, 36]
+[objects.sphere]
+position = { list = [[0, 0, 0], [999000, 0, 0], [0, 0, 0]], cycle = true }
+scale = { list = [1, 2000, 1], cycle = true }
+""")
+    code, err = run_cli(["batch", str(sweep), "-o", str(tmp_path / "out")], capsys)
+    rows = rows_of(tmp_path / "out")
+    assert code == 1 and [r["index"] for r in rows] == [0, 1, 2]
+    assert "error" not in rows[0] and "error" not in rows[2] and "reaches" in rows[1]["error"]
+    assert "files" not in rows[1] and rows[1]["values"]["objects.sphere.scale"] == 2000.0
+
+
+BAD_SWEEPS = [
+    ("[objects.sphere]\niorr = 1.4\n", "unknown key 'iorr'", "did you mean 'ior'"),
+    ("[objects.sphere]\nior = { uniform = [1.8, 1.3] }\n", "min 1.8 is above max 1.3", "[min, max]"),
+    ("[objects.sphere]\nior = { list = ['glass', 'water'] }\n", "objects.sphere.ior.list[0] must be a finite number",
+     "'glass'"),
+    ("frames = 0\n", "frames must be in [1,", "0"),
+    ("output = '../escape_{index}'\n", "outside the output folder", "without '..'"),
+    ("output = 'frame'\n", "must use {index}", "frame_{index:06d}"),
+    ("[objects.spere]\nior = 1.4\n", "no object 'spere'", "did you mean 'sphere'"),
+    ("[objects.sphere]\nior = { uniform = [1.2, 20] }\n", "objects.sphere.ior = 20", "ior"),
+    ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
+]
+
+
+@pytest.mark.parametrize("body, problem, fix", BAD_SWEEPS)
+def test_bad_sweep_files_are_one_line_errors(tmp_path, capsys, body, problem, fix):
+    sweep = write_sweep(tmp_path, "scene = 'glass-sphere'\n" + body)
+    code, err = run_cli(["batch", str(sweep), "-o", str(tmp_path / "out")], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("caustica: "), err
+    assert problem in err and fix in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_options_are_one_line_errors(tmp_path, capsys):
+    out = str(tmp_path / "out")
+    for args, problem in ((["--frames", "0"], "out of range"), (["--workers", "0"], "out of range"),
+                          (["--workers", "2", "--ray", "local"], "not both"), (["-t", "nope"], "nope")):
+        code, err = run_cli(["batch", "glass-sphere", "-o", out] + args, capsys)
+        assert code == 2 and err.count("\n") == 1 and problem in err, err
+    with pytest.raises(caustica.CausticaError, match="workers must be a positive integer"):
+        caustica.batch("glass-sphere", out, 1, workers=0)
+
+
+def test_unknown_label_is_one_line(tmp_path, capsys):
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(tmp_path), "--labels", "id,dept"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "did you mean 'depth'" in err
+
+
+@pytest.mark.parametrize("fmt", ["exr", "npz"])
+def test_labels_are_the_frames_layers(tmp_path, fmt):
+    from caustica.batch.edits import SceneEditor
+    from caustica.batch.job import make_job
+    from caustica.labels import read_labels
+
+    names = ["id", "depth", "normal", "glass", "flow", "alpha"]
+    rows = caustica.batch("caustic-sphere", tmp_path, 2, orbit=40, labels=names, labels_format=fmt, size=SIZE,
+                          technique="env-map", workers=2 if fmt == "npz" else 1)
+    job, base = make_job("caustic-sphere", tmp_path, frames=2, orbit=40)
+    for row in rows:
+        path = tmp_path / row["files"]["labels"]
+        assert path.name == f"frame_{row['index']:06d}.labels.{fmt}" and path.stat().st_size == row["sizes"]["labels"]
+        scene = SceneEditor(base).apply(job.values(row["index"]))
+        _, expected = caustica.Renderer(SIZE).render(scene, "env-map", 1, labels=names)
+        written = read_labels(path)
+        assert set(written) == set(expected)
+        for name in expected:
+            assert np.array_equal(written[name], expected[name]), name
+    ids = read_labels(tmp_path / rows[0]["files"]["labels"])["id"]
+    assert set(np.unique(ids)) == {-1, 0, 1}  # background, ball, floor
+
+
+@pytest.mark.slow
+def test_the_same_job_on_a_local_ray(tmp_path):
+    pytest.importorskip("ray", reason="Ray is not installed (pip install 'caustica[batch]')")
+    inline = caustica.batch("caustic-sphere", tmp_path / "inline", 6, orbit=60, **FAST)
+    rows = caustica.batch("caustic-sphere", tmp_path / "ray", 6, orbit=60, ray="local", **FAST)
+    assert [r["index"] for r in rows] == list(range(6)) and len(rows_of(tmp_path / "ray")) == 6
+    assert os.getpid() not in {r["worker"] for r in rows}
+    for a, b in zip(inline, rows):
+        assert np.array_equal(pixels(tmp_path / "inline", a), pixels(tmp_path / "ray", b))
