@@ -27,7 +27,7 @@ $(STAMP): pyproject.toml scripts/install-sysdeps.sh
 	@sh scripts/install-sysdeps.sh
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test,metrics,reference,plots,viewer]'
+	$(PY) -m pip install -q -e '.[test,metrics,reference,plots,viewer,batch]'
 	@touch $(STAMP)
 
 clean:
