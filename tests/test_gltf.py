@@ -114,6 +114,16 @@ class Doc:
         return path
 
 
+def render(renderer, scene, technique: str):
+    """``renderer.render``; exact without photon-map caustics where it has them (these tests compare what
+    scenes hold, and the photon pass would take most of the file's time)."""
+    from caustica.techniques.exact import ExactParams
+
+    fields = getattr(ExactParams, "__dataclass_fields__", {})
+    params = {"caustic_photons": 0} if technique == "exact" and "caustic_photons" in fields else {}
+    return renderer.render(scene, technique, **params)
+
+
 def quaternion_x(degrees: float) -> list[float]:
     half = math.radians(degrees) / 2
     return [math.sin(half), 0.0, 0.0, math.cos(half)]
@@ -194,15 +204,15 @@ def test_camera_and_scene_match_their_toml_twin(tmp_path, technique):
     np.testing.assert_allclose(direction(gltf_scene.camera), direction(toml_scene.camera), atol=1e-9)
     assert gltf_scene.camera.fov_y == pytest.approx(40.0) and gltf_scene.camera.far == 50.0
     renderer = caustica.Renderer(SIZE)
-    reference = renderer.render(toml_scene, technique)
-    image = renderer.render(gltf_scene, technique)
+    reference = render(renderer, toml_scene, technique)
+    image = render(renderer, gltf_scene, technique)
     assert reference.mean() > 0.05  # something is lit
     assert psnr_linear(image, reference) > 50.0
     # The twin test can fail: a camera pitched 2 degrees more does not match.
     doc = json.loads(Path(twin_gltf(tmp_path / "off.gltf")).read_text())
     doc["nodes"][-1]["rotation"] = quaternion_x(CAMERA_PITCH - 2.0)
     (tmp_path / "off.gltf").write_text(json.dumps(doc))
-    assert psnr_linear(renderer.render(load_scene(tmp_path / "off.gltf"), technique), reference) < 30.0
+    assert psnr_linear(render(renderer, load_scene(tmp_path / "off.gltf"), technique), reference) < 30.0
 
 
 def test_node_transforms_compose_through_three_levels(tmp_path):
@@ -288,13 +298,13 @@ def test_blender_style_glass_renders_as_glass(tmp_path):
     material = {o.name: o.material for o in scene.objects}["Sphere"]
     assert isinstance(material, Glass) and material.ior == pytest.approx(1.45)
     renderer = caustica.Renderer(SIZE)
-    image = renderer.render(scene, "exact")
+    image = render(renderer, scene, "exact")
     built = caustica.scene.Scene(camera=scene.camera, lights=scene.lights, objects=[
         caustica.scene.SceneObject("ball", ball, Glass(ior=1.45), caustica.scene.Transform(position=[0, 0.5, 0])),
         caustica.scene.SceneObject("floor", plane((4, 4)), Diffuse([0.8] * 3))])
-    assert psnr_linear(image, renderer.render(built, "exact")) > 50.0
+    assert psnr_linear(image, render(renderer, built, "exact")) > 50.0
     built.objects[0].material = Diffuse()
-    assert psnr_linear(image, renderer.render(built, "exact")) < 25.0
+    assert psnr_linear(image, render(renderer, built, "exact")) < 25.0
 
 
 def test_materials_map_to_diffuse_mirror_and_glass(tmp_path):
@@ -406,7 +416,7 @@ def test_exported_presets_render_the_same(tmp_path, suffix):
         loaded = load_scene(tmp_path / f"{preset}{suffix}")
         loaded.environment = scene.environment
         for technique in ("plain", "exact"):
-            assert psnr_linear(renderer.render(loaded, technique), renderer.render(scene, technique)) > 60.0
+            assert psnr_linear(render(renderer, loaded, technique), render(renderer, scene, technique)) > 60.0
 
 
 def test_a_file_without_a_camera_gets_one_that_frames_it(tmp_path):
@@ -555,6 +565,58 @@ def test_bad_files_fail_in_one_line(tmp_path, case):
     assert phrase in one_line(error) and "bad.gltf" in str(error.value)
 
 
+MUTANTS = (None, -1, 0, 2.5, "x", 1e308, [], {}, True, [0.0] * 16)
+
+
+def json_paths(value, prefix=()):
+    """Every place in a JSON document, as a tuple of keys and indices."""
+    if prefix:
+        yield prefix
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        yield from json_paths(item, prefix + (key,))
+
+
+def test_any_field_of_the_wrong_kind_loads_or_fails_in_one_line(tmp_path):
+    """Each value of a small file using every mapped feature (texture, glass, spot light, camera), replaced
+    in turn by each of MUTANTS, either loads or raises one CausticaError line: never another exception."""
+    import copy
+
+    from caustica.errors import CausticaError
+    from caustica.scene.gltf.read import choose_camera, read_gltf
+
+    doc = Doc()
+    textured = doc.material(base=(0.5, 1, 1, 1), pbr={"baseColorTexture": g.TextureInfo(
+        index=doc.image(np.full((2, 2, 3), 99, np.uint8)))})
+    glass = doc.material(roughness=0.0, extensions={"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                                                    "KHR_materials_volume": {"attenuationColor": [0.5, 0.5, 0.5],
+                                                                             "attenuationDistance": 1.0}})
+    child = doc.node(False, mesh=doc.mesh(plane(), glass), name="pane", scale=[1, 2, 1])
+    doc.node(mesh=doc.mesh(plane(), textured, uvs=np.zeros((4, 2))), name="floor", children=[child])
+    doc.light({"type": "spot", "intensity": 900.0, "spot": {"outerConeAngle": 0.5}}, translation=[0, 3, 0])
+    doc.camera(translation=[0, 1, 4])
+    base = json.loads(doc.save(tmp_path / "base.gltf").read_text())
+    path, outcomes = tmp_path / "mutant.gltf", {"loaded": 0, "refused": 0}
+    for where in json_paths(base):
+        for mutant in MUTANTS:
+            mutated = copy.deepcopy(base)
+            parent = mutated
+            for key in where[:-1]:
+                parent = parent[key]
+            parent[where[-1]] = mutant
+            path.write_text(json.dumps(mutated))
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    imported = read_gltf(path)
+                    choose_camera([imported], None, np.array([[-1.0, -1, -1], [1, 1, 1]]))
+                outcomes["loaded"] += 1
+            except CausticaError as error:
+                assert str(error) and "\n" not in str(error), (where, mutant)
+                outcomes["refused"] += 1
+    assert outcomes["loaded"] > 100 and outcomes["refused"] > 100  # both kinds happen
+
+
 def test_indices_out_of_range(tmp_path):
     doc = Doc()
     vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
@@ -576,6 +638,15 @@ def test_truncated_glb(tmp_path):
     (tmp_path / "tiny.glb").write_bytes(b"glTF\x02\x00")
     with pytest.raises(SceneError, match="truncated"):
         load_scene(tmp_path / "tiny.glb")
+    from caustica.scene.gltf.read import read_gltf
+
+    data = path.read_bytes()
+    for cut in range(0, len(data), len(data) // 40):  # cut anywhere, or with its length field patched to fit
+        for patched in (data[:cut], data[:8] + len(data[:cut]).to_bytes(4, "little") + data[12:cut]):
+            (tmp_path / "cut.glb").write_bytes(patched)
+            with pytest.raises(SceneError) as error:
+                read_gltf(tmp_path / "cut.glb")
+            one_line(error)
 
 
 def test_unreadable_image(tmp_path):

@@ -85,8 +85,8 @@ class GltfFile:
 
     def buffer(self, index: int, where: str) -> memoryview:
         """The bytes of buffer ``index``: at least its byteLength, from the GLB chunk, a data URI or a file."""
+        entry = self.item("buffers", index, where)
         if index not in self._buffers:
-            entry = self.item("buffers", index, where)
             here = f"buffers[{index}]"
             length = entry.get("byteLength")
             if not _is_index(length) or length < 1:
@@ -176,9 +176,8 @@ class GltfFile:
                              MeshError)
         width, dtype = COMPONENTS[kind], np.dtype(COMPONENT_TYPES[component])
         element = width * dtype.itemsize
-        if "bufferView" not in acc:  # all zeros (the spec's rule without sparse data); bounded by the limit
-            rules.triangles(count // 3, f"{here} would make", _FIX, error=MeshError)
-            return np.zeros((count, width), dtype=np.float32 if component == 5126 else dtype)
+        if "bufferView" not in acc:  # all zeros by the spec: no geometry
+            raise self.error(f"{here} has no bufferView (all zeros); {_FIX} with its data", MeshError)
         data, stride = self.buffer_view(acc["bufferView"], f"{here}.bufferView")
         offset = acc.get("byteOffset", 0)
         stride = stride or element

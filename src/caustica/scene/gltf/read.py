@@ -37,6 +37,7 @@ MIN_SPOT_INNER = 0.01  # degrees: caustica's spot needs a positive inner cone; g
 MAX_SPOT_OUTER = 89.9  # degrees: caustica's outer cone stays below 90
 FLOAT, BYTE, UBYTE, SHORT, USHORT, UINT = 5126, 5120, 5121, 5122, 5123, 5125
 TRIANGLES = 4
+DEGENERATE_DETERMINANT = 1e-24  # a node world matrix scaling volumes by less draws nothing (scale 0 hides a node)
 _MODES = {0: "points", 1: "lines", 2: "line loops", 3: "line strips", 5: "triangle strips", 6: "triangle fans"}
 _NAMES_SHOWN = 3
 
@@ -118,11 +119,11 @@ class _Reader:
         seen: set[int] = set()
         while stack:
             index, parent = stack.pop()
+            node = f.item("nodes", index, "a node reference")
             if index in seen:
                 raise f.error(f"nodes[{index}] is reached twice in the hierarchy (a cycle, or a node with two "
                               "parents); re-export the file")
             seen.add(index)
-            node = f.item("nodes", index, "a node reference")
             world = parent @ self._local_matrix(node, f"nodes[{index}]")
             label = f.name(node, f"nodes[{index}]")
             self._node(node, index, label, world, result)
@@ -176,7 +177,7 @@ class _Reader:
             camera = f.item("cameras", node["camera"], f"{where}.camera")
             if camera.get("type") == "perspective":
                 fields = f.table(camera, "perspective", f"cameras[{node['camera']}]")
-                extras = f.table(f.table(camera, "extras", "camera"), "caustica", "camera.extras")
+                extras = _caustica_extras(camera)
                 result.cameras.append(GltfCamera(f.name(camera, label), label, world, fields, extras))
             else:
                 self.note(f"{camera.get('type')} cameras" if isinstance(camera.get("type"), str) else
@@ -198,11 +199,15 @@ class _Reader:
             raise f.error(f"meshes[{mesh_index}].primitives must be a non-empty array of objects; re-export the file")
         if "weights" in mesh:
             self.note("morph targets", label)
+        if abs(np.linalg.det(world[:3, :3])) < DEGENERATE_DETERMINANT:
+            self.note("zero-scale nodes (not drawn)", label)
+            return
         triangles = [k for k, p in enumerate(primitives) if p.get("mode", TRIANGLES) == TRIANGLES]
         for k, primitive in enumerate(primitives):
             mode = primitive.get("mode", TRIANGLES)
             if mode != TRIANGLES:
-                self.note(f"{_MODES.get(mode, f'mode {short(mode)}')} primitives", label)
+                kind = _MODES.get(mode) if isinstance(mode, int) else None
+                self.note(f"{kind or f'mode {short(mode)}'} primitives", label)
                 continue
             if "targets" in primitive:
                 self.note("morph targets", label)
@@ -267,19 +272,17 @@ class _Reader:
             mesh = Mesh(vertices, normals, faces, name=mesh_name, uvs=uvs)
         except MeshError as exc:
             raise f.error(f"{where}: {first_line(exc)}", MeshError) from None
-        mesh.analytic_sphere = self._analytic_sphere(primitive, mesh, where)
+        mesh.analytic_sphere = self._analytic_sphere(primitive, mesh)
         self.meshes[key] = mesh
         return mesh
 
-    def _analytic_sphere(self, primitive: dict, mesh: Mesh, where: str):
+    def _analytic_sphere(self, primitive: dict, mesh: Mesh):
         """caustica's own hint (``extras.caustica.analytic_sphere`` = [cx, cy, cz, r]) that a primitive
         tessellates a sphere, kept only when every vertex lies on that sphere."""
-        f = self.file
-        hint = f.table(f.table(primitive, "extras", where), "caustica", f"{where}.extras")
-        if "analytic_sphere" not in hint:
+        sphere = _caustica_extras(primitive).get("analytic_sphere")
+        if not (isinstance(sphere, list) and len(sphere) == 4 and all(rules.finite(v) for v in sphere)):
             return None
-        sphere = f.numbers(hint, "analytic_sphere", 4, None, f"{where}.extras.caustica")
-        center, radius = sphere[:3], sphere[3]
+        center, radius = np.array(sphere[:3], dtype=np.float64), float(sphere[3])
         distance = np.linalg.norm(mesh.vertices.astype(np.float64) - center, axis=1)
         return (center, float(radius)) if radius > 0 and np.abs(distance - radius).max() <= 1e-4 * radius else None
 
@@ -421,6 +424,13 @@ class _Reader:
         raise f.error(f"{here}.type {short(kind)} must be point, spot or directional; re-export the file")
 
 
+def _caustica_extras(obj: dict) -> dict:
+    """``obj.extras.caustica`` (what caustica's exporter keeps), or {}: extras may hold anything."""
+    extras = obj.get("extras")
+    hint = extras.get("caustica") if isinstance(extras, dict) else None
+    return hint if isinstance(hint, dict) else {}
+
+
 def _unit_or_none(normals: np.ndarray) -> np.ndarray | None:
     """Unit normals, or None (recompute them) when some are zero or not finite."""
     length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
@@ -468,8 +478,9 @@ def gltf_camera(camera: GltfCamera, bounds: np.ndarray) -> Camera:
     if not (rules.finite(yfov) and 0 < yfov < math.pi) or not (rules.finite(near) and near > 0):
         raise SceneError(f"{where} needs yfov in (0, pi) radians and a positive znear; re-export the file")
     aspect = fields.get("aspectRatio")
-    if aspect is not None and not (rules.finite(aspect) and aspect > 0):
-        raise SceneError(f"{where}.aspectRatio {short(aspect)} must be a positive number; re-export the file")
+    if aspect is not None and not (rules.finite(aspect) and 1.0 / rules.MAX_IMAGE_SIZE <= aspect <= rules.MAX_IMAGE_SIZE):
+        raise SceneError(f"{where}.aspectRatio {short(aspect)} must be a positive number in [1/{rules.MAX_IMAGE_SIZE}, "
+                         f"{rules.MAX_IMAGE_SIZE}]; re-export the file")
     size = _camera_size(aspect, extras.get("size"))
     position = camera.world[:3, 3]
     forward = camera.world[:3, :3] @ np.array([0.0, 0.0, -1.0])
