@@ -246,9 +246,9 @@ class ShadeSurfaces(Pass):
         clip_from_world = camera.clip_from_world()
         # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.
         drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
-        # One program variant per material kind and dispersion (SURFACE_KIND, DISPERSION): CPU
+        # One program variant per material kind, dispersion and texture (SURFACE_KIND, DISPERSION, ALBEDO_TEXTURE): CPU
         # rasterizers pay for every side of a branch, even one on a uniform.
-        variants = sorted({self._variant(obj, material) for obj, material in drawn})
+        variants = sorted({self.variant_of(obj, material) for obj, material in drawn})
         capturing = bool(deferring_targets) and "glass" in deferring_targets
         if capturing:  # glass first: the front-surface buffer must hold the refractors alone
             variants.sort(key=lambda variant: variant[0] != "glass")
@@ -271,7 +271,7 @@ class ShadeSurfaces(Pass):
             if deferring_targets:
                 deferred.set_ray_uniforms(program, camera)
             for obj, material in drawn:
-                if self._variant(obj, material) != (kind, dispersion, textured):
+                if self.variant_of(obj, material) != (kind, dispersion, textured):
                     continue
                 if deferring_targets and defer:
                     later.append((obj, material, variant_defines))
@@ -307,10 +307,9 @@ class ShadeSurfaces(Pass):
             return texture_of(obj)
         return texture_of(obj, material)
 
-    def _variant(self, obj, material) -> tuple[str, bool, bool]:
+    def variant_of(self, obj, material) -> tuple[str, bool, bool]:
         """(kind, dispersive, textured): which compiled shader variant shades ``obj`` drawn with ``material``."""
-        dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
-        return material.kind, dispersive, self.albedo_texture(obj, material) is not None
+        return (*_variant(material), self.albedo_texture(obj, material) is not None)
 
     def set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
@@ -364,6 +363,12 @@ def _distance_to_bounds(point, bounds: np.ndarray) -> float:
     """Distance from ``point`` to the box ``bounds`` (2, 3); 0 inside it."""
     point = np.asarray(point, np.float64)
     return float(np.linalg.norm(point - np.clip(point, bounds[0], bounds[1])))
+
+
+def _variant(material) -> tuple[str, bool]:
+    """(kind, dispersive): which compiled shader variant shades a material (its texture aside)."""
+    dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
+    return material.kind, dispersive
 
 
 def _material_color(material) -> np.ndarray:
