@@ -113,8 +113,13 @@ class GltfFile:
         if _SCHEME.match(uri):
             raise self.error(f"{where}.uri {short(uri)} names a remote or non-file resource; caustica reads only "
                              "files beside the glTF and data: URIs (download it and refer to it by a relative path)")
-        relative = urllib.parse.unquote(uri)
-        path = (self.folder / relative).resolve()
+        relative = urllib.parse.unquote(uri).replace("\\", "/")  # no separator in a URI, but one on Windows
+        if "\x00" in relative:
+            raise self.error(f"{where}.uri {short(uri)} holds a NUL byte; {_FIX}")
+        try:
+            path = (self.folder / relative).resolve()
+        except (OSError, RuntimeError) as exc:  # a name too long, a symlink loop
+            raise self.error(f"{where}.uri {short(uri)} cannot be resolved ({first_line(exc)}); {_FIX}") from None
         if relative.startswith(("/", "\\")) or Path(relative).is_absolute() or not path.is_relative_to(self.folder):
             raise self.error(f"{where}.uri {short(uri)} leaves the glTF's folder; caustica reads only files inside "
                              f"{self.folder.name}/ (copy it there and use a relative path)")
@@ -125,7 +130,8 @@ class GltfFile:
             raise self.error(f"{where}.uri: file {short(relative)} not found beside {self.path.name}; "
                              "copy it there or re-export with embedded data") from None
         except OSError as exc:
-            raise self.error(f"{where}.uri: cannot read {short(relative)}: {exc.strerror or first_line(exc)}") from None
+            raise self.error(f"{where}.uri: cannot read {short(relative)}: {exc.strerror or first_line(exc)}; "
+                             "check the file beside the glTF, or re-export with embedded data") from None
 
     def _data_uri(self, uri: str, where: str) -> bytes:
         head, comma, payload = uri.partition(",")

@@ -146,7 +146,8 @@ class _Reader:
             if not isinstance(roots, list):
                 raise f.error(f"scenes[{index}].nodes must be an array of node indices; re-export the file")
             return f.name(scene, f.path.stem), roots
-        children = {c for node in f.items("nodes") for c in node.get("children", []) if isinstance(c, int)}
+        children = {c for node in f.items("nodes") if isinstance(node.get("children"), list)
+                    for c in node["children"] if isinstance(c, int)}
         return f.path.stem, [i for i in range(len(f.items("nodes"))) if i not in children]
 
     def _local_matrix(self, node: dict, where: str) -> np.ndarray:
@@ -478,7 +479,8 @@ def gltf_camera(camera: GltfCamera, bounds: np.ndarray) -> Camera:
     if not (rules.finite(yfov) and 0 < yfov < math.pi) or not (rules.finite(near) and near > 0):
         raise SceneError(f"{where} needs yfov in (0, pi) radians and a positive znear; re-export the file")
     aspect = fields.get("aspectRatio")
-    if aspect is not None and not (rules.finite(aspect) and 1.0 / rules.MAX_IMAGE_SIZE <= aspect <= rules.MAX_IMAGE_SIZE):
+    widest = rules.MAX_IMAGE_SIZE
+    if aspect is not None and not (rules.finite(aspect) and 1.0 / widest <= aspect <= widest):
         raise SceneError(f"{where}.aspectRatio {short(aspect)} must be a positive number in [1/{rules.MAX_IMAGE_SIZE}, "
                          f"{rules.MAX_IMAGE_SIZE}]; re-export the file")
     size = _camera_size(aspect, extras.get("size"))

@@ -160,7 +160,8 @@ class _Writer:
                 primitive = {"attributes": attributes, "indices": indices, "mode": 4}
                 if mesh.analytic_sphere is not None:
                     center, radius = mesh.analytic_sphere
-                    primitive["extras"] = {"caustica": {"analytic_sphere": [float(c) for c in center] + [float(radius)]}}
+                    sphere = [float(c) for c in center] + [float(radius)]
+                    primitive["extras"] = {"caustica": {"analytic_sphere": sphere}}
                 self.geometry[id(mesh)] = primitive
             primitive = dict(self.geometry[id(mesh)], material=self._material(material, obj, where))
             self.doc["meshes"].append({"name": mesh.name, "primitives": [primitive]})
