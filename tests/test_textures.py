@@ -223,6 +223,26 @@ def test_texture_uploaded_once_per_content_and_released_with_the_device():
     assert live_gl_names(device.ctx)["total"] < names
 
 
+def test_textures_unused_for_idle_frames_are_released_and_reloads_stay_flat(tmp_path):
+    """A textured TOML scene reloaded every frame (new arrays, equal content) keeps one texture; once
+    no frame draws it for IDLE_FRAMES frames, it goes, as idle meshes do."""
+    from caustica.gpu.meshes import IDLE_FRAMES
+
+    Image.fromarray((SQUARES * 255).astype(np.uint8)).save(tmp_path / "floor.png")
+    (tmp_path / "s.toml").write_text('[camera]\nsize = [32, 24]\n[[lights]]\ntype = "point"\nposition = [0, 3, 0]\n'
+                                     '[[objects]]\nshape = "plane"\nmaterial = { type = "diffuse", texture = "floor.png" }\n')
+    with Renderer((32, 24)) as renderer:
+        counts = []
+        for _ in range(12):
+            renderer.render(caustica.load_scene(tmp_path / "s.toml"), "env-map")
+            counts.append(renderer.device.counts())
+        assert counts[-1] == counts[3] and counts[-1]["albedo_textures"] == 1
+        untextured = scene_of([floor(None)], FRONT.with_size(32, 24))
+        for frame in range(IDLE_FRAMES + 1):
+            renderer.render(untextured, "env-map")
+            assert renderer.device.counts()["albedo_textures"] == (1 if frame < IDLE_FRAMES - 1 else 0)
+
+
 # Bad input --------------------------------------------------------------------------------------
 
 

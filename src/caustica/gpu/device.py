@@ -3,8 +3,10 @@
 Every pool is bounded, so that a process rendering new scenes for ever keeps a flat footprint:
 render targets and meshes not used for ``IDLE_FRAMES`` frames are released (targets.py,
 meshes.py), environment textures are kept by image content for the ``ENVIRONMENT_TEXTURES``
-most recent images, albedo textures likewise for the ``ALBEDO_TEXTURES`` most recent, and ``cache`` (results reused across frames) holds at most ``CACHE_ENTRIES``
-entries, least recently used first out. ``release`` frees all of it; the context stays (shared).
+most recent images, albedo textures by content too, at most ``ALBEDO_TEXTURES`` and none unused
+for ``IDLE_FRAMES`` frames, and ``cache`` (results reused across frames) holds at most
+``CACHE_ENTRIES`` entries, least recently used first out. ``release`` frees all of it; the
+context stays (shared).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import numpy as np
 from ..cache import LruCache, array_digest
 from ..errors import SceneError
 from .context import collect_dropped, describe, is_inherited, shared_context
-from .meshes import MeshCache
+from .meshes import IDLE_FRAMES, MeshCache
 from .shaders import ShaderLibrary
 from .targets import TargetPool
 
@@ -38,7 +40,7 @@ class GpuDevice:
         # Results reused across frames (e.g. shadow maps), keyed by scene state.
         self.cache = LruCache(CACHE_ENTRIES, lambda value: release_all(value, self.targets))
         self._environments = LruCache(ENVIRONMENT_TEXTURES, lambda texture: texture.release())
-        self._albedos = LruCache(ALBEDO_TEXTURES, lambda texture: texture.release())
+        self._albedos = LruCache(ALBEDO_TEXTURES, lambda entry: entry[0].release())  # [texture, frame last used]
         self._fullscreen: dict[int, object] = {}  # program GL name -> attribute-less vertex array
 
     @property
@@ -62,20 +64,22 @@ class GpuDevice:
     def albedo_texture(self, image: np.ndarray):
         """A diffuse receiver's texture (scene/textures.py: (H, W, 3) linear RGB, row 0 at the top) as an
         RGB32F texture, rows uploaded top first so that GL's (u, v) is glTF's: trilinear (mipmaps),
-        repeating (kept by the image's content, as environments are). SceneError above this GL's
-        texture size."""
+        repeating (kept by the image's content, as environments are, and released after IDLE_FRAMES
+        frames unused, as meshes are). SceneError above this GL's texture size."""
         key = array_digest(image)
-        texture = self._albedos.get(key)
-        if texture is None:
-            h, w = image.shape[:2]
-            if max(w, h) > self.max_texture_size:
-                raise SceneError(f"a {w}x{h} texture is above this GL's limit of {self.max_texture_size} pixels "
-                                 "a side; downscale it")
-            texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(image, dtype="f4").tobytes(), dtype="f4")
-            texture.build_mipmaps()
-            texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-            texture.repeat_x = texture.repeat_y = True
-            self._albedos[key] = texture
+        entry = self._albedos.get(key)
+        if entry is not None:
+            entry[1] = self.meshes.frame
+            return entry[0]
+        h, w = image.shape[:2]
+        if max(w, h) > self.max_texture_size:
+            raise SceneError(f"a {w}x{h} texture is above this GL's limit of {self.max_texture_size} pixels "
+                             "a side; downscale it")
+        texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(image, dtype="f4").tobytes(), dtype="f4")
+        texture.build_mipmaps()
+        texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        texture.repeat_x = texture.repeat_y = True
+        self._albedos[key] = [texture, self.meshes.frame]
         return texture
 
     def draw_fullscreen(self, program, vertices: int = 3) -> None:
@@ -94,6 +98,9 @@ class GpuDevice:
         collect_dropped(self.ctx)
         self.targets.end_frame()
         self.meshes.end_frame()
+        # Least recently used first: stop at the first texture drawn in the last IDLE_FRAMES frames.
+        while self._albedos and self.meshes.frame - next(iter(self._albedos.values()))[1] > IDLE_FRAMES:
+            self._albedos.pop_release(next(iter(self._albedos)))
 
     def counts(self) -> dict[str, int]:
         """How many entries each pool and cache holds (for leak checks; see also census.live_gl_names)."""
@@ -107,7 +114,7 @@ class GpuDevice:
         was made, only forget them: the inherited context must not be called."""
         if os.getpid() == self.pid and not is_inherited(self.ctx):
             release_all(list(self.cache.values()), self.targets)
-            release_all([list(self._environments.values()), list(self._albedos.values()),
+            release_all([list(self._environments.values()), [entry[0] for entry in self._albedos.values()],
                          list(self._fullscreen.values())])
             self.shaders.release()
             self.targets.release()
