@@ -138,6 +138,83 @@ strength = { list = [1.0], cycle = true }
     assert all(np.array_equal(images[0][corner], im[corner]) for im in images)  # the background did not
 
 
+def test_every_sweep_key_edits_the_scene_as_documented(tmp_path):
+    from caustica.batch.job import make_job
+    from caustica.batch.edits import SceneEditor
+    from caustica.batch.sweep import path_point
+
+    sweep = write_sweep(tmp_path, """
+scene = "caustic-sphere"
+frames = 3
+technique = "plain"
+size = [48, 36]
+[camera]
+path = [[0, 2, 4], [4, 2, 4], [4, 2, 0]]
+fov_y = { list = [30, 50], cycle = true }
+[objects.ball]
+position = { uniform = [[-0.2, 0.5, -0.2], [0.2, 0.5, 0.2]] }
+rotation = [0, 45, 0]
+scale = { uniform = [0.5, 1.5] }
+material = { list = [{ type = "glass", ior = 1.3 }, { type = "mirror" }], cycle = true }
+[objects.floor]
+color = { uniform = [0.2, 0.9] }
+[environment]
+image = { list = ["white", "sky-checker"], cycle = true }
+rotation = { uniform = [0, 360] }
+strength = 2
+[lights.0]
+position = [1, 3, 1]
+intensity = { uniform = [[5, 5, 5], [10, 20, 30]] }
+""")
+    job, base = make_job(sweep, tmp_path / "out")
+    editor = SceneEditor(base)
+    scenes = [editor.apply(job.values(i)) for i in range(3)]
+    assert [list(s.camera.position) for s in scenes] == [[0, 2, 4], [4, 2, 4], [4, 2, 0]]  # the path's ends, middle
+    assert [s.camera.fov_y for s in scenes] == [30, 50, 30]
+    ball = [s.objects[0] for s in scenes]
+    assert [b.material.kind for b in ball] == ["glass", "mirror", "glass"] and ball[0].material.ior == 1.3
+    assert all(np.all(np.abs(b.transform.position - [0, 0.5, 0]) <= [0.2, 0, 0.2]) for b in ball)
+    assert all(list(b.transform.rotation) == [0, 45, 0] and b.transform.scale[0] == b.transform.scale[2] for b in ball)
+    grey = scenes[0].objects[1].material.color
+    assert grey[0] == grey[1] == grey[2] and 0.2 <= grey[0] <= 0.9  # number ends: one draw for every channel
+    assert [s.environment.source for s in scenes] == ["procedural:white", "procedural:sky-checker", "procedural:white"]
+    assert all(s.environment.strength == 2 and 0 <= s.environment.rotation <= 360 for s in scenes)
+    light = scenes[1].lights[0]
+    assert list(light.position) == [1, 3, 1] and 5 <= light.intensity[0] <= 10 and 5 <= light.intensity[2] <= 30
+    assert base.objects[0].material.ior == 1.5 and list(base.camera.position) == [0, 2.2, 4.2]  # base untouched
+    # distance and elevation about look_at, then the turn: glass-sphere's camera is at +Z 4 from the origin.
+    job, base = make_job("glass-sphere", tmp_path / "b")
+    camera = SceneEditor(base).apply({"camera.distance": 5.0, "camera.elevation": 30.0, "camera.azimuth": 90.0}).camera
+    assert np.allclose(camera.position, [5 * np.cos(np.pi / 6), 2.5, 0])
+    assert path_point([[0, 0, 0], [2, 0, 0], [2, 2, 0]], 0.75) == [2, 1, 0]  # by length along the polyline
+    rows = caustica.batch(sweep, tmp_path / "out")
+    assert all("error" not in r for r in rows) and rows[1]["values"]["objects.ball.material"] == {"type": "mirror"}
+
+
+def test_the_documented_sweep_is_valid(tmp_path):
+    from caustica.batch.job import make_job
+
+    text = (Path(__file__).parents[1] / "docs" / "batch.md").read_text()
+    example = text.split("## Sweep files")[1].split("```toml")[1].split("```")[0]
+    job, base = make_job(write_sweep(tmp_path, example.replace("studio.exr", "white")), tmp_path / "out")
+    assert job.frames == 500 and job.seed == 7 and job.labels == ("id", "depth", "glass", "flow")
+    assert len(job.variations) == 15 and job.files(3)["image"] == "glass/000003.png"
+
+
+def test_torn_manifest_line_and_foreign_manifest(tmp_path, capsys):
+    out = tmp_path / "out"
+    caustica.batch("glass-sphere", out, 3, orbit=30, **FAST)
+    with open(out / "manifest.jsonl", "a") as f:
+        f.write('{"index": 2, "files": {"ima')  # what a kill in mid-write would leave
+    seen = []
+    rows = caustica.batch("glass-sphere", out, 3, orbit=30, progress=lambda s: seen.append(s.row["index"]), **FAST)
+    assert seen == [] and len(rows) == 3 and (out / "manifest.jsonl").read_text().count("\n") == 3
+    (out / "job.json").unlink()  # a manifest whose job is unknown belongs to no one we know
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(out), "--frames", "3", "--orbit", "30", "--size", "48x36",
+                         "-t", "plain"], capsys)
+    assert code == 2 and "another job" in err
+
+
 def test_auto_records_the_planned_technique(tmp_path):
     rows = caustica.batch("caustic-sphere", tmp_path / "out", 2, orbit=20, size=SIZE)
     assert rows[0]["technique"] not in ("auto", "") and rows[0]["technique"] == rows[1]["technique"]
