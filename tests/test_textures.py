@@ -79,16 +79,21 @@ def test_lookup_convention_texel_centres_bilinear_and_repeat():
     np.testing.assert_allclose(got, [[1, 0, 0], [0, 0, 1], [1, 0, 0], [0.5, 0, 0], [0.5, 0, 0]], atol=1e-12)
 
 
-def test_red_quadrant_lands_in_the_same_corner_on_gpu_and_in_exact(renderer):
+@pytest.mark.parametrize("turned", [False, True])
+def test_red_quadrant_lands_in_the_same_corner_on_gpu_and_in_exact(renderer, turned):
     """uv (0, 0) is the image's top-left corner: the plane's -X, -Z corner. Seen from above with -Z up
-    on the screen, a texture whose top-left quadrant is red shows red in the image's top-left quadrant."""
+    on the screen, a texture whose top-left quadrant is red shows red in the image's top-left quadrant;
+    the floor turned 90 degrees about +Y (-X, -Z to -X, +Z), in the bottom-left one."""
     texture = np.full((8, 8, 3), 0.8, np.float32)
     texture[:4, :4] = [0.9, 0.05, 0.05]
     camera = Camera(position=[0.0, 6.0, 0.0], look_at=[0.0, 0.0, 0.0], up=[0.0, 0.0, -1.0], fov_y=40.0, size=SIZE)
-    scene = scene_of([floor(texture)], camera, PointLight([0.0, 3.0, 0.0], [20.0] * 3), "black")
+    tile = floor(texture)
+    tile.transform = Transform(rotation=[0.0, 90.0 if turned else 0.0, 0.0])
+    scene = scene_of([tile], camera, PointLight([0.0, 3.0, 0.0], [20.0] * 3), "black")
     height, width = SIZE[1], SIZE[0]
     for image in (renderer.render(scene, "plain"), renderer.render(scene, "exact")):
         red = (image[..., 0] > 3.0 * image[..., 1]) & (image[..., 0] > 0.02)
+        red = red[::-1] if turned else red
         rows, cols = np.nonzero(red)
         assert red.sum() > 100
         assert rows.max() < height / 2 and cols.max() < width / 2  # all of it in the top-left quadrant
