@@ -215,6 +215,44 @@ def test_torn_manifest_line_and_foreign_manifest(tmp_path, capsys):
     assert code == 2 and "another job" in err
 
 
+def test_a_folder_in_use_is_refused(tmp_path):
+    from caustica.batch.manifest import Manifest
+
+    held = Manifest(tmp_path)
+    held.lock()
+    try:
+        with pytest.raises(caustica.OutputError, match="another caustica batch is writing to"):
+            caustica.batch("glass-sphere", tmp_path, 1, **FAST)
+    finally:
+        held.unlock()
+    assert len(caustica.batch("glass-sphere", tmp_path, 1, **FAST)) == 1
+
+
+def test_progress_is_a_bar_on_a_terminal_and_lines_elsewhere():
+    import io
+
+    from caustica.batch.job import Progress
+    from caustica.batch.progress import ProgressDisplay
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    for stream in (Terminal(), io.StringIO()):
+        display = ProgressDisplay(stream)
+        state = Progress(total=4, done=1, skipped=1)
+        for _ in range(3):
+            state.rendered += 1
+            state.done += 1
+            display(state)
+        display.close()
+        text = stream.getvalue()
+        if isinstance(stream, Terminal):
+            assert "4/4" in text and "frame/s" in text and "batch" in text
+        else:
+            assert text.splitlines()[-1].startswith("frame 4/4 (") and "frames/s" in text and "\r" not in text
+
+
 def test_auto_records_the_planned_technique(tmp_path):
     rows = caustica.batch("caustic-sphere", tmp_path / "out", 2, orbit=20, size=SIZE)
     assert rows[0]["technique"] not in ("auto", "") and rows[0]["technique"] == rows[1]["technique"]

@@ -150,7 +150,7 @@ def _labels(names) -> tuple:
     """The label layers asked for (caustica.labels' names, in its order)."""
     from ..labels import check_labels
 
-    return check_labels(list(names)) if names else ()
+    return check_labels(names) if names else ()
 
 
 def _check_technique(job: Job) -> None:
@@ -193,8 +193,6 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, fo
     """Render the job's unfinished frames into ``job.out_dir`` and return every frame's manifest row,
     sorted. ``progress(Progress)`` is called after each frame (an exception from it stops the run,
     the finished frames kept)."""
-    from .workers import render_frames
-
     out = Path(job.out_dir)
     if out.exists() and not out.is_dir():
         raise OutputError(f"output folder {out} is a file; give a folder name")
@@ -204,7 +202,17 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, fo
         raise OutputError(f"cannot create the output folder {out} ({exc.strerror}); check the path") from None
     description = job.description(job.base_scene() if base is None else base)
     manifest = Manifest(out)
-    rows = manifest.claim(job_key(description), description, force)
+    manifest.lock()
+    try:
+        return _run(job, manifest, manifest.claim(job_key(description), description, force), workers, ray, progress)
+    finally:
+        manifest.unlock()
+
+
+def _run(job: Job, manifest: Manifest, rows: dict, workers: int, ray, progress) -> list[dict]:
+    from .workers import render_frames
+
+    out = manifest.dir
     finished = {i for i, row in rows.items() if i < job.frames and manifest.finished(row)}
     state = Progress(total=job.frames, done=len(finished), skipped=len(finished))
     pending = [i for i in range(job.frames) if i not in finished]

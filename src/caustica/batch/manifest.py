@@ -16,7 +16,7 @@ from pathlib import Path
 from ..atomic import write_atomic
 from ..errors import OutputError
 
-MANIFEST, JOB_FILE = "manifest.jsonl", "job.json"
+MANIFEST, JOB_FILE, LOCK_FILE = "manifest.jsonl", "job.json", ".batch.lock"
 
 
 class Manifest:
@@ -26,6 +26,28 @@ class Manifest:
         self.dir = Path(out_dir)
         self.path, self.job_path = self.dir / MANIFEST, self.dir / JOB_FILE
         self._fd: int | None = None
+        self._lock: int | None = None
+
+    def lock(self) -> None:
+        """Hold the folder (an flock on ``.batch.lock``) until :meth:`unlock`; OutputError when another
+        run holds it."""
+        import fcntl
+
+        try:
+            self._lock = os.open(self.dir / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o666)
+            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self.unlock()
+            raise OutputError(f"another caustica batch is writing to {self.dir}; wait for it to end or use "
+                              "another output folder") from None
+        except OSError as exc:
+            self.unlock()
+            raise OutputError(f"cannot write in {self.dir}: {exc.strerror}; check its permissions") from None
+
+    def unlock(self) -> None:
+        if self._lock is not None:
+            os.close(self._lock)
+            self._lock = None
 
     def claim(self, key: str, description: dict, force: bool) -> dict[int, dict]:
         """The rows of earlier runs of job ``key`` here; OutputError when the folder holds another job's
