@@ -328,3 +328,15 @@ def test_labels_leave_the_image_bit_identical(renderer):
 def test_empty_label_list_returns_no_layers(renderer):
     image, layers = renderer.render(scene_of([wall()]), "env-map", labels=[])
     assert layers == {} and image.shape == (48, 64, 3)
+
+
+def test_labels_leave_no_texture_lent(renderer):
+    from caustica.gpu.device import gl_objects
+
+    for technique in ("depth-search+caustic-mapping", "depth-search+impostor-caustics"):
+        for spp in (1, 4):
+            _, layers = renderer.render(ball_over_floor(), technique, spp=spp, labels=ALL)
+            device = renderer.device
+            cached = sum(1 for obj in gl_objects(list(device.cache.values())) if device.targets.is_lent(obj))
+            assert device.targets.counts()["lent_textures"] == cached
+            assert layers["caustic"].max() > 1.0  # caustic maps and caustic tiles both reach the label

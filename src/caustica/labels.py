@@ -104,18 +104,18 @@ def raster_layers(buffers: dict, names, scene, camera, supersampling: int) -> di
     size of ``camera``; the flow traced from the glass mask."""
     from .gpu.readback import box_downsample
 
-    surface, ids = buffers["label_surface"], buffers["label_ids"]
+    surface, ids = buffers.get("label_surface"), buffers["label_ids"]  # the background cleared to 0
     covered = ids[..., 3] > 0.5
     layers = {}
     if "id" in names:
         layers["id"] = np.rint(ids[..., 0]).astype(np.int32) - 1
     if "material" in names:
-        layers["material"] = np.where(covered, np.rint(ids[..., 1]).astype(np.int32) - 1, -1).astype(np.int32)
+        layers["material"] = np.rint(ids[..., 1]).astype(np.int32) - 1
     if "depth" in names:
-        layers["depth"] = np.where(covered, surface[..., 3], np.inf).astype(np.float32)
+        layers["depth"] = np.where(covered, surface[..., 3], np.float32(np.inf))
     if "normal" in names:
-        layers["normal"] = np.ascontiguousarray(surface[..., :3] * covered[..., None], dtype=np.float32)
-    glass = covered & (ids[..., 2] > 0.5)
+        layers["normal"] = np.ascontiguousarray(surface[..., :3])
+    glass = ids[..., 2] > 0.5
     if "glass" in names:
         layers["glass"] = glass.astype(np.uint8)
     if "flow" in names:
@@ -123,7 +123,7 @@ def raster_layers(buffers: dict, names, scene, camera, supersampling: int) -> di
     if "caustic" in names:
         caustic = buffers.get("label_caustic")
         layers["caustic"] = (np.zeros(covered.shape + (3,), np.float32) if caustic is None
-                             else np.ascontiguousarray(caustic[..., :3], dtype=np.float32))
+                             else np.ascontiguousarray(caustic[..., :3]))
     if "alpha" in names:
         coverage = buffers.get("label_coverage")
         alpha = covered.astype(np.float32) if coverage is None else box_downsample(coverage, supersampling)[..., 0]

@@ -14,9 +14,11 @@ from contextlib import contextmanager
 import moderngl
 
 from ..gpu.meshes import set_uniform
+from ..gpu.readback import read_rgba
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
+from .surfaces import _culled_back_faces  # ShadeSurfaces' back-face culling of solids
 
 SURFACE = Channel("label_surface", "rgba32f", "first surface at pixel centres (output size): world normal "
                   "facing the eye xyz, view-space depth w (0: background)")
@@ -46,47 +48,59 @@ class LabelSurfaces(Pass):
         camera = frame.camera.with_size(width // self.k, height // self.k)
         caustic_maps, tiles = frame.optional("caustic_maps"), frame.optional("caustic_tiles")
         with_caustics = self.caustic and (caustic_maps is not None or tiles is not None)
-        surface, ids = (frame.texture(camera.size, "rgba32f") for _ in range(2))
-        targets = [surface, ids]
-        if with_caustics:
-            targets.append(frame.texture(camera.size, "rgba32f"))
-        defines = {"LABEL_CAUSTIC": int(with_caustics), **frame.optional_defines(self), "MAX_LIGHTS": MAX_LIGHTS,
-                   "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
+        targets = [frame.texture(camera.size, "rgba32f") for _ in range(3 if with_caustics else 2)]
+        # One variant for the diffuse receivers, which look the caustics up, one for the rest.
+        programs = {receiver: self._program(frame, camera, with_caustics, receiver)
+                    for receiver in ((False, True) if with_caustics else (False,))}
+        clip_from_world = camera.clip_from_world()
+        with _drawing(frame, camera.size, targets):
+            for index, obj in enumerate(frame.scene.objects):
+                receiver = with_caustics and obj.material.kind == "diffuse"
+                program = programs[receiver]
+                set_uniform(program, "object_id", float(index + 1))
+                set_uniform(program, "material_id", float(self.materials[index] + 1))
+                set_uniform(program, "glass", float(obj.material.kind == "glass"))
+                if receiver and caustic_maps is None:
+                    bind_receiver_tiles(program, tiles, obj)
+                with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):  # the same nearest surface
+                    draw_objects(frame, program, [obj], clip_from_world)
+        frame.write(SURFACE.name, targets[0])
+        frame.write(IDS.name, targets[1])
+        if self.caustic:
+            frame.write(CAUSTIC.name, targets[2] if with_caustics else None)
+        if self.coverage:
+            frame.write(COVERAGE.name, self._coverage(frame))
+
+    def _program(self, frame: Frame, camera, with_caustics: bool, receiver: bool):
+        """labels.frag with its per-frame uniforms: ``with_caustics`` a caustic target, ``receiver`` the
+        variant that looks the caustics up (lights and caustic maps or tiles bound)."""
+        defines = {"LABEL_CAUSTIC": int(with_caustics), "CAUSTIC_RECEIVER": int(receiver)}
+        if receiver:
+            defines.update({**frame.optional_defines(self), "MAX_LIGHTS": MAX_LIGHTS,
+                            "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES})
         program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/labels.frag", defines)
         set_uniform(program, "camera_position", camera.position.astype("f4"))
         set_uniform(program, "camera_forward", -camera.view_from_world()[2, :3].astype("f4"))
-        if with_caustics:
+        if receiver:
+            caustic_maps = frame.optional("caustic_maps")
             set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale))
             bind_lights(program, frame.optional("light_samples") or [], frame.optional("shadow_maps") or [],
                         first_unit=FIRST_LIGHT_UNIT)
             if caustic_maps is not None:
                 bind_caustic_maps(program, caustic_maps, first_unit=FIRST_LIGHT_UNIT + MAX_LIGHTS)
             else:
-                bind_caustic_tiles(program, tiles, unit=FIRST_LIGHT_UNIT + MAX_LIGHTS)
-        with _drawing(frame, camera.size, targets):
-            clip_from_world = camera.clip_from_world()
-            for index, obj in enumerate(frame.scene.objects):
-                set_uniform(program, "object_id", float(index + 1))
-                set_uniform(program, "material_id", float(self.materials[index] + 1))
-                set_uniform(program, "glass", float(obj.material.kind == "glass"))
-                if with_caustics:
-                    set_uniform(program, "receives_caustics", int(obj.material.kind == "diffuse"))
-                    if tiles is not None and caustic_maps is None:
-                        bind_receiver_tiles(program, tiles, obj)
-                draw_objects(frame, program, [obj], clip_from_world)
-        frame.write(SURFACE.name, surface)
-        frame.write(IDS.name, ids)
-        if self.caustic:
-            frame.write(CAUSTIC.name, targets[2] if with_caustics else None)
-        if self.coverage:
-            frame.write(COVERAGE.name, self._coverage(frame))
+                bind_caustic_tiles(program, frame.optional("caustic_tiles"), unit=FIRST_LIGHT_UNIT + MAX_LIGHTS)
+        return program
 
     def _coverage(self, frame: Frame):
         """1 at every sample of the supersampled frame that an object covers, 0 elsewhere."""
         target = frame.texture(frame.camera.size, "r32f")
         program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/labels.frag", {"COVERAGE_ONLY": 1})
         with _drawing(frame, frame.camera.size, [target]):
-            draw_objects(frame, program, frame.scene.objects, frame.camera.clip_from_world())
+            clip_from_world = frame.camera.clip_from_world()
+            for obj in frame.scene.objects:
+                with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):
+                    draw_objects(frame, program, [obj], clip_from_world)
         return target
 
 
@@ -104,16 +118,16 @@ def _drawing(frame: Frame, size, targets):
         yield fbo
 
 
-def read_label_buffers(frame: Frame) -> dict:
-    """The label channels of ``frame`` read back as float32 arrays, row 0 at the top (None where absent)."""
-    from ..gpu.readback import read_rgba
-
+def read_label_buffers(frame: Frame, names) -> dict:
+    """The label channels that the labels ``names`` need, read back as float32 arrays (row 0 at the top:
+    flipped views, not copies; None where absent)."""
+    wanted = {IDS.name: True, SURFACE.name: bool({"depth", "normal"} & set(names)),
+              CAUSTIC.name: "caustic" in names, COVERAGE.name: "alpha" in names}
     out = {}
-    for channel in (SURFACE, IDS, CAUSTIC, COVERAGE):
-        texture = frame.channels.get(channel.name)
-        out[channel.name] = None if texture is None else read_rgba(texture)
+    for name, needed in wanted.items():
+        texture = frame.channels.get(name) if needed else None
+        out[name] = None if texture is None else read_rgba(texture, copy=False)
     return out
-
 
 
 def label_pass(scene, names, supersampling: int) -> LabelSurfaces:

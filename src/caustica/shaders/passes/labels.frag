@@ -3,7 +3,9 @@
 // ids: object index + 1, material index + 1, 1 on glass, 1 (covered); all 0 on the background.
 // caustic (LABEL_CAUSTIC): intensity_scale times the caustic irradiance on a diffuse receiver, 0 elsewhere.
 // Host defines: COVERAGE_ONLY (0; 1: write 1 to the only target, the supersampled coverage),
-// LABEL_CAUSTIC (0/1), CAUSTICS, CAUSTIC_TILES, MAX_LIGHTS, MAX_CAUSTIC_TILES (common/caustics.glsl).
+// LABEL_CAUSTIC (0/1: the third target), CAUSTIC_RECEIVER (0/1: look the caustic up; the variant for diffuse
+// objects, since a CPU rasterizer pays for both sides of a branch), CAUSTICS, CAUSTIC_TILES, MAX_LIGHTS,
+// MAX_CAUSTIC_TILES (common/caustics.glsl).
 #version 430 core
 #ifndef COVERAGE_ONLY
 #define COVERAGE_ONLY 0
@@ -11,11 +13,13 @@
 #ifndef LABEL_CAUSTIC
 #define LABEL_CAUSTIC 0
 #endif
-#if LABEL_CAUSTIC
+#ifndef CAUSTIC_RECEIVER
+#define CAUSTIC_RECEIVER 0
+#endif
+#if CAUSTIC_RECEIVER
 #include "common/lighting.glsl"
 #include "common/caustics.glsl"
 uniform float intensity_scale;
-uniform int receives_caustics;  // 1 on diffuse objects
 #endif
 
 in vec3 world_position;
@@ -43,7 +47,11 @@ void main() {
     surface = vec4(n, dot(to_surface, camera_forward));
     ids = vec4(object_id, material_id, glass, 1.0);
 #if LABEL_CAUSTIC
-    caustic = vec4(receives_caustics == 1 ? intensity_scale * caustic_irradiance(world_position, n) : vec3(0.0), 1.0);
+#if CAUSTIC_RECEIVER
+    caustic = vec4(intensity_scale * caustic_irradiance(world_position, n), 1.0);
+#else
+    caustic = vec4(0.0, 0.0, 0.0, 1.0);
+#endif
 #endif
 #endif
 }
