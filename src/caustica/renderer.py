@@ -207,7 +207,7 @@ class Renderer:
         try:
             # Resolved on the GPU: a k^2 smaller readback, no CPU pass over every sample.
             image = read_rgb(resolved(frame, frame.read("color"), k, antialias))
-            buffers = read_label_buffers(frame) if extra else None
+            buffers = read_label_buffers(frame, labels) if extra else None
         except BaseException:
             frame.give_back()
             raise

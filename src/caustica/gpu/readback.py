@@ -23,11 +23,12 @@ def box_downsample(image: np.ndarray, k: int) -> np.ndarray:
     return image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
 
 
-def read_rgba(texture) -> np.ndarray:
-    """A float texture as a (H, W, components) float32 array, row 0 at the top."""
+def read_rgba(texture, copy: bool = True) -> np.ndarray:
+    """A float texture as a (H, W, components) float32 array, row 0 at the top (``copy`` False: a
+    flipped read-only view of the bytes read, for a caller that derives new arrays from it anyway)."""
     w, h = texture.size
     data = np.frombuffer(texture.read(), dtype="f4").reshape(h, w, texture.components)
-    return np.ascontiguousarray(data[::-1])
+    return np.ascontiguousarray(data[::-1]) if copy else data[::-1]
 
 
 def read_rgb(texture) -> np.ndarray:
