@@ -106,7 +106,9 @@ def sample_texture(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
     i0, j0 = x0.astype(np.int64) % width, y0.astype(np.int64) % height
     i1, j1 = (i0 + 1) % width, (j0 + 1) % height
-    t = texture.astype(np.float64, copy=False)
-    top = t[j0, i0] * (1.0 - fx) + t[j0, i1] * fx
-    bottom = t[j1, i0] * (1.0 - fx) + t[j1, i1] * fx
+    def texels(j, i):  # gathered first, then widened: the image itself is not copied
+        return texture[j, i].astype(np.float64)
+
+    top = texels(j0, i0) * (1.0 - fx) + texels(j0, i1) * fx
+    bottom = texels(j1, i0) * (1.0 - fx) + texels(j1, i1) * fx
     return top * (1.0 - fy) + bottom * fy
