@@ -223,7 +223,8 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def load_mesh(path: str | Path) -> Mesh:
-    """Read OBJ, PLY, STL, OFF or glTF/GLB geometry through trimesh (scenes are merged)."""
+    """Read OBJ, PLY, STL, OFF or glTF/GLB geometry through trimesh (scenes are merged), with the
+    file's texture coordinates where it has them."""
     path = Path(path)
     if not path.exists():
         raise MeshError(f"mesh file not found: {path}; check the path (relative paths are relative to the scene file)")
@@ -252,4 +253,9 @@ def load_mesh(path: str | Path) -> Mesh:
     loaded.process()
     vertices = np.asarray(loaded.vertices)
     faces = np.asarray(loaded.faces)
-    return Mesh(vertices, vertex_normals(vertices, faces), faces, name=path.stem)
+    uv = getattr(loaded.visual, "uv", None)  # trimesh's convention, v upwards (OBJ's, PLY's; glTF's it turns)
+    uvs = None
+    if uv is not None and len(uv) == len(vertices):
+        uv = np.asarray(uv, dtype=np.float64)
+        uvs = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])  # Mesh.uvs: v downwards from the image's top
+    return Mesh(vertices, vertex_normals(vertices, faces), faces, name=path.stem, uvs=uvs)
