@@ -340,3 +340,16 @@ def test_labels_leave_no_texture_lent(renderer):
             cached = sum(1 for obj in gl_objects(list(device.cache.values())) if device.targets.is_lent(obj))
             assert device.targets.counts()["lent_textures"] == cached
             assert layers["caustic"].max() > 1.0  # caustic maps and caustic tiles both reach the label
+
+
+def test_material_numbering_follows_first_use_and_compares_fields():
+    from caustica.labels import material_indices
+    from caustica.scene.textures import checker
+
+    texture = checker()
+    blue = [0.2, 0.3, 0.4]
+    materials = [Glass(1.5), Diffuse(color=blue), Glass(1.5), Glass(1.33), Diffuse(color=blue, texture=texture),
+                 Diffuse(color=blue, texture=texture)]
+    scene = scene_of([SceneObject(f"o{i}", sphere(0.2, 1), m) for i, m in enumerate(materials)])
+    assert material_indices(scene) == [0, 1, 0, 2, 3, 3]
+    assert [m.kind for m in material_table(scene)] == ["glass", "diffuse", "glass", "diffuse"]

@@ -91,9 +91,16 @@ def material_indices(scene) -> list[int]:
 
 
 def _material_key(material) -> tuple:
-    """A material's kind and field values as bytes (numpy fields compare by content)."""
+    """A material's kind and field values: small arrays (colours) by content, large ones (textures) by
+    identity, so that a frame never copies a texture to compare it."""
     fields = dataclasses.fields(material) if dataclasses.is_dataclass(material) else ()
-    return (material.kind,) + tuple((f.name, np.asarray(getattr(material, f.name)).tobytes()) for f in fields)
+    return (material.kind,) + tuple((f.name, _value_key(getattr(material, f.name))) for f in fields)
+
+
+def _value_key(value):
+    if not isinstance(value, np.ndarray):
+        return value  # a number, None or a string
+    return ("array", id(value)) if value.size > 16 else (value.dtype.str, value.shape, value.tobytes())
 
 
 # Layers from the rasterized label pass ------------------------------------------------------------
@@ -153,7 +160,8 @@ def traced_layers(scene, camera, spp: int, names, technique=None, params=None) -
         layers["material"] = table[index].reshape(height, width)
     if "depth" in names:
         forward = -camera.view_from_world()[2, :3]
-        layers["depth"] = np.where(hits.hit, hits.t * (dirs @ forward), np.inf).reshape(height, width).astype(np.float32)
+        depth = np.where(hits.hit, hits.t * (dirs @ forward), np.inf)
+        layers["depth"] = depth.reshape(height, width).astype(np.float32)
     if "normal" in names:
         facing = np.where((np.einsum("ij,ij->i", hits.normal, dirs) > 0)[:, None], -hits.normal, hits.normal)
         layers["normal"] = facing.reshape(height, width, 3).astype(np.float32)
