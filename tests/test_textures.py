@@ -163,6 +163,20 @@ def test_mesh_file_uvs_are_read_with_v_from_the_top(tmp_path, renderer):
         assert red[:12, :16].mean() > 0.4 and red[12:].sum() == 0 and red[:, 16:].sum() == 0
 
 
+def test_embedded_bytes_decode_as_the_file_does(tmp_path):
+    """decode_texture (a glTF's embedded image) gives what load_texture gives for the same PNG; a JPEG
+    decodes from sRGB too (a flat sRGB 188 image is linear 0.503 within JPEG's rounding)."""
+    from caustica.scene.textures import decode_texture
+
+    Image.fromarray((SQUARES * 255).astype(np.uint8)).save(tmp_path / "a.png")
+    np.testing.assert_array_equal(decode_texture((tmp_path / "a.png").read_bytes(), "image 0"),
+                                  load_texture(tmp_path / "a.png"))
+    Image.new("RGB", (16, 16), (188, 188, 188)).save(tmp_path / "b.jpg", quality=95)
+    np.testing.assert_allclose(load_texture(tmp_path / "b.jpg"), 0.5029, atol=0.01)
+    with pytest.raises(SceneError, match="cannot read image 0"):
+        decode_texture(b"not an image", "image 0")
+
+
 # Seen through glass and in mirrors ------------------------------------------------------------------
 
 
