@@ -353,3 +353,13 @@ def test_material_numbering_follows_first_use_and_compares_fields():
     scene = scene_of([SceneObject(f"o{i}", sphere(0.2, 1), m) for i, m in enumerate(materials)])
     assert material_indices(scene) == [0, 1, 0, 2, 3, 3]
     assert [m.kind for m in material_table(scene)] == ["glass", "diffuse", "glass", "diffuse"]
+
+
+@pytest.mark.parametrize("technique", ["image-space", "impostors", "per-vertex", "per-object"])
+def test_labels_do_not_depend_on_the_technique(renderer, technique):
+    # The label pass draws the scene's own geometry, whatever the technique draws the image with.
+    scene = three_objects()
+    _, reference = renderer.render(scene, "env-map", labels=["id", "depth", "normal", "glass"])
+    _, layers = renderer.render(scene, technique, labels=["id", "depth", "normal", "glass"])
+    for name in reference:
+        np.testing.assert_array_equal(layers[name], reference[name], err_msg=name)
