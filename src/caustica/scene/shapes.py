@@ -148,17 +148,18 @@ def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
     return Mesh(vertices * radius, vertices, faces, name="sphere", analytic_sphere=(np.zeros(3), float(radius)))
 
 
-def plane(size=(2.0, 2.0), resolution: int = 1) -> Mesh:
+def plane(size=(2.0, 2.0), resolution: int = 1, repeat=(1.0, 1.0)) -> Mesh:
     """A ``size`` = (width along X, depth along Z) rectangle at y = 0 facing +Y, ``resolution`` cells a side.
 
-    Its uvs span [0, 1]^2: u along +X, v along +Z, so that a texture seen from above with -Z up on the
-    screen (a floor seen from the front) stands upright."""
-    return heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane", uvs=True)
+    Its uvs span [0, repeat]: u along +X, v along +Z, so that a texture seen from above with -Z up on the
+    screen (a floor seen from the front) stands upright, ``repeat`` times along each side."""
+    repeat = _dims(repeat, 2, "repeat")
+    return heightfield(size, resolution, lambda x, z: (np.zeros_like(x),) * 3, "plane", uvs=repeat)
 
 
-def heightfield(size, resolution: int, height, name: str, uvs: bool = False) -> Mesh:
-    """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz); with ``uvs``,
-    texture coordinates (x / width + 1/2, z / depth + 1/2)."""
+def heightfield(size, resolution: int, height, name: str, uvs=None) -> Mesh:
+    """Grid over the XZ rectangle ``size``; ``height(x, z)`` returns (y, dy/dx, dy/dz); with ``uvs`` (two
+    repeats), texture coordinates ((x / width + 1/2) uvs[0], (z / depth + 1/2) uvs[1])."""
     width, depth = _dims(size, 2)
     n = _count("resolution", resolution, 1) + 1
     _budget(2 * (n - 1) ** 2, resolution=n - 1)
@@ -167,7 +168,7 @@ def heightfield(size, resolution: int, height, name: str, uvs: bool = False) -> 
     y, dydx, dydz = height(x, z)
     vertices = np.stack([x, y, z], axis=-1).reshape(-1, 3)
     normals = _unit(np.stack([-dydx, np.ones_like(y), -dydz], axis=-1)).reshape(-1, 3)
-    uv = np.stack([x / width + 0.5, z / depth + 0.5], axis=-1).reshape(-1, 2) if uvs else None
+    uv = None if uvs is None else (np.stack([x / width + 0.5, z / depth + 0.5], axis=-1) * uvs).reshape(-1, 2)
     return Mesh(vertices, normals, _grid_faces(n, n), name=name, uvs=uv)
 
 
