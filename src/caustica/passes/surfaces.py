@@ -246,8 +246,8 @@ class ShadeSurfaces(Pass):
         clip_from_world = camera.clip_from_world()
         # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.
         drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
-        # One program variant per material kind, dispersion and texture (SURFACE_KIND, DISPERSION, ALBEDO_TEXTURE): CPU
-        # rasterizers pay for every side of a branch, even one on a uniform.
+        # One program variant per material kind, dispersion and texture (SURFACE_KIND, DISPERSION,
+        # ALBEDO_TEXTURE): CPU rasterizers pay for every side of a branch, even one on a uniform.
         variants = sorted({self.variant_of(obj, material) for obj, material in drawn})
         capturing = bool(deferring_targets) and "glass" in deferring_targets
         if capturing:  # glass first: the front-surface buffer must hold the refractors alone
