@@ -188,7 +188,7 @@ def traced_layers(scene, camera, spp: int, names, technique=None, params=None) -
 
 def flow_layers(scene, camera, glass: np.ndarray) -> dict:
     """Refractive flow of the ``glass`` (H, W) pixels, by the exact oracle: each centre ray's refracted
-    branch followed through the glass (follow_refraction: TIR reflects inside), then traced on.
+    branch followed through the glass (follow_refraction: TIR reflects inside) to what it lands on.
 
     ``flow``: the world direction it leaves the glass along (0 outside the mask and where the path is
     invalid: it leaks, meets a diffuse object inside, exceeds 16 interfaces, or meets no glass, at a
@@ -210,11 +210,10 @@ def flow_layers(scene, camera, glass: np.ndarray) -> dict:
         rays = ray_scene_for(scene)
         paths = follow_refraction(rays, scene, origins.reshape(-1, 3)[inside], dirs.reshape(-1, 3)[inside])
         ok = paths.valid & (paths.interfaces > 0)
-        hits = rays.intersect(paths.position[ok], paths.direction[ok])
         done = pixels[ok]
         direction[done] = paths.direction[ok]
-        landed[done] = hits.object_index
-        point[done] = np.where(hits.hit[:, None], hits.position, 0.0)
+        landed[done] = paths.landed_object[ok]
+        point[done] = paths.landed_position[ok]
     return {"flow": direction.reshape(height, width, 3), "flow_object": landed.reshape(height, width),
             "flow_point": point.reshape(height, width, 3)}
 

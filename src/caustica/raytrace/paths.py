@@ -304,6 +304,8 @@ class RefractedPaths:
     path_length: np.ndarray  # (N,) distance travelled inside glass
     transmittance: np.ndarray  # (N,) product of Fresnel transmittances (1 - F; 1 at TIR)
     interfaces: np.ndarray  # (N,) glass surfaces met
+    landed_object: np.ndarray | None = None  # (N,) object the final ray hits (-1: none, or invalid)
+    landed_position: np.ndarray | None = None  # (N,3) where it hits it (0 where none)
 
 
 def follow_refraction(
@@ -324,7 +326,8 @@ def follow_refraction(
         ior = np.array([getattr(obj.material, "ior", 1.0) for obj in scene.objects], dtype=np.float64)
     else:
         ior = materials.ior_rgb[:, channel]
-    result = RefractedPaths(d.copy(), o.copy(), np.zeros(n, bool), np.zeros(n), np.ones(n), np.zeros(n, np.int64))
+    result = RefractedPaths(d.copy(), o.copy(), np.zeros(n, bool), np.zeros(n), np.ones(n), np.zeros(n, np.int64),
+                            np.full(n, -1, np.int32), np.zeros((n, 3)))
     active = np.arange(n)
     inside = np.zeros(n, bool)
     for step in range(max_interfaces + 1):
@@ -336,6 +339,9 @@ def follow_refraction(
         # Finish rays that are outside glass and meet no more glass; inside ones leaked.
         done = ~at_glass | (step == max_interfaces)
         result.valid[active[done]] = ~inside[active[done]] & ~at_glass[done]
+        landed = done & hits.hit & ~inside[active] & ~at_glass  # what the ray leaving the glass meets
+        result.landed_object[active[landed]] = hits.object_index[landed]
+        result.landed_position[active[landed]] = hits.position[landed]
         # Refract the rest (TIR reflects) and account for the path inside.
         go = active[~done]
         if len(go) == 0:
