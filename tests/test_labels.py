@@ -192,6 +192,25 @@ def test_flow_through_a_glass_sphere_is_the_closed_form_exit(renderer, technique
     assert (layers["flow_object"][on] == -1).all()  # nothing behind: the environment
 
 
+def test_flow_under_a_water_surface_lands_on_the_floor_by_snell(renderer):
+    # An open water surface (one refracting plane, IOR 1.33) at y = 0.5 over a floor at y = 0: each ray
+    # refracts once, t = refract(d, +Y, 1 / 1.33), and lands at p1 + (0.5 / -t_y) t on the floor.
+    water = SceneObject("water", plane((40.0, 40.0)), Glass(1.33), Transform(position=[0.0, 0.5, 0.0]))
+    camera = Camera(position=[0.0, 3.0, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=40.0, size=SIZE)
+    scene = scene_of([SceneObject("floor", plane((40.0, 40.0)), Diffuse()), water], camera)
+    _, layers = renderer.render(scene, "env-map", labels=["flow", "glass"])
+    origins, dirs = pixel_rays(camera)
+    assert layers["glass"].all()
+    p1 = origins + ((0.5 - origins[..., 1]) / dirs[..., 1])[..., None] * dirs
+    inside, tir = refract(dirs.reshape(-1, 3), np.array([0.0, 1.0, 0.0]), np.full(dirs.size // 3, 1.0 / 1.33))
+    inside = inside.reshape(dirs.shape)
+    assert not tir.any()
+    landing = p1 + (0.5 / -inside[..., 1])[..., None] * inside
+    np.testing.assert_allclose(layers["flow"], inside, atol=1e-6)
+    assert (layers["flow_object"] == 0).all()
+    np.testing.assert_allclose(layers["flow_point"], landing, atol=1e-5)
+
+
 # Caustics -----------------------------------------------------------------------------------------
 
 

@@ -190,10 +190,11 @@ def flow_layers(scene, camera, glass: np.ndarray) -> dict:
     """Refractive flow of the ``glass`` (H, W) pixels, by the exact oracle: each centre ray's refracted
     branch followed through the glass (follow_refraction: TIR reflects inside) to what it lands on.
 
-    ``flow``: the world direction it leaves the glass along (0 outside the mask and where the path is
-    invalid: it leaks, meets a diffuse object inside, exceeds 16 interfaces, or meets no glass, at a
-    silhouette the rasterizer and Embree disagree on); ``flow_object``: the object it lands on (-1: the
-    environment, or no flow); ``flow_point``: the world point there (0 where none)."""
+    ``flow``: the world direction it leaves the glass along, or, where it meets an object inside the glass
+    (an open water surface over a floor), its direction inside (0 outside the mask and where the path is
+    invalid: it leaks, exceeds 16 interfaces, or meets no glass, at a silhouette the rasterizer and Embree
+    disagree on); ``flow_object``: the object it lands on (-1: the environment, or no flow);
+    ``flow_point``: the world point there (0 where none)."""
     from .raytrace.embree_scene import ray_scene_for
     from .raytrace.paths import follow_refraction
 
@@ -209,7 +210,8 @@ def flow_layers(scene, camera, glass: np.ndarray) -> dict:
         inside = pixels - first * width
         rays = ray_scene_for(scene)
         paths = follow_refraction(rays, scene, origins.reshape(-1, 3)[inside], dirs.reshape(-1, 3)[inside])
-        ok = paths.valid & (paths.interfaces > 0)
+        # Valid paths, and those that meet an object inside glass (the floor under water): they see it.
+        ok = (paths.valid | (paths.landed_object >= 0)) & (paths.interfaces > 0)
         done = pixels[ok]
         direction[done] = paths.direction[ok]
         landed[done] = paths.landed_object[ok]

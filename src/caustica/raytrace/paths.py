@@ -304,8 +304,10 @@ class RefractedPaths:
     path_length: np.ndarray  # (N,) distance travelled inside glass
     transmittance: np.ndarray  # (N,) product of Fresnel transmittances (1 - F; 1 at TIR)
     interfaces: np.ndarray  # (N,) glass surfaces met
-    landed_object: np.ndarray | None = None  # (N,) object the final ray hits (-1: none, or invalid)
-    landed_position: np.ndarray | None = None  # (N,3) where it hits it (0 where none)
+    # The non-glass object the final ray meets, outside glass or inside it (a floor under an open water
+    # surface, an object set in glass), -1 where none (it escaped or leaked), and the point it meets it at.
+    landed_object: np.ndarray | None = None  # (N,) int32
+    landed_position: np.ndarray | None = None  # (N,3), 0 where none
 
 
 def follow_refraction(
@@ -339,7 +341,7 @@ def follow_refraction(
         # Finish rays that are outside glass and meet no more glass; inside ones leaked.
         done = ~at_glass | (step == max_interfaces)
         result.valid[active[done]] = ~inside[active[done]] & ~at_glass[done]
-        landed = done & hits.hit & ~inside[active] & ~at_glass  # what the ray leaving the glass meets
+        landed = done & hits.hit & ~at_glass  # what the last refracted ray meets
         result.landed_object[active[landed]] = hits.object_index[landed]
         result.landed_position[active[landed]] = hits.position[landed]
         # Refract the rest (TIR reflects) and account for the path inside.
