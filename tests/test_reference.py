@@ -160,11 +160,14 @@ def test_sphere_agrees_with_exact(material, tmp_path):
 
 
 def test_caustic_sphere_composite(tmp_path):
-    """Black environment: the lit floor matches exact on average, the caustic is only in the reference."""
+    """Black environment: the lit floor matches exact on average; the caustic is in the reference and in
+    exact's photons, and absent from exact without them."""
     scene = caustica.load_scene("caustic-sphere")
     scene.environment = procedural_environment("black")
     ref = render_reference(scene, size=SIZE, spp=SPP, cache_dir=tmp_path, progress=False)
-    exact = Renderer(SIZE).render(scene, "exact", spp=16)
+    with Renderer(SIZE) as renderer:
+        exact = renderer.render(scene, "exact", spp=16, caustic_photons=0)
+        with_caustics = renderer.render(scene, "exact", spp=4)
     camera = scene.camera.with_size(*SIZE)
     origins, dirs = camera.primary_rays(1)
     hits = ray_scene_for(scene).intersect(origins.reshape(-1, 3), dirs.reshape(-1, 3))
@@ -177,6 +180,8 @@ def test_caustic_sphere_composite(tmp_path):
     caustic = on_floor & (radius < 0.15)
     assert caustic.sum() > 0
     assert ref[caustic].mean() > 10 * exact[far].mean() and exact[caustic].max() < 1e-3
+    print(with_caustics[caustic].mean(), ref[caustic].mean())
+    assert with_caustics[caustic].mean() == pytest.approx(ref[caustic].mean(), rel=0.2)
 
 
 # -- cache, technique, errors ---------------------------------------------------------------------

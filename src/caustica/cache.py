@@ -127,6 +127,19 @@ class LruCache(OrderedDict):
 _DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); an entry goes with its array
 
 
+def scene_state_key(scene) -> tuple:
+    """What shadow maps and light paths depend on: lights and object geometry and placement."""
+    parts = [state_key(light) for light in scene.lights]
+    for obj in scene.objects:
+        parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
+    return tuple(parts)
+
+
+def material_state_key(scene) -> tuple:
+    """What caustics depend on beyond :func:`scene_state_key`: every object's material."""
+    return tuple(state_key(o.material) for o in scene.objects)
+
+
 def array_digest(array: np.ndarray) -> str:
     """A hash of ``array``'s shape, type and bytes, computed once while the array lives (an
     environment image or a texture is hashed when first seen, not each frame; change an image by

@@ -78,7 +78,8 @@ def reference_image(scene, size, reference_spp: int, progress: bool = True):
     except CausticaError as exc:  # the reference extra is missing
         warnings.warn(f"{exc}; comparing against 'exact' instead", stacklevel=2)
     image = Renderer(size).render(scene, "exact", spp=reference_spp)
-    return image, f"exact ({reference_spp} spp; Mitsuba not available: no caustics in the reference)"
+    return image, (f"exact ({reference_spp} spp, caustics from exact photons; Mitsuba not available: no caustics "
+                   "from the environment in the reference)")
 
 
 def compare(scene, techniques: list[str], size=None, spp: int = 4, frames: int = 5, reference_spp: int = 256,

@@ -9,14 +9,8 @@ parameters); the render graph (``passes/graph.py``) keeps its outputs.
 """
 from __future__ import annotations
 
-from ..cache import state_key
+from ..cache import material_state_key, scene_state_key
 from .base import Frame, Pass, run_passes
-from .lights import scene_state_key
-
-
-def material_state_key(scene) -> tuple:
-    """What caustic maps depend on beyond shadow maps: every object's material."""
-    return tuple(state_key(o.material) for o in scene.objects)
 
 
 class CachedPasses(Pass):

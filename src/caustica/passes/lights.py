@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..cache import state_key
+from ..cache import scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
 from ..errors import TechniqueError
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
@@ -169,9 +169,3 @@ def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int
         program["shadow_map"].write(np.array(units, dtype="i4").tobytes())
 
 
-def scene_state_key(scene) -> tuple:
-    """What shadow maps depend on: lights and object geometry and placement."""
-    parts = [state_key(light) for light in scene.lights]
-    for obj in scene.objects:
-        parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
-    return tuple(parts)

@@ -22,7 +22,9 @@ Conventions and limits:
   is used instead.
 - Glass with an Abbe number (per-channel IOR) is traced once per channel with
   that channel's IOR.
-- No caustics on diffuse surfaces: light reaches them only directly.
+- Light reaches diffuse surfaces directly (shadow rays, in which glass is opaque); the caustics, light
+  through glass and off mirrors, come from exact photons when ``trace`` is given a CausticGather
+  (:mod:`caustica.raytrace.caustic_gather`; the ``exact`` technique does so by default).
 
 :func:`exit_directions` follows only the refracted branch (the angular-error
 oracle), and :func:`distance_along_negative_normal` computes Wyman's d_N.
@@ -161,13 +163,18 @@ def _accumulate(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
         out[:, c] += np.bincount(index, weights=values[:, c], minlength=len(out))
 
 
-def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo) -> np.ndarray:
-    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + SH ambient).
+def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
+                  object_index=None, footprint=None) -> np.ndarray:
+    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + SH ambient, + the
+    caustic irradiance of ``caustics``, a :class:`~caustica.raytrace.caustic_gather.CausticGather`, on the
+    objects ``object_index``, over at least the radii ``footprint``).
 
     ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
     ``scene.intensity_scale``.
     """
     irradiance = scene.environment.irradiance(normal).astype(np.float64)
+    if caustics is not None:
+        irradiance += caustics.irradiance(position, normal, object_index, footprint)
     shadow_origin = position + geometric_normal * ray_scene.epsilon
     for light in scene.lights:
         if isinstance(light, DirectionalLight):
@@ -203,12 +210,17 @@ def trace(
     max_depth: int = 8,
     min_weight: float = 1e-4,
     stats: TraceStats | None = None,
+    caustics=None,
+    sample_angle: float = 0.0,
 ) -> np.ndarray:
     """Radiance (N,3) float64 along rays (N,3) through the scene's specular paths.
 
     ``max_depth`` is the most specular interactions a path may have; a branch
     still alive beyond it, or whose largest channel weight falls below
     ``min_weight``, is dropped, and its weight is added to ``stats`` when given.
+    ``caustics`` (a CausticGather) adds the lights' caustics on the diffuse surfaces the paths end on,
+    each estimate over at least the sample's footprint there: ``sample_angle`` (radians, the side of one
+    sample's square of the image) times the distance travelled, over the square root of pi cos.
     """
     origins = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     dirs = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
@@ -224,8 +236,8 @@ def trace(
         sl = slice(start, start + BATCH_SIZE)
         for ior, channel_weight in passes:
             radiance[sl] += _trace_batch(
-                ray_scene, scene, materials, ior, channel_weight, origins[sl], dirs[sl], max_depth, min_weight, dropped
-            )
+                ray_scene, scene, materials, ior, channel_weight, origins[sl], dirs[sl], max_depth, min_weight, dropped,
+                caustics, sample_angle)
     if stats is not None:
         stats.max_depth = max_depth
         stats.by_depth_limit = dropped.by_depth_limit / max(len(origins), 1)
@@ -233,18 +245,21 @@ def trace(
     return radiance
 
 
-def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_depth, min_weight, stats) -> np.ndarray:
+def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_depth, min_weight, stats,
+                 caustics=None, sample_angle: float = 0.0) -> np.ndarray:
     """The wavefront loop over one batch of primary rays and one IOR per object."""
     n = len(o)
     out = np.zeros((n, 3))
     pixel = np.arange(n)
     weight = np.broadcast_to(channel_weight, (n, 3)).copy()
     medium = np.full(n, -1, np.int64)  # glass object the ray travels in, -1 for air
+    travelled = np.zeros(n)  # path length from the eye (the footprint of caustic estimates)
     scale = scene.intensity_scale
     for depth in range(max_depth + 1):
         if len(pixel) == 0:
             break
         hits = ray_scene.intersect(o, d)
+        travelled = travelled + np.where(hits.hit, hits.t, 0.0)
         # Attenuate segments inside glass (Beer-Lambert).
         inside = (medium >= 0) & hits.hit
         if inside.any():
@@ -259,38 +274,46 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
         if diffuse.any():
             _, ns, ng = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
             albedo = materials.albedo(hits, diffuse)
-            radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo)
+            footprint = None
+            if caustics is not None:
+                cos = np.maximum(np.abs(dot(d[diffuse], ng)), 0.05)
+                footprint = sample_angle * travelled[diffuse] / np.sqrt(np.pi * cos)
+            radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo, caustics,
+                                     hits.object_index[diffuse], footprint)
             _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)
         specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)
         if depth == max_depth:
             stats.by_depth_limit[depth + 1] += weight[specular].mean(axis=1).sum()
             break
         # Spawn the children of mirror and glass hits.
-        children = []  # (pixel, origin, direction, weight, medium)
+        children = []  # (pixel, origin, direction, weight, medium, travelled)
         mirror = kind == MATERIAL_MIRROR
         if mirror.any():
             _, ns, ng = facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
             color = materials.color[hits.object_index[mirror]]
             r = reflect_above(d[mirror], ns, ng)
-            children.append((pixel[mirror], hits.position[mirror], r, weight[mirror] * color, medium[mirror]))
+            children.append((pixel[mirror], hits.position[mirror], r, weight[mirror] * color, medium[mirror],
+                             travelled[mirror]))
         glass = kind == MATERIAL_GLASS
         if glass.any():
             obj = hits.object_index[glass]
             it = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
             w, p, f = weight[glass], hits.position[glass], it.reflectance[:, None]
-            children.append((pixel[glass], p, it.reflected, w * f, medium[glass]))
+            children.append((pixel[glass], p, it.reflected, w * f, medium[glass], travelled[glass]))
             tr = ~it.tir
             new_medium = np.where(it.entering, obj, -1)[tr]
-            children.append((pixel[glass][tr], p[tr], it.refracted[tr], (w * (1.0 - f))[tr], new_medium))
+            children.append((pixel[glass][tr], p[tr], it.refracted[tr], (w * (1.0 - f))[tr], new_medium,
+                             travelled[glass][tr]))
         if not children:
             break
-        pixel, o, d, weight, medium = (np.concatenate(parts) for parts in zip(*children))
+        pixel, o, d, weight, medium, travelled = (np.concatenate(parts) for parts in zip(*children))
         # Drop faint branches.
         faint = weight.max(axis=1) < min_weight
         if faint.any():
             stats.by_min_weight[depth + 1] += weight[faint].mean(axis=1).sum()
             keep = ~faint
-            pixel, o, d, weight, medium = pixel[keep], o[keep], d[keep], weight[keep], medium[keep]
+            pixel, o, d, weight, medium, travelled = (pixel[keep], o[keep], d[keep], weight[keep], medium[keep],
+                                                      travelled[keep])
     return out
 
 
