@@ -63,7 +63,7 @@ class GpuDevice:
 
     def albedo_texture(self, image: np.ndarray):
         """A diffuse receiver's texture (scene/textures.py: (H, W, 3) linear RGB, row 0 at the top) as an
-        RGB32F texture, rows uploaded top first so that GL's (u, v) is glTF's: trilinear (mipmaps),
+        RGB16F texture, rows uploaded top first so that GL's (u, v) is glTF's: trilinear (mipmaps),
         repeating (kept by the image's content, as environments are, and released after IDLE_FRAMES
         frames unused, as meshes are). SceneError above this GL's texture size."""
         key = array_digest(image)
@@ -75,7 +75,9 @@ class GpuDevice:
         if max(w, h) > self.max_texture_size:
             raise SceneError(f"a {w}x{h} texture is above this GL's limit of {self.max_texture_size} pixels "
                              "a side; downscale it")
-        texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(image, dtype="f4").tobytes(), dtype="f4")
+        # Half floats: 8-bit sources' values within 2^-11 relative, half the memory of RGB32F (a 4096^2
+        # texture with mipmaps: 134 MB).
+        texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(image, dtype="f2").tobytes(), dtype="f2")
         texture.build_mipmaps()
         texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         texture.repeat_x = texture.repeat_y = True
