@@ -234,11 +234,13 @@ def test_caustic_layer_is_zero_without_a_caustic_technique(renderer):
     assert (layers["caustic"] == 0).all()
 
 
-def test_caustic_layer_is_the_caustic_light_on_the_floor(renderer):
+@pytest.mark.parametrize("caustics", ["caustic-mapping", "photon-splats", "impostor-caustics"])
+def test_caustic_layer_is_the_caustic_light_on_the_floor(renderer, caustics):
     # On floor pixels, image(with caustics) - image(without) = albedo / pi * caustic (ShadeSurfaces adds
-    # albedo / pi * E_caustic * intensity_scale); the focus lies under the ball, at the floor's origin.
+    # albedo / pi * E_caustic * intensity_scale), from caustic maps or (impostor-caustics) caustic tiles;
+    # the focus lies under the ball, at the floor's origin.
     scene = ball_over_floor()
-    with_caustics, layers = renderer.render(scene, "depth-search+caustic-mapping", labels=["caustic", "id", "depth"])
+    with_caustics, layers = renderer.render(scene, f"depth-search+{caustics}", labels=["caustic", "id", "depth"])
     without = renderer.render(scene, "depth-search")
     floor = layers["id"] == 0
     caustic = layers["caustic"]
