@@ -27,9 +27,6 @@ from .errors import OutputError, RenderOptionError, closest_name, short
 LABELS = ("id", "material", "depth", "normal", "glass", "flow", "caustic", "alpha")
 FLOW_LAYERS = ("flow", "flow_object", "flow_point")  # what the label "flow" returns
 FORMATS = ("exr", "npz")
-# CPU techniques whose images hold no caustic light on diffuse surfaces (exact without caustic photons):
-# their caustic layer is 0.
-CPU_WITHOUT_CAUSTICS = ("exact",)
 INTEGER_LAYERS = ("id", "material", "flow_object")  # int32; -1 where nothing
 MASK_LAYERS = ("glass",)  # uint8 0/1
 # EXR channel suffixes of each layer (a layer not listed: .V for one component, .R .G .B for three).
@@ -54,20 +51,13 @@ def check_labels(labels) -> tuple[str, ...]:
     return tuple(name for name in LABELS if name in names)
 
 
-def check_technique_gives(technique, params, names) -> None:
-    """RenderOptionError when ``technique`` (resolved, with its ``params``) cannot give one of ``names``:
-    the caustic layer of a CPU technique whose image may hold caustics that it does not separate
-    (``mitsuba``; ``exact`` with caustic photons), unless it has a ``caustic_layer`` method."""
-    if "caustic" in names and not technique.uses_gl and not hasattr(technique, "caustic_layer") \
-            and not _without_caustics(technique, params):
+def check_technique_gives(technique, names) -> None:
+    """RenderOptionError when ``technique`` (resolved) cannot give one of ``names``: the caustic layer of
+    a CPU technique without a ``caustic_layer`` method (``mitsuba``: its caustics are not separable)."""
+    if "caustic" in names and not technique.uses_gl and not hasattr(technique, "caustic_layer"):
         raise RenderOptionError(f"technique '{technique.name}' cannot give the caustic label (its caustics are "
-                                "not a separate layer); use a caustic technique such as caustic-mapping, "
-                                "or drop 'caustic' from the labels")
-
-
-def _without_caustics(technique, params) -> bool:
-    """Whether a CPU technique's image holds no caustic light, so that its caustic layer is 0."""
-    return technique.name in CPU_WITHOUT_CAUSTICS and not getattr(params, "caustic_photons", 0)
+                                "not a separate layer); use exact or a caustic technique such as "
+                                "caustic-mapping, or drop 'caustic' from the labels")
 
 
 def material_table(scene) -> list:
@@ -144,7 +134,7 @@ def raster_layers(buffers: dict, names, scene, camera, supersampling: int) -> di
 def traced_layers(scene, camera, spp: int, names, technique=None, params=None) -> dict:
     """The layers ``names`` from Embree primary rays through pixel centres (alpha: through ``spp``
     stratified samples, as exact renders them); the caustic layer from ``technique.caustic_layer(scene,
-    camera, params)`` where it has one, else 0 (check_technique_gives has refused the others)."""
+    camera, params, hits)`` (check_technique_gives refuses a technique without one)."""
     from .raytrace.embree_scene import ray_scene_for
 
     width, height = camera.size
@@ -172,9 +162,7 @@ def traced_layers(scene, camera, spp: int, names, technique=None, params=None) -
     if "flow" in names:
         layers.update(flow_layers(scene, camera, glass))
     if "caustic" in names:
-        hook = getattr(technique, "caustic_layer", None)
-        layers["caustic"] = (np.zeros((height, width, 3), np.float32) if hook is None
-                             else np.asarray(hook(scene, camera, params), dtype=np.float32))
+        layers["caustic"] = np.asarray(technique.caustic_layer(scene, camera, params, hits), dtype=np.float32)
     if "alpha" in names:
         if spp <= 1:
             alpha = hits.hit.reshape(height, width)

@@ -115,7 +115,7 @@ class Renderer:
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         self._check_frame(tech, scene, camera, parameters, spp)
         if names is not None:
-            check_technique_gives(tech, parameters, names)
+            check_technique_gives(tech, names)
         start = time.perf_counter()
         if tech.uses_gl:
             image, buffers = self._render_graph(tech, scene, camera, parameters, int(spp), antialias, names)

@@ -163,6 +163,15 @@ def _accumulate(out: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
         out[:, c] += np.bincount(index, weights=values[:, c], minlength=len(out))
 
 
+def caustic_footprint(d: np.ndarray, geometric_normal: np.ndarray, travelled: np.ndarray,
+                      sample_angle: float) -> np.ndarray:
+    """The radius (N,) a camera sample of ``sample_angle`` radians covers where a path of length
+    ``travelled`` meets a surface along ``d``: the least kernel of its caustic estimate (the sample's
+    area sample_angle^2 travelled^2 / cos as a disc; grazing cosines clamped at 0.05)."""
+    cos = np.maximum(np.abs(dot(d, geometric_normal)), 0.05)
+    return sample_angle * travelled / np.sqrt(np.pi * cos)
+
+
 def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
                   object_index=None, footprint=None) -> np.ndarray:
     """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + SH ambient, + the
@@ -274,10 +283,8 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
         if diffuse.any():
             _, ns, ng = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
             albedo = materials.albedo(hits, diffuse)
-            footprint = None
-            if caustics is not None:
-                cos = np.maximum(np.abs(dot(d[diffuse], ng)), 0.05)
-                footprint = sample_angle * travelled[diffuse] / np.sqrt(np.pi * cos)
+            footprint = None if caustics is None else caustic_footprint(d[diffuse], ng, travelled[diffuse],
+                                                                        sample_angle)
             radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo, caustics,
                                      hits.object_index[diffuse], footprint)
             _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)

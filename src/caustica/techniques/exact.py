@@ -37,7 +37,8 @@ import numpy as np
 from ..cache import LruCache, material_state_key, scene_state_key
 from ..raytrace.caustic_gather import CausticGather
 from ..raytrace.embree_scene import ray_scene_for
-from ..raytrace.paths import BATCH_SIZE, trace
+from ..raytrace.paths import BATCH_SIZE, Materials, caustic_footprint, facing, trace
+from ..scene.codes import MATERIAL_DIFFUSE
 from ..raytrace.photons import target_sphere, trace_photons
 from .base import Params, Technique, param
 
@@ -79,8 +80,7 @@ class Exact(Technique):
         band = max(1, BATCH_SIZE // rays_per_row)
         rays = ray_scene_for(scene)
         caustics = caustic_gather(scene, params)
-        # One sample's share of a pixel, as an angle: its caustic estimates average at least that footprint.
-        sample_angle = 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / height / math.sqrt(spp)
+        sample_angle = _sample_angle(camera, spp)
         image = np.empty((height, width, 3), dtype=np.float32)
         bar = _progress(height, f"exact {scene.name}")
         for first in range(0, height, band):
@@ -94,6 +94,30 @@ class Exact(Technique):
         if bar is not None:
             bar.close()
         return image
+
+
+    def caustic_layer(self, scene, camera, params, hits=None) -> np.ndarray:
+        """The ``caustic`` label (caustica.labels): intensity_scale times the caustic irradiance at the
+        diffuse surface each pixel centre's ray meets first, 0 elsewhere, (H, W, 3) float32; the estimate
+        ``render`` adds there at 1 spp (over the pixel's footprint). ``hits``: those rays' Embree hits."""
+        params = params if params is not None else ExactParams()
+        width, height = camera.size
+        out = np.zeros((height * width, 3), np.float32)
+        caustics = caustic_gather(scene, params)
+        if caustics is not None:
+            origins, dirs = (a.reshape(-1, 3) for a in camera.primary_rays(1))
+            hits = hits if hits is not None else ray_scene_for(scene).intersect(origins, dirs)
+            diffuse = Materials.of(scene).kind[hits.object_index] == MATERIAL_DIFFUSE
+            _, ns, ng = facing(dirs[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
+            footprint = caustic_footprint(dirs[diffuse], ng, hits.t[diffuse], _sample_angle(camera, 1))
+            irradiance = caustics.irradiance(hits.position[diffuse], ns, hits.object_index[diffuse], footprint)
+            out[diffuse] = irradiance * scene.intensity_scale
+        return out.reshape(height, width, 3)
+
+
+def _sample_angle(camera, spp: int) -> float:
+    """One sample's share of a pixel, as an angle: its caustic estimates average at least that footprint."""
+    return 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / camera.size[1] / math.sqrt(spp)
 
 
 def _progress(total: int, label: str):
