@@ -6,8 +6,8 @@ The layers (docs/labels.md has units, channel names, costs): ``id`` (object inde
 ``glass`` (1 where the first surface is glass), ``flow`` (where the refracted path through a glass pixel
 leaves the glass: ``flow`` its world direction, ``flow_object`` and ``flow_point`` the object and world
 point it lands on, -1 and 0 where it escapes to the environment), ``caustic`` (intensity_scale times the
-caustic irradiance on diffuse receivers, 0 where no caustic technique ran) and ``alpha`` (the fraction of
-a pixel's samples that an object covers).
+caustic irradiance on the diffuse surface seen first, 0 where no caustic technique ran) and ``alpha`` (the
+fraction of a pixel's samples that an object covers).
 
 Rasterized techniques take id, material, depth, normal, glass and caustic from one extra pass at pixel
 centres (passes/labels.py), alpha from the supersampled frame; CPU techniques from Embree primary rays.
@@ -204,8 +204,8 @@ def flow_layers(scene, camera, glass: np.ndarray) -> dict:
         direction[done] = paths.direction[ok]
         landed[done] = paths.landed_object[ok]
         point[done] = paths.landed_position[ok]
-    return {"flow": direction.reshape(height, width, 3), "flow_object": landed.reshape(height, width),
-            "flow_point": point.reshape(height, width, 3)}
+    return dict(zip(FLOW_LAYERS, (direction.reshape(height, width, 3), landed.reshape(height, width),
+                                  point.reshape(height, width, 3))))
 
 
 # Files ------------------------------------------------------------------------------------------
