@@ -141,7 +141,8 @@ strength = { list = [1.0], cycle = true }
     assert all(1.1 <= v <= 1.9 for v in iors) and len(set(iors)) == 4
     assert all(r["values"]["environment.strength"] == 1.0 for r in rows)
     # Frame i's draw depends on (seed, i, key) only: a longer job draws the same values first.
-    longer = caustica.batch(sweep, tmp_path / "longer", 6)
+    longer = caustica.batch(sweep, tmp_path / "longer", 6)  # an argument wins over the sweep's frames = 4
+    assert len(longer) == 6
     assert [r["values"]["objects.sphere.ior"] for r in longer[:4]] == iors
     images = [pixels(tmp_path / "out", r).astype(int) for r in rows]
     centre, corner = (slice(14, 22), slice(20, 28)), (slice(0, 3), slice(0, 3))
@@ -262,6 +263,23 @@ def test_progress_is_a_bar_on_a_terminal_and_lines_elsewhere():
             assert "4/4" in text and "frame/s" in text and "batch" in text
         else:
             assert text.splitlines()[-1].startswith("frame 4/4 (") and "frames/s" in text and "\r" not in text
+
+
+def test_sweep_files_resolve_beside_the_sweep(tmp_path, monkeypatch):
+    from caustica.images import write_image
+
+    folder = tmp_path / "data"
+    folder.mkdir()
+    (folder / "ball.toml").write_text("[camera]\nposition = [0, 0, 4]\n[[objects]]\nname = 'ball'\nshape = 'sphere'\n"
+                                      "material = { type = 'glass', ior = 1.5 }\n")
+    write_image(folder / "red.exr", np.tile(np.array([1.0, 0.0, 0.0], np.float32), (8, 16, 1)))
+    sweep = write_sweep(folder, "scene = 'ball.toml'\nframes = 2\ntechnique = 'env-map'\nsize = [32, 24]\n"
+                                "[environment]\nimage = { list = ['red.exr', 'white'], cycle = true }\n")
+    monkeypatch.chdir(tmp_path)  # neither file is in the current folder
+    rows = caustica.batch(Path("data") / sweep.name, "out", workers=2)
+    corners = [pixels(tmp_path / "out", r)[0, 0] for r in rows]
+    assert list(corners[0]) == [255, 0, 0] and list(corners[1]) == [255, 255, 255]
+    assert rows[0]["values"]["environment.image"] == "red.exr"
 
 
 def test_auto_records_the_planned_technique(tmp_path):

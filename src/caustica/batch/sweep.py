@@ -58,7 +58,7 @@ class Variation:
         if self.mode == "cycle":
             return self.values[index % len(self.values)]
         if self.mode == "orbit":
-            return self.values[0] * index / frames
+            return self.values[0] * index / frames + 0.0  # + 0.0: no -0.0 in the manifest
         if self.mode == "path":
             return path_point(self.values, 0.0 if frames == 1 else index / (frames - 1))
         rng = np.random.default_rng([seed, index, _key_number(self.key)])
