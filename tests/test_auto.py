@@ -30,6 +30,15 @@ def mirror():
     return SceneObject("mirror", plane((0.8, 0.6)), Mirror(), Transform(position=[-0.8, 0.6, -0.6], rotation=[90, 0, 0]))
 
 
+def dish():
+    """A concave spherical mirror (curvature radius 1.5) facing the camera."""
+    from caustica.scene.mesh import Mesh
+    from caustica.scene.presets_per_vertex import curved_mirror
+
+    return SceneObject("dish", Mesh(*curved_mirror(1.2, 1.0, -1.5, 12)), Mirror(),
+                       Transform(position=[-0.6, 0.7, -0.8], rotation=[70, 0, 0]))
+
+
 def scene_of(objects, light=False, size=(96, 72)) -> Scene:
     lights = [PointLight(position=[-1.0, 3.0, 1.0], intensity=[8.0, 8.0, 8.0])] if light else []
     camera = Camera(position=[1.8, 1.4, 2.4], look_at=[0.2, 0.4, -0.2], fov_y=38.0, size=size)
@@ -44,6 +53,7 @@ KINDS = {  # docs/auto.md's "scene holds" column -> such a scene
     "glass, a mirror, a diffuse floor and a light": lambda: scene_of([marble(), mirror(), table()], light=True),
     "a mirror alone": lambda: scene_of([mirror()]),
     "a mirror, a diffuse floor and a light": lambda: scene_of([mirror(), table()], light=True),
+    "a concave mirror, a diffuse floor and a light": lambda: scene_of([dish(), table()], light=True),
     "a diffuse floor and a light": lambda: scene_of([table()], light=True),
     "nothing": lambda: scene_of([]),
 }

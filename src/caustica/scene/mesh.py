@@ -106,9 +106,45 @@ class Mesh:
         """Directed edges (a, b) of every face, counter-clockwise, with vertices welded by position
         (icospheres and revolved shapes may repeat vertices along seams; + 0.0 welds -0 to 0):
         (3M, 2) int64 and the welded vertex count."""
+        weld, count = self._weld()
+        return weld[self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)].astype(np.int64), count
+
+    def _weld(self) -> tuple[np.ndarray, int]:
+        """Each vertex's welded index (by position, see :meth:`_welded_edges`) and the welded count."""
         _, first, weld = np.unique((np.round(self.vertices, 6) + 0.0).view(np.dtype((np.void, 12))).reshape(-1),
                                    return_index=True, return_inverse=True)
-        return weld.reshape(-1)[self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)].astype(np.int64), len(first)
+        return weld.reshape(-1), len(first)
+
+    def concave_fraction(self, eye) -> float:
+        """The fraction of the interior (welded) vertices where the surface bends towards ``eye``'s side:
+        the umbrella Laplacian (mean of the neighbours less the vertex, along the mean curvature normal)
+        points to the side of the vertex normal that faces ``eye``, by more than 1e-3 of the mean edge.
+        A concave mirror seen from its hollow is 1, a convex or flat one 0, a saddle about 0."""
+        weld, count = self._weld()
+        edges, _ = self._welded_edges()
+        position = np.zeros((count, 3))
+        position[weld] = self.vertices
+        normal = np.zeros((count, 3))
+        np.add.at(normal, weld, self.normals.astype(np.float64))
+        eye_side = np.sign(np.einsum("ij,ij->i", normal, np.asarray(eye, np.float64) - position))
+        undirected = np.unique(np.sort(edges, axis=1), axis=0)
+        neighbours = np.zeros((count, 3))
+        degree = np.zeros(count)
+        for a, b in ((0, 1), (1, 0)):
+            np.add.at(neighbours, undirected[:, a], position[undirected[:, b]])
+            np.add.at(degree, undirected[:, a], 1.0)
+        laplacian = neighbours / np.maximum(degree, 1.0)[:, None] - position
+        # Interior vertices only: a border vertex's neighbours all lie to one side.
+        key = np.sort(edges, axis=1)
+        unique, uses = np.unique(key[:, 0] * count + key[:, 1], return_counts=True)
+        border = np.zeros(count, bool)
+        border[unique[uses == 1] // count] = border[unique[uses == 1] % count] = True
+        inside = ~border & (degree > 0)
+        if not inside.any():
+            return 0.0
+        edge = float(np.linalg.norm(position[undirected[:, 0]] - position[undirected[:, 1]], axis=1).mean())
+        bend = np.einsum("ij,ij->i", laplacian, normal) * eye_side / np.maximum(np.linalg.norm(normal, axis=1), 1e-12)
+        return float(np.mean(bend[inside] > 1e-3 * edge))
 
     def is_solid(self) -> bool:
         """Whether the mesh bounds a volume with its front faces outside: every welded edge is shared

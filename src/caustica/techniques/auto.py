@@ -7,7 +7,8 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
   reflected rays see the nearby geometry, with depth-search's exit routine and internal bounces;
 - glass alone in the environment: ``depth-search`` with internal bounces (Hu and Qin 2.1);
 - mirrors without glass: ``per-vertex`` (Kakimoto et al.: exact at every vertex, and exact for a
-  flat mirror, whose least-squares viewpoint is its mirror image);
+  flat mirror, whose least-squares viewpoint is its mirror image); a concave mirror, which focuses
+  the reflected rays, takes ``impostors`` instead;
 - nothing specular: ``env-map`` (diffuse shading with shadow maps);
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
   (Shah et al.) is composed with the view technique, or ``transport-table`` (Iwasaki et al.) where
@@ -106,6 +107,14 @@ def plan(scene, quality: str = "balanced") -> Plan:
         view_params.update(internal_bounces=bounces)
         why_glass = f"alone in the environment: depth-search exits (Hu and Qin 2.1), {bounces} internal bounces"
         why_mirror = ""
+    elif mirrors and any(_concave(o, scene.camera) for o in mirrors):
+        view = "impostors"
+        view_params.update(impostor_size=impostor_size)
+        hollow = ", ".join(o.name for o in mirrors if _concave(o, scene.camera))
+        why_mirror = (f"a concave mirror ({hollow}) focuses the reflected rays, where per-vertex's least-squares "
+                      "viewpoint fails: each pixel's reflected ray searches the nearby objects as impostors "
+                      "(Hu and Qin 2.2)")
+        why_glass = ""
     elif mirrors:
         view = "per-vertex"
         why_mirror = ("reflection exact at every vertex with a least-squares viewpoint (Kakimoto et al.); "
@@ -153,6 +162,15 @@ def plan(scene, quality: str = "balanced") -> Plan:
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
+
+
+CONCAVE = 0.25  # a mirror is concave when this fraction of its surface bends towards the camera
+
+
+def _concave(obj, camera) -> bool:
+    """Whether the mirror bends towards the camera on at least CONCAVE of its surface (Mesh.concave_fraction):
+    per-vertex was made for convex and flat mirrors (Kakimoto et al.: car mirrors)."""
+    return obj.world_mesh().concave_fraction(camera.position) >= CONCAVE
 
 
 def _has_table(obj) -> bool:
