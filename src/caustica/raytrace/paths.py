@@ -8,8 +8,10 @@ noise. Beer-Lambert absorption exp(-sigma_a distance) applies per channel to
 every segment inside glass. A mirror reflects times its colour. A diffuse
 surface is shaded directly and ends the path: albedo / pi times the irradiance
 of every light (hard shadows from shadow rays; every object, glass included,
-occludes) plus albedo / pi times the unoccluded SH irradiance of the
-environment (as the rasterizer does). Rays that escape read the environment.
+occludes) plus the environment's light: by default its unoccluded SH
+irradiance (as the rasterizer does), or, with an :class:`EnvironmentSampling`,
+cosine-weighted rays traced through glass and mirrors (occluded) plus shadow
+rays towards its bright part. Rays that escape read the environment.
 
 Conventions and limits:
 
@@ -23,8 +25,10 @@ Conventions and limits:
 - Glass with an Abbe number (per-channel IOR) is traced once per channel with
   that channel's IOR.
 - Light reaches diffuse surfaces directly (shadow rays, in which glass is opaque); the caustics, light
-  through glass and off mirrors, come from exact photons when ``trace`` is given a CausticGather
-  (:mod:`caustica.raytrace.caustic_gather`; the ``exact`` technique does so by default).
+  of the lights and of the environment's bright part through glass and off mirrors, come from exact
+  photons when ``trace`` is given a CausticGather (:mod:`caustica.raytrace.caustic_gather`; the ``exact``
+  technique does so by default). The rest of the environment reaches them through glass along the
+  cosine rays.
 
 :func:`exit_directions` follows only the refracted branch (the angular-error
 oracle), and :func:`distance_along_negative_normal` computes Wyman's d_N.
@@ -172,16 +176,79 @@ def caustic_footprint(d: np.ndarray, geometric_normal: np.ndarray, travelled: np
     return sample_angle * travelled / np.sqrt(np.pi * cos)
 
 
-def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
-                  object_index=None, footprint=None) -> np.ndarray:
-    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + SH ambient, + the
-    caustic irradiance of ``caustics``, a :class:`~caustica.raytrace.caustic_gather.CausticGather`, on the
-    objects ``object_index``, over at least the radii ``footprint``).
+@dataclass
+class EnvironmentSampling:
+    """How :func:`shade_diffuse` gathers the environment's light: ``samples`` cosine-weighted rays per
+    point for the rest (:class:`~caustica.raytrace.environment_light.EnvironmentLight`; 0: its unoccluded
+    SH irradiance), traced through glass and mirrors, and ``bright_samples`` shadow rays towards the bright
+    part. Where a cosine ray meets a diffuse surface, ``bounce`` shades it with one bright sample and the
+    rest's SH irradiance and the lights (one bounce of interreflection), else it brings nothing."""
 
-    ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
+    light: object
+    samples: int = 64
+    bright_samples: int = 16
+    bounce: bool = True
+    max_depth: int = 16
+    min_weight: float = 1e-4
+
+    @property
+    def secondary(self) -> "EnvironmentSampling | None":
+        """The sampling at a cosine ray's diffuse hit."""
+        return EnvironmentSampling(self.light, 0, 1, False) if self.bounce else None
+
+
+def _environment_radiance(ray_scene, scene, position, normal, geometric_normal, albedo, sampling, materials,
+                          ior) -> np.ndarray:
+    """Radiance (n, 3) Lambertian points reflect of the environment under ``sampling`` (an
+    :class:`EnvironmentSampling`), intensity_scale included."""
+    from .environment_light import cosine_directions, rotated_pattern
+
+    light, scale = sampling.light, scene.intensity_scale
+    origin = position + geometric_normal * ray_scene.epsilon
+    out = np.zeros((len(position), 3))
+    if sampling.samples:
+        k = sampling.samples
+        step = max(1, BATCH_SIZE // k)
+        for start in range(0, len(position), step):
+            sl = slice(start, start + step)
+            d = cosine_directions(position[sl], normal[sl], k).reshape(-1, 3)
+            # Below the face (the shading normal tilts past it): mirrored above it.
+            ng = np.repeat(geometric_normal[sl], k, axis=0)
+            d = np.where((dot(d, ng) < 0)[:, None], d - 2.0 * dot(d, ng)[:, None] * ng, d)
+            radiance = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), np.repeat(origin[sl], k, axis=0), d,
+                                    sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
+                                    environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce)
+            out[sl] = albedo[sl] * radiance.reshape(-1, k, 3).mean(axis=1)
+    else:
+        out += albedo / np.pi * light.rest.irradiance(normal) * scale
+    if sampling.bright_samples and light.has_bright:
+        k = sampling.bright_samples
+        d, radiance, pdf = light.sample_bright(rotated_pattern(position, k, salt=2))
+        cos = np.einsum("nkj,nj->nk", d, normal)
+        lit = (cos > 0) & (np.einsum("nkj,nj->nk", d, geometric_normal) > 0)
+        where = np.nonzero(lit)
+        lit[where] = ~ray_scene.occluded(origin[where[0]], d[where], np.inf)
+        contribution = np.where(lit, cos / pdf, 0.0)[..., None] * radiance
+        out += albedo / np.pi * contribution.mean(axis=1) * scale
+    return out
+
+
+def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
+                  object_index=None, footprint=None, environment: EnvironmentSampling | None = None,
+                  materials=None, ior=None) -> np.ndarray:
+    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + the environment's
+    light, + the caustic irradiance of ``caustics``, a :class:`~caustica.raytrace.caustic_gather.CausticGather`,
+    on the objects ``object_index``, over at least the radii ``footprint``).
+
+    The environment's light is its unoccluded SH irradiance, or, with ``environment`` (an
+    :class:`EnvironmentSampling`; ``materials`` and the per-object ``ior`` of this pass trace its rays),
+    sampled with occlusion. ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
     ``scene.intensity_scale``.
     """
-    irradiance = scene.environment.irradiance(normal).astype(np.float64)
+    if environment is None:
+        irradiance = scene.environment.irradiance(normal).astype(np.float64)
+    else:
+        irradiance = np.zeros((len(position), 3))
     if caustics is not None:
         irradiance += caustics.irradiance(position, normal, object_index, footprint)
     shadow_origin = position + geometric_normal * ray_scene.epsilon
@@ -208,7 +275,12 @@ def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal
                 continue
             lit[lit] = ~ray_scene.occluded(shadow_origin[lit], to_light[lit], distance[lit] - ray_scene.epsilon)
             irradiance[lit] += (cos * falloff)[lit, None] * intensity
-    return albedo / np.pi * irradiance * scene.intensity_scale
+    out = albedo / np.pi * irradiance * scene.intensity_scale
+    if environment is not None:
+        out += _environment_radiance(ray_scene, scene, position, normal, geometric_normal, albedo, environment,
+                                     materials if materials is not None else Materials.of(scene),
+                                     ior if ior is not None else Materials.of(scene).ior_rgb[:, 0])
+    return out
 
 
 def trace(
@@ -221,6 +293,7 @@ def trace(
     stats: TraceStats | None = None,
     caustics=None,
     sample_angle: float = 0.0,
+    environment: EnvironmentSampling | None = None,
 ) -> np.ndarray:
     """Radiance (N,3) float64 along rays (N,3) through the scene's specular paths.
 
@@ -230,6 +303,8 @@ def trace(
     ``caustics`` (a CausticGather) adds the lights' caustics on the diffuse surfaces the paths end on,
     each estimate over at least the sample's footprint there: ``sample_angle`` (radians, the side of one
     sample's square of the image) times the distance travelled, over the square root of pi cos.
+    ``environment`` (an :class:`EnvironmentSampling`) samples the environment's light on diffuse surfaces
+    with occlusion instead of taking its unoccluded SH irradiance.
     """
     origins = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
     dirs = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
@@ -246,7 +321,7 @@ def trace(
         for ior, channel_weight in passes:
             radiance[sl] += _trace_batch(
                 ray_scene, scene, materials, ior, channel_weight, origins[sl], dirs[sl], max_depth, min_weight, dropped,
-                caustics, sample_angle)
+                caustics, sample_angle, environment)
     if stats is not None:
         stats.max_depth = max_depth
         stats.by_depth_limit = dropped.by_depth_limit / max(len(origins), 1)
@@ -255,8 +330,10 @@ def trace(
 
 
 def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_depth, min_weight, stats,
-                 caustics=None, sample_angle: float = 0.0) -> np.ndarray:
-    """The wavefront loop over one batch of primary rays and one IOR per object."""
+                 caustics=None, sample_angle: float = 0.0, environment: EnvironmentSampling | None = None,
+                 escape=None, diffuse: bool = True) -> np.ndarray:
+    """The wavefront loop over one batch of primary rays and one IOR per object. Escaped rays read
+    ``escape`` (default: the scene's environment); ``diffuse`` False: diffuse hits bring nothing."""
     n = len(o)
     out = np.zeros((n, 3))
     pixel = np.arange(n)
@@ -264,6 +341,7 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
     medium = np.full(n, -1, np.int64)  # glass object the ray travels in, -1 for air
     travelled = np.zeros(n)  # path length from the eye (the footprint of caustic estimates)
     scale = scene.intensity_scale
+    escape = scene.environment if escape is None else escape
     for depth in range(max_depth + 1):
         if len(pixel) == 0:
             break
@@ -276,18 +354,18 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
         # Escaped rays read the environment.
         miss = ~hits.hit
         if miss.any():
-            _accumulate(out, pixel[miss], weight[miss] * scene.environment.lookup(d[miss]) * scale)
+            _accumulate(out, pixel[miss], weight[miss] * escape.lookup(d[miss]) * scale)
         kind = materials.kind[hits.object_index]
         # Diffuse surfaces: direct shading, end of the path.
-        diffuse = kind == MATERIAL_DIFFUSE
-        if diffuse.any():
-            _, ns, ng = facing(d[diffuse], hits.normal[diffuse], hits.geometric_normal[diffuse])
-            albedo = materials.albedo(hits, diffuse)
-            footprint = None if caustics is None else caustic_footprint(d[diffuse], ng, travelled[diffuse],
+        on_diffuse = kind == MATERIAL_DIFFUSE
+        if diffuse and on_diffuse.any():
+            _, ns, ng = facing(d[on_diffuse], hits.normal[on_diffuse], hits.geometric_normal[on_diffuse])
+            albedo = materials.albedo(hits, on_diffuse)
+            footprint = None if caustics is None else caustic_footprint(d[on_diffuse], ng, travelled[on_diffuse],
                                                                         sample_angle)
-            radiance = shade_diffuse(ray_scene, scene, hits.position[diffuse], ns, ng, albedo, caustics,
-                                     hits.object_index[diffuse], footprint)
-            _accumulate(out, pixel[diffuse], weight[diffuse] * radiance)
+            radiance = shade_diffuse(ray_scene, scene, hits.position[on_diffuse], ns, ng, albedo, caustics,
+                                     hits.object_index[on_diffuse], footprint, environment, materials, ior)
+            _accumulate(out, pixel[on_diffuse], weight[on_diffuse] * radiance)
         specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)
         if depth == max_depth:
             stats.by_depth_limit[depth + 1] += weight[specular].mean(axis=1).sum()

@@ -20,6 +20,10 @@ specular objects, or what ``target`` names.
 - Directional light of irradiance E: origins uniform over the disc of radius r
   perpendicular to the light, centred on c and moved back out of the scene;
   each photon carries E pi r^2 / count.
+- The environment's bright part (``environment``, an
+  :class:`~caustica.raytrace.environment_light.EnvironmentLight`): each photon is a directional light
+  from a direction drawn by the bright part's power (pdf p), over the same disc; it carries
+  L / p pi r^2 / count, L the bright radiance from there.
 
 Photon counts are shared between emitters in proportion to the flux each sends
 towards the target, so that every photon carries about the same flux.
@@ -53,6 +57,7 @@ import numpy as np
 from ..scene.codes import MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
 from ..scene.lights import DirectionalLight, SpotLight
 from .embree_scene import ray_scene_for, world_sphere
+from .environment_light import tangent_frame
 from .optics import dot, normalize
 from .paths import Materials, facing, interface, reflect_above
 
@@ -158,6 +163,32 @@ class _Emitter:
         return origins, dirs, flux
 
 
+@dataclass
+class _EnvironmentEmitter:
+    """The environment's bright part as photons: a directional light per photon, from a direction drawn
+    by the bright part's power."""
+
+    light: object  # an EnvironmentLight with a bright part
+    center: np.ndarray
+    radius: float
+    scene_radius: float
+
+    @property
+    def power(self) -> float:
+        return self.light.bright_power() * math.pi * self.radius**2
+
+    def emit(self, n: int, rng: np.random.Generator, count: int):
+        """Origins, unit directions and flux (n,3) of ``n`` of ``count`` photons."""
+        towards, radiance, pdf = self.light.sample_bright(rng.random((n, 2)))
+        u1, phi = rng.random(n), 2.0 * np.pi * rng.random(n)
+        e1, e2 = tangent_frame(towards)
+        rho = self.radius * np.sqrt(u1)
+        offset = (rho * np.cos(phi))[:, None] * e1 + (rho * np.sin(phi))[:, None] * e2
+        origins = self.center + offset + (self.scene_radius + self.radius) * towards
+        flux = radiance / pdf[:, None] * (math.pi * self.radius**2 / count)
+        return origins, -towards, flux
+
+
 def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors completing ``axis`` to an orthonormal frame."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -204,7 +235,7 @@ def target_sphere(scene, target=None) -> tuple[np.ndarray, float] | None:
     return _enclosing_sphere([_object_sphere(o) for o in objects])
 
 
-def _emitters(scene, light_index, target) -> list[_Emitter]:
+def _emitters(scene, light_index, target, environment=None) -> list:
     sphere = target_sphere(scene, target)
     if sphere is None:
         return []
@@ -219,6 +250,8 @@ def _emitters(scene, light_index, target) -> list[_Emitter]:
         else:
             for position, intensity in light.point_samples():
                 out.append(_Emitter(light, np.asarray(position, np.float64), intensity, center, radius, scene_radius))
+    if environment is not None and environment.has_bright:
+        out.append(_EnvironmentEmitter(environment, center, radius, scene_radius))
     return [e for e in out if e.power > 0]
 
 
@@ -240,10 +273,12 @@ class _Tally:
 
 def trace_photons(scene, light_index: int | None = None, count: int = 1_000_000, seed: int = 0, max_depth: int = 8,
                   target=None, branches: str = "split", min_weight: float = 1e-4,
-                  chunk: int = CHUNK_PHOTONS) -> PhotonHits:
+                  chunk: int = CHUNK_PHOTONS, environment=None) -> PhotonHits:
     """Trace ``count`` photons (per channel pass) from the lights and return their caustic hits.
 
-    ``light_index`` picks one light (default: all, sharing ``count`` by flux).
+    ``light_index`` picks one light (default: all, sharing ``count`` by flux). ``environment`` (an
+    :class:`~caustica.raytrace.environment_light.EnvironmentLight`) adds its bright part as an emitter;
+    with ``light_index`` given the photons come from that light only, else they share ``count`` by flux.
     ``target`` overrides what photons are aimed at (see :func:`target_sphere`).
     ``branches`` is ``"split"`` or ``"transmit"`` (see the module docstring).
     """
@@ -251,7 +286,7 @@ def trace_photons(scene, light_index: int | None = None, count: int = 1_000_000,
         raise ValueError(f"branches '{branches}' must be 'split' or 'transmit'")
     if count < 1:
         raise ValueError(f"photon count {count} must be at least 1")
-    emitters = _emitters(scene, light_index, target)
+    emitters = _emitters(scene, light_index, target, environment if light_index is None else None)
     tally = _Tally()
     emitted = np.zeros(3)
     if emitters:

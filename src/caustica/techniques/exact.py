@@ -7,22 +7,28 @@ reflected (weight F, exact unpolarised Fresnel) and the refracted branch
 ``max_depth`` interactions. Spheres from ``shapes.sphere`` are intersected as
 true spheres (see :mod:`caustica.raytrace.embree_scene`).
 
-Caustics: photons from every light, traced through glass and mirrors with the
-same Embree paths (:func:`caustica.raytrace.photons.trace_photons`, seeded), give
-the light that reaches diffuse surfaces after a specular interaction; every
-eye path that ends on a diffuse surface adds their k-nearest-photon irradiance
-estimate there (:mod:`caustica.raytrace.caustic_gather`). Direct light keeps its
-hard shadow rays, in which glass is opaque: the photons bring back what passes
-through it. So the caustic seen through glass or in a mirror is there too,
-which Mitsuba's composite reference misses. ``caustic_photons = 0`` turns the
-caustics off (glass then casts opaque shadows).
+Environment light on diffuse surfaces (``environment_samples`` > 0, the default): the environment is split
+into its bright part (texels above ``environment_bright`` times the mean radiance: a sun), sampled by power
+with ``environment_light_samples`` shadow rays a hit, and the rest, gathered by ``environment_samples``
+stratified cosine-weighted rays a hit that are occluded by the scene and continue through glass and off
+mirrors with the path weights of the eye paths (:mod:`caustica.raytrace.environment_light`). A cosine ray
+that meets a diffuse surface shades it with the lights, one sample of the bright part and the rest's SH
+irradiance (``environment_bounce``: one bounce of interreflection). ``environment_samples = 0`` gives
+back the unoccluded SH irradiance of the rasterized techniques.
+
+Caustics: photons from every light and from the environment's bright part, traced through glass and
+mirrors with the same Embree paths (:func:`caustica.raytrace.photons.trace_photons`, seeded), give the
+light that reaches diffuse surfaces after a specular interaction; every eye path that ends on a diffuse
+surface adds their k-nearest-photon irradiance estimate there (:mod:`caustica.raytrace.caustic_gather`).
+Direct light keeps its hard shadow rays, in which glass is opaque: the photons bring back what passes
+through it. So the caustic seen through glass or in a mirror is there too, which Mitsuba's composite
+reference misses. ``caustic_photons = 0`` turns the caustics off (glass then casts opaque shadows of the
+lights and of the bright part).
 
 Limits:
 
-- Caustics come from the lights only; the environment's light through glass
-  (an environment caustic) is not traced.
-- Ambient light on diffuse surfaces is the unoccluded SH irradiance of the
-  environment, the same term the rasterized techniques use.
+- Interreflection: one bounce, along the environment rays; the diffuse point they meet is shaded
+  without its caustics and with the rest of the environment unoccluded.
 - Dielectrics sit in air (no nested or touching glass).
 - CPU speed: a few million rays per second; meant for measurement, not real time.
 """
@@ -34,10 +40,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cache import LruCache, material_state_key, scene_state_key
+from ..cache import LruCache, array_digest, material_state_key, scene_state_key
 from ..raytrace.caustic_gather import CausticGather
 from ..raytrace.embree_scene import ray_scene_for
-from ..raytrace.paths import BATCH_SIZE, Materials, caustic_footprint, facing, trace
+from ..raytrace.environment_light import BRIGHT_RATIO, environment_light
+from ..raytrace.paths import BATCH_SIZE, EnvironmentSampling, Materials, caustic_footprint, facing, trace
 from ..scene.codes import MATERIAL_DIFFUSE
 from ..raytrace.photons import target_sphere, trace_photons
 from .base import Params, Technique, param
@@ -58,6 +65,18 @@ class ExactParams(Params):
                                  help="photons traced from the lights for the caustics (Jensen's photon map)")
     caustic_neighbours: int = param(64, range=(1, 4096), unit="photons",
                                     help="nearest photons in each caustic irradiance estimate (the kernel's size)")
+    environment_samples: int = param(64, range=(0, 4096), unit="rays",
+                                     special={0: "the environment's unoccluded SH irradiance"},
+                                     help="cosine-weighted rays per diffuse hit for the environment's light, "
+                                          "occluded, through glass and mirrors")
+    environment_light_samples: int = param(16, range=(0, 4096), unit="rays",
+                                           help="shadow rays per diffuse hit towards the environment's bright part")
+    environment_bright: float = param(BRIGHT_RATIO, range=(0.0, 1e9), unit="x mean radiance",
+                                      special={0: "no bright part: every texel is cosine sampled"},
+                                      help="texels brighter than this are the environment's bright part (a sun): "
+                                           "sampled as lights, with photons for its caustics")
+    environment_bounce: bool = param(True, help="environment rays that meet a diffuse surface shade it (one "
+                                                "bounce of interreflection)")
 
 
 class Exact(Technique):
@@ -76,18 +95,22 @@ class Exact(Technique):
         path is independent of the others, so the image does not depend on the bands."""
         params = params if params is not None else ExactParams()
         width, height = camera.size
+        sampling = environment_sampling(scene, params)
         rays_per_row = width * spp
+        if sampling is not None:  # each diffuse hit traces its environment rays: smaller bands, finer progress
+            rays_per_row *= 1 + (sampling.samples + sampling.bright_samples) // 8
         band = max(1, BATCH_SIZE // rays_per_row)
         rays = ray_scene_for(scene)
         caustics = caustic_gather(scene, params)
         sample_angle = _sample_angle(camera, spp)
         image = np.empty((height, width, 3), dtype=np.float32)
-        bar = _progress(height, f"exact {scene.name}")
+        label = "" if sampling is None else f" ({sampling.samples}+{sampling.bright_samples} environment rays a hit)"
+        bar = _progress(height, f"exact {scene.name}{label}")
         for first in range(0, height, band):
             stop = min(height, first + band)
             origins, dirs = camera.primary_rays(spp, rows=(first, stop))
             radiance = trace(rays, scene, origins.reshape(-1, 3), dirs.reshape(-1, 3), params.max_depth,
-                             params.min_weight, caustics=caustics, sample_angle=sample_angle)
+                             params.min_weight, caustics=caustics, sample_angle=sample_angle, environment=sampling)
             image[first:stop] = radiance.reshape(stop - first, width, -1, 3).mean(axis=2)
             if bar is not None:
                 bar.update(stop - first)
@@ -137,21 +160,37 @@ KERNEL_REACH = 0.1  # the caustic kernel's largest radius, in radii of the specu
 _GATHERS = LruCache(2)  # the photon maps of the scenes rendered last, reused while nothing they depend on changes
 
 
+def environment_sampling(scene, params) -> EnvironmentSampling | None:
+    """How diffuse hits gather the environment's light under ``params``; None for its unoccluded SH
+    irradiance (``environment_samples`` 0)."""
+    if not params.environment_samples:
+        return None
+    return EnvironmentSampling(environment_light(scene.environment, params.environment_bright),
+                               params.environment_samples, params.environment_light_samples,
+                               params.environment_bounce, params.max_depth, params.min_weight)
+
+
 def caustic_gather(scene, params) -> CausticGather | None:
-    """The lights' caustic photons in ``scene`` for ``params``, ready to gather; None when there are none
-    (no photons asked for, no light, or nothing specular). Kept for the next render of the same lights,
-    geometry, placement and materials (a camera move traces no photons)."""
+    """The caustic photons of the lights and of the environment's bright part (when the environment is
+    sampled: ``environment_samples`` > 0) in ``scene`` for ``params``, ready to gather; None when there are
+    none (no photons asked for, no emitter, or nothing specular). Kept for the next render of the same
+    lights, environment, geometry, placement and materials (a camera move traces no photons)."""
     target = target_sphere(scene)
-    if not params.caustic_photons or not scene.lights or target is None:
+    sampling = environment_sampling(scene, params)
+    environment = sampling.light if sampling is not None and sampling.light.has_bright else None
+    if not params.caustic_photons or (not scene.lights and environment is None) or target is None:
         return None
     key = (scene_state_key(scene), material_state_key(scene), params.caustic_photons, params.caustic_neighbours,
-           params.max_depth, params.min_weight)
+           params.max_depth, params.min_weight,
+           None if environment is None else (array_digest(scene.environment.image), params.environment_bright))
     gather = _GATHERS.get(key)
     if gather is None:
         if sys.stderr.isatty():
-            print(f"caustica: exact: tracing {params.caustic_photons} photons for the caustics", file=sys.stderr)
+            sources = "lights" if environment is None else "lights and the environment's bright part"
+            print(f"caustica: exact: tracing {params.caustic_photons} photons from the {sources} for the caustics",
+                  file=sys.stderr)
         hits = trace_photons(scene, count=params.caustic_photons, seed=0, max_depth=params.max_depth,
-                             min_weight=params.min_weight)
+                             min_weight=params.min_weight, environment=environment)
         gather = CausticGather(hits, params.caustic_neighbours, KERNEL_REACH * target[1])
         _GATHERS[key] = gather
     return gather
