@@ -3,7 +3,7 @@
 :class:`EnvironmentLight` splits the radiance of an :class:`~caustica.scene.environment.Environment` into
 two images whose bilinear lookups add up to the original exactly: the *bright* part (the texels above
 ``bright`` times the mean radiance over the sphere: a sun) and the *rest*. The bright part is sampled by
-its power over the cells of the bilinear grid (shadow rays and photons); the rest is gathered by
+its power over parts of the cells of the bilinear grid (shadow rays and photons); the rest is gathered by
 cosine-weighted rays. Splitting this way keeps a small, very bright sun out of the cosine rays (no
 fireflies) and gives it a sharp shadow.
 
@@ -23,6 +23,7 @@ from ..cache import array_digest
 from ..scene.environment import Environment, uv_to_direction
 
 BRIGHT_RATIO = 10.0  # default threshold of the bright part, in multiples of the mean radiance
+SUBCELLS = 4  # each bright cell is sampled as SUBCELLS^2 parts by their radiance (its bilinear varies 0 to peak)
 
 
 def hammersley(count: int) -> np.ndarray:
@@ -100,19 +101,37 @@ class EnvironmentLight:
         mask = (luminance > bright * mean) if 0 < bright < np.inf and mean > 0 else np.zeros((h, w), bool)
         self.bright_image = np.where(mask[..., None], image, 0.0).astype(np.float32)
         self.rest = Environment(np.where(mask[..., None], 0.0, image).astype(np.float32), source=environment.source)
-        # Cells of the bilinear grid that touch a bright texel, weighted by their corners' mean and sin(theta).
+        # Cells of the bilinear grid that touch a bright texel, cut into SUBCELLS x SUBCELLS parts weighted by
+        # the bilinear radiance (mean of the channels) and sin(theta) at their centres.
         corners = self._corner_values(np.arange(h - 1)[:, None], np.arange(w)[None, :])
-        centre_sin = np.sin(np.pi * (np.arange(h - 1) + 0.5) / (h - 1))
-        density = centre_sin[:, None] * (np.pi / (h - 1)) * (2.0 * np.pi / w)
-        power = corners.mean(axis=(2, 3)).mean(axis=-1) * density
-        self.cells = np.flatnonzero(power > 0)
-        self.cell_power = power.reshape(-1)[self.cells]
-        total = float(self.cell_power.sum())
-        self.cell_cdf = np.cumsum(self.cell_power) / total if total > 0 else np.zeros(0)
+        j, i = np.nonzero(corners.max(axis=(2, 3, 4)) > 0)
+        part = (np.arange(SUBCELLS) + 0.5) / SUBCELLS
+        fy, fx = (g.reshape(-1) for g in np.meshgrid(part, part, indexing="ij"))
+        j, i = np.repeat(j, len(fx)), np.repeat(i, len(fx))
+        fx, fy = np.tile(fx, len(j) // len(fx) if len(fx) else 0), np.tile(fy, len(j) // len(fy) if len(fy) else 0)
+        value = self._bilinear(self._corner_values(j, i), fx, fy).mean(axis=-1)
+        power = value * self._texel_solid_angle(j + fy) / SUBCELLS**2
+        keep = power > 0
+        self.parts = (j[keep], i[keep], fx[keep] - 0.5 / SUBCELLS, fy[keep] - 0.5 / SUBCELLS)  # lower corners
+        self.part_power = power[keep]
+        total = float(self.part_power.sum())
+        self.part_cdf = np.cumsum(self.part_power) / total if total > 0 else np.zeros(0)
+
+    def _texel_solid_angle(self, y: np.ndarray) -> np.ndarray:
+        """Solid angle per unit of texel coordinates x and y at rows ``y``."""
+        h, w = self.shape
+        return np.maximum(np.sin(np.pi * y / (h - 1)), 1e-12) * (np.pi / (h - 1)) * (2.0 * np.pi / w)
+
+    @staticmethod
+    def _bilinear(corner: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+        """(..., 3) bilinear interpolation of (..., 2, 2, 3) corner values at (fx, fy) in the cell."""
+        fx, fy = fx[..., None], fy[..., None]
+        return ((corner[..., 0, 0, :] * (1 - fx) + corner[..., 0, 1, :] * fx) * (1 - fy)
+                + (corner[..., 1, 0, :] * (1 - fx) + corner[..., 1, 1, :] * fx) * fy)
 
     @property
     def has_bright(self) -> bool:
-        return len(self.cells) > 0
+        return len(self.part_power) > 0
 
     def _corner_values(self, j, i) -> np.ndarray:
         """(..., 2, 2, 3) bright radiance at the corners of cells (j, i): [row j / j + 1][column i / i + 1]."""
@@ -125,29 +144,26 @@ class EnvironmentLight:
 
     def sample_bright(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Directions towards the bright part for numbers ``u`` (..., 2) in [0, 1): (unit direction (..., 3),
-        bright radiance (..., 3), solid-angle pdf (...)). The first number picks a cell by its power and
-        places the point along x within it (the remainder of the cell's share); the second along y."""
+        bright radiance (..., 3), solid-angle pdf (...)). The first number picks a subcell by its power and
+        places the point along x within it (the remainder of the subcell's share); the second along y."""
         h, w = self.shape
-        k = np.minimum(np.searchsorted(self.cell_cdf, u[..., 0], side="right"), len(self.cells) - 1)
-        low = np.where(k > 0, self.cell_cdf[np.maximum(k - 1, 0)], 0.0)
-        share = self.cell_cdf[k] - low
-        fx = np.clip((u[..., 0] - low) / np.maximum(share, 1e-300), 0.0, 1.0 - 1e-12)
-        fy = u[..., 1]
-        j, i = np.divmod(self.cells[k], w)
+        cdf = self.part_cdf
+        k = np.minimum(np.searchsorted(cdf, u[..., 0], side="right"), len(cdf) - 1)
+        low = np.where(k > 0, cdf[np.maximum(k - 1, 0)], 0.0)
+        share = cdf[k] - low
+        across = np.clip((u[..., 0] - low) / np.maximum(share, 1e-300), 0.0, 1.0 - 1e-12)
+        j, i, x0, y0 = (a[k] for a in self.parts)
+        fx, fy = x0 + across / SUBCELLS, y0 + u[..., 1] / SUBCELLS
         x, y = i + fx, j + fy
         direction = uv_to_direction(np.stack([np.mod((x + 0.5) / w, 1.0), y / (h - 1)], axis=-1))
-        corner = self._corner_values(j, i)
-        fxe, fye = fx[..., None], fy[..., None]
-        radiance = ((corner[..., 0, 0, :] * (1 - fxe) + corner[..., 0, 1, :] * fxe) * (1 - fye)
-                    + (corner[..., 1, 0, :] * (1 - fxe) + corner[..., 1, 1, :] * fxe) * fye)
-        sin = np.maximum(np.sin(np.pi * y / (h - 1)), 1e-12)
-        pdf = share / (sin * (np.pi / (h - 1)) * (2.0 * np.pi / w))
+        radiance = self._bilinear(self._corner_values(j, i), fx, fy)
+        pdf = share * SUBCELLS**2 / self._texel_solid_angle(y)
         return direction, radiance, pdf
 
     def bright_power(self) -> float:
         """Integral of the bright part's radiance (mean over channels) over the sphere, in W/m^2 per
         unit area facing each direction (the irradiance its cells add up to, cosines left out)."""
-        return float(self.cell_power.sum())
+        return float(self.part_power.sum())
 
 
 def environment_light(environment: Environment, bright: float = BRIGHT_RATIO) -> EnvironmentLight:
