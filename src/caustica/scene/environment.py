@@ -140,8 +140,8 @@ class Environment:
     def irradiance_sh(self) -> np.ndarray:
         """(9, 3) coefficients of the cosine-convolved environment (Ramamoorthi-Hanrahan).
 
-        Diffuse surfaces use it as unoccluded ambient light in every technique,
-        so the exact oracle and the rasterized techniques agree.
+        Diffuse surfaces use it as unoccluded ambient light in the rasterized techniques (and in the
+        exact oracle with ``environment_samples = 0``).
         """
         if self._sh is None:
             basis, solid_angle = _sh_grid(*self.image.shape[:2])
