@@ -44,6 +44,7 @@ from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.mesh import Mesh
 from ..scene.textures import sample_texture, texture_of
 from .embree_scene import RayScene
+from .environment_light import cosine_directions, rotated_pattern
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
 BATCH_SIZE = 1 << 20
@@ -201,8 +202,6 @@ def _environment_radiance(ray_scene, scene, position, normal, geometric_normal, 
                           ior) -> np.ndarray:
     """Radiance (n, 3) Lambertian points reflect of the environment under ``sampling`` (an
     :class:`EnvironmentSampling`), intensity_scale included."""
-    from .environment_light import cosine_directions, rotated_pattern
-
     light, scale = sampling.light, scene.intensity_scale
     origin = position + geometric_normal * ray_scene.epsilon
     out = np.zeros((len(position), 3))
