@@ -91,6 +91,7 @@ class EnvironmentLight:
     weighted by solid angle); 0 or inf keeps every texel in the rest."""
 
     def __init__(self, environment: Environment, bright: float = BRIGHT_RATIO):
+        self.bright = float(bright)
         image = environment.image.astype(np.float64)
         h, w = image.shape[:2]
         self.shape = (h, w)

@@ -70,6 +70,7 @@ class ExactParams(Params):
                                      help="cosine-weighted rays per diffuse hit for the environment's light, "
                                           "occluded, through glass and mirrors")
     environment_light_samples: int = param(16, range=(0, 4096), unit="rays",
+                                           special={0: "no bright part: every texel is cosine sampled"},
                                            help="shadow rays per diffuse hit towards the environment's bright part")
     environment_bright: float = param(BRIGHT_RATIO, range=(0.0, 1e9), unit="x mean radiance",
                                       special={0: "no bright part: every texel is cosine sampled"},
@@ -165,7 +166,8 @@ def environment_sampling(scene, params) -> EnvironmentSampling | None:
     irradiance (``environment_samples`` 0)."""
     if not params.environment_samples:
         return None
-    return EnvironmentSampling(environment_light(scene.environment, params.environment_bright),
+    bright = params.environment_bright if params.environment_light_samples else 0.0
+    return EnvironmentSampling(environment_light(scene.environment, bright),
                                params.environment_samples, params.environment_light_samples,
                                params.environment_bounce, params.max_depth, params.min_weight)
 
@@ -182,7 +184,7 @@ def caustic_gather(scene, params) -> CausticGather | None:
         return None
     key = (scene_state_key(scene), material_state_key(scene), params.caustic_photons, params.caustic_neighbours,
            params.max_depth, params.min_weight,
-           None if environment is None else (array_digest(scene.environment.image), params.environment_bright))
+           None if environment is None else (array_digest(scene.environment.image), environment.bright))
     gather = _GATHERS.get(key)
     if gather is None:
         if sys.stderr.isatty():
