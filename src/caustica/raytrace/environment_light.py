@@ -27,7 +27,7 @@ SUBCELLS = 4  # each bright cell is sampled as SUBCELLS^2 parts by their radianc
 
 
 def hammersley(count: int) -> np.ndarray:
-    """(count, 2) points of the Hammersley set in [0, 1)^2 (i / count, base-2 radical inverse of i)."""
+    """(count, 2) points of the Hammersley set in [0, 1)^2 ((i + 1/2) / count, base-2 radical inverse of i)."""
     i = np.arange(count, dtype=np.uint64)
     bits = np.zeros(count, np.float64)
     scale, rest = 0.5, i.copy()
