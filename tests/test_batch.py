@@ -124,6 +124,23 @@ def test_killed_run_restarts_and_ends_with_every_frame_once(tmp_path):
     assert "frame 16/16" in done.stderr  # plain progress lines when stderr is no terminal
 
 
+def test_a_worker_killed_mid_run_costs_at_most_its_frame(tmp_path):
+    killed = []
+
+    def kill_one(state):
+        if not killed:
+            killed.append(state.row["worker"])
+            os.kill(killed[0], signal.SIGKILL)
+
+    rows = caustica.batch("caustic-sphere", tmp_path, 12, orbit=360, workers=2, progress=kill_one, **FAST)
+    assert [r["index"] for r in rows] == list(range(12))
+    failed = [r for r in rows if "error" in r]
+    assert len(failed) <= 1 and all("worker process died" in r["error"] for r in failed)
+    assert killed[0] not in {r["worker"] for r in rows if r["time"] > rows[0]["time"] + 5}
+    again = caustica.batch("caustic-sphere", tmp_path, 12, orbit=360, **FAST)
+    assert all("error" not in r for r in again)
+
+
 def test_sweep_values_land_in_manifest_and_images(tmp_path):
     sweep = write_sweep(tmp_path, """
 scene = "glass-sphere"

@@ -9,7 +9,7 @@ per CPU where it has none, each over chunks of frames.
 from __future__ import annotations
 
 import math
-import queue
+import time
 from collections import deque
 
 from ..errors import CausticaError, GLUnavailableError, MissingExtraError, first_line
@@ -38,87 +38,98 @@ def _inline(job, indices):
         worker.close()
 
 
-def _worker_main(job, tasks, results) -> None:
-    """A spawned worker: render the indices ``tasks`` hands out until its None."""
-    import multiprocessing
-    import os
-
-    pid, worker, parent = os.getpid(), None, multiprocessing.parent_process()
+def _worker_main(job, conn) -> None:
+    """A spawned worker: render each index the parent sends on ``conn`` until None (or the parent's end)."""
+    worker = None
     try:
         worker = FrameWorker(job)
-        while (index := tasks.get()) is not None and (parent is None or parent.is_alive()):  # stop with the parent
-            results.put(("start", pid, index))
-            results.put(("row", pid, worker.render(index)))
+        while (index := conn.recv()) is not None:
+            conn.send(("row", worker.render(index)))
+    except EOFError:
+        pass  # the parent is gone
     except Exception as exc:  # the parent raises it again
-        results.put(("fatal", pid, (type(exc).__name__, first_line(exc), isinstance(exc, CausticaError))))
+        conn.send(("fatal", (type(exc).__name__, first_line(exc), isinstance(exc, CausticaError))))
     finally:
         if worker is not None:
             worker.close()
 
 
 def _spawned(job, indices: list[int], count: int):
+    """Each worker has its own pipe and one frame at a time: a worker killed at any moment holds no
+    lock another needs, and the parent knows which frame it took with it."""
     import multiprocessing
+    from multiprocessing.connection import wait
 
     ctx = multiprocessing.get_context("spawn")
-    tasks, results = ctx.Queue(), ctx.Queue()
-    for index in indices:
-        tasks.put(index)
-    processes = {}
+    waiting, remaining, restarts = deque(indices), set(indices), 0
+    workers: dict = {}  # parent end of the pipe -> [process, the index it renders or None]
 
     def start():
-        process = ctx.Process(target=_worker_main, args=(job, tasks, results), daemon=True)
+        ours, theirs = ctx.Pipe()
+        process = ctx.Process(target=_worker_main, args=(job, theirs), daemon=True)
         process.start()
-        processes[process.pid] = process
-        tasks.put(None)  # this worker's stop, behind the frames
+        theirs.close()
+        workers[ours] = [process, None]
+        hand(ours)
+
+    def hand(conn):
+        index = waiting.popleft() if waiting else None
+        workers[conn][1] = index
+        try:
+            conn.send(index)
+        except OSError:
+            pass  # it died: found below
+
+    def receive(conn):
+        """The row ``conn`` sent (the next frame handed out first), or None."""
+        try:
+            kind, payload = conn.recv()
+        except (EOFError, OSError):
+            return None
+        if kind == "fatal":
+            name, message, caustica_error = payload
+            if not caustica_error:
+                raise RuntimeError(f"a batch worker failed: {name}: {message}")
+            raise (GLUnavailableError if name == "GLUnavailableError" else CausticaError)(message)
+        remaining.discard(payload["index"])
+        hand(conn)
+        return payload
 
     for _ in range(count):
         start()
-    remaining, taken, restarts = set(indices), {}, 0
     try:
         while remaining:
-            try:
-                messages = [results.get(timeout=POLL_S)]
-            except queue.Empty:
-                messages = []
-            dead = [pid for pid, p in processes.items() if not p.is_alive()]
-            while dead:  # what a dead worker sent before it died comes first
-                try:
-                    messages.append(results.get_nowait())
-                except queue.Empty:
-                    break
-            for kind, pid, payload in messages:
-                if kind == "start":
-                    taken[pid] = payload
-                elif kind == "row":
-                    taken.pop(pid, None)
-                    remaining.discard(payload["index"])
-                    yield payload
-                else:
-                    name, message, ours = payload
-                    if not ours:
-                        raise RuntimeError(f"a batch worker failed: {name}: {message}")
-                    raise (GLUnavailableError if name == "GLUnavailableError" else CausticaError)(message)
-            for pid in dead:
-                process = processes.pop(pid)
-                index = taken.pop(pid, None)
-                if index is not None and index in remaining:
+            sentinels = {w[0].sentinel: conn for conn, w in workers.items()}
+            for ready in wait(list(workers) + list(sentinels), timeout=POLL_S):
+                if ready in workers and (row := receive(ready)) is not None:
+                    yield row
+            for conn, (process, index) in list(workers.items()):
+                if process.is_alive():
+                    continue
+                while conn.poll() and (row := receive(conn)) is not None:  # sent before it died
+                    yield row
+                handed = workers.pop(conn)[1]
+                conn.close()
+                if handed is not None and handed != index:
+                    waiting.appendleft(handed)  # handed out after it died: never started
+                elif index is not None and index in remaining:
                     remaining.discard(index)
-                    yield {"index": index, "values": job.values(index), "seed": job.seed,
+                    yield {"index": index, "values": job.values(index), "seed": job.seed, "time": round(time.time(), 3),
+                           "worker": process.pid,
                            "error": f"the worker process died (exit code {process.exitcode}) rendering this frame"}
-                if remaining and len(processes) < count:
+                if waiting and process.exitcode != 0 and len(workers) < count:
                     restarts += 1
                     if restarts > count + len(indices):
                         raise CausticaError("batch workers keep dying before they render; run with --workers 1 "
                                             "to see why")
                     start()
     finally:
-        for process in processes.values():
+        for process, _ in workers.values():
             process.terminate()
-        for process in processes.values():
+        for process, _ in workers.values():
             process.join(5)
-        for q in (tasks, results):
-            q.cancel_join_thread()
-            q.close()
+        for conn in workers:
+            conn.close()
 
 
 class _RayFrames:
