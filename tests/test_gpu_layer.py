@@ -99,6 +99,7 @@ def test_target_pool_reuses_by_size_and_format(renderer):
     b = pool.texture((32, 16), "rgba32f")
     assert b is not a and b.components == 4
     pool.give_back(b)
+    pool.give_back(a)  # the session's shared renderer keeps nothing lent
 
 
 def test_pass_wiring_checks_reads_and_writes():

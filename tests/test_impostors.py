@@ -195,6 +195,9 @@ def test_caustic_filter_equals_the_formula(renderer):
     from caustica.techniques.raster import read_rgba
 
     out = read_rgba(filter_tiles(frame, flux, size, areas, k, s))[::-1]  # row 0 at v = 0, like the counts
+    frame.give_back()  # the shared renderer's pool gets its textures back (the flux ones are the pool's)
+    for tex in flux:
+        frame.gpu.targets.give_back(tex)
     w = filter_weights(k)
     for channel, c in enumerate(counts):
         for tile in range(2):
@@ -221,6 +224,7 @@ def test_caustic_energy_is_conserved(renderer):
     tiles = read_rgba(frame.read("caustic_textures"))
     impostor = frame.read("impostors").all()[0]
     captured = tiles[..., 1].sum() * impostor.texel_area(params.caustic_size)
+    frame.give_back()
     # Exact: rays from the light over the ball's cone, followed through the glass by Embree.
     light, center, radius = np.array([0.0, 4.0, 0.0]), np.array([0.0, 1.2, 0.0]), 0.6
     cos_max = np.sqrt(1.0 - (radius / np.linalg.norm(center - light)) ** 2)

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import numpy as np
+
+from caustica.renderer import Renderer
 import pytest
 
 from caustica.errors import OutputError, RenderOptionError
@@ -360,16 +362,19 @@ def test_empty_label_list_returns_no_layers(renderer):
     assert layers == {} and image.shape == (48, 64, 3)
 
 
-def test_labels_leave_no_texture_lent(renderer):
+def test_labels_leave_no_texture_lent():
+    """On a Renderer of its own, so that what another test leaves lent on the session's shared one cannot
+    fail this test (test_impostors and test_gpu_layer did, by frames they never gave back)."""
     from caustica.gpu.device import gl_objects
 
-    for technique in ("depth-search+caustic-mapping", "depth-search+impostor-caustics"):
-        for spp in (1, 4):
-            _, layers = renderer.render(ball_over_floor(), technique, spp=spp, labels=ALL)
-            device = renderer.device
-            cached = sum(1 for obj in gl_objects(list(device.cache.values())) if device.targets.is_lent(obj))
-            assert device.targets.counts()["lent_textures"] == cached
-            assert layers["caustic"].max() > 1.0  # caustic maps and caustic tiles both reach the label
+    with Renderer() as renderer:
+        for technique in ("depth-search+caustic-mapping", "depth-search+impostor-caustics"):
+            for spp in (1, 4):
+                _, layers = renderer.render(ball_over_floor(), technique, spp=spp, labels=ALL)
+                device = renderer.device
+                cached = sum(1 for obj in gl_objects(list(device.cache.values())) if device.targets.is_lent(obj))
+                assert device.targets.counts()["lent_textures"] == cached
+                assert layers["caustic"].max() > 1.0  # caustic maps and caustic tiles both reach the label
 
 
 def test_material_numbering_follows_first_use_and_compares_fields():
