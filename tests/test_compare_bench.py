@@ -69,7 +69,10 @@ def test_bench_writes_json_with_every_column(tmp_path, capsys):
     if "--no-mitsuba" not in args:
         quality = data["time_to_quality"][0]
         assert [c["spp"] for c in quality["mitsuba_curve"]] == [1, 2, 4]
-        assert {"ms", "relmse", "mitsuba_spp", "mitsuba_seconds", "speed_ratio"} <= set(quality["techniques"]["env-map"])
+        assert {"ms", "relmse", "mitsuba_spp", "mitsuba_seconds", "mitsuba_end_to_end_seconds",
+                "speed_ratio"} <= set(quality["techniques"]["env-map"])
+        # Mitsuba's render-only time (loaded, warmed scenes) and its end-to-end time, both labelled.
+        assert all(c["seconds"] > 0 and c["end_to_end_seconds"] > 0 for c in quality["mitsuba_curve"])
     assert plot.stat().st_size > 1000
 
 

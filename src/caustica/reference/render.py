@@ -70,6 +70,7 @@ import hashlib
 import json
 import math
 import re
+import time
 import warnings
 from pathlib import Path
 
@@ -217,6 +218,57 @@ def planned_renders(scene, coverage: np.ndarray) -> list[tuple[str, str]]:
     return renders + [("path", "lights"), ("ptracer", "lights")]
 
 
+def composite_weights(coverage: np.ndarray) -> dict:
+    """Each (integrator, emitters) render's per-pixel weight in the composite (the module docstring)."""
+    c = coverage[..., None].astype(np.float32)
+    return {("path", "all"): 1.0, ("path", "environment"): 1.0, ("path", "lights"): 1.0 - c, ("ptracer", "lights"): c}
+
+
+class LoadedReference:
+    """The composite's Mitsuba scenes loaded once and warmed, to time Mitsuba as its users run it: only
+    ``mi.render`` of a loaded scene, and only the integrators an image region needs (a caustic region of
+    purely diffuse pixels needs the light tracer and the environment's path, not the lights' path).
+
+    ``render(spp, seed)`` returns the composite image and each render's seconds."""
+
+    def __init__(self, scene, size=None, variant: str | None = None, max_depth: int = 16,
+                 analytic_spheres: bool = True):
+        self.mi = mi = mitsuba_module(variant)
+        self.camera = scene.camera if size is None else scene.camera.with_size(*size)
+        coverage = diffuse_coverage(scene, self.camera)
+        self.weights = composite_weights(coverage)
+        self.renders = planned_renders(scene, coverage)
+        self.channels = [0, 1, 2] if has_dispersion(scene) else [None]
+        mesh_dir = default_cache_dir() / "meshes"
+        self.scenes = {}
+        for channel in self.channels:
+            for integrator, emitters in self.renders:
+                loaded = mi.load_dict(scene_to_mitsuba(scene, spp=1, integrator=integrator, max_depth=max_depth,
+                                                       mesh_dir=mesh_dir, channel=channel, camera=self.camera,
+                                                       analytic_spheres=analytic_spheres, emitters=emitters))
+                mi.render(loaded, spp=1, seed=0)  # warm-up: the JIT compiles the kernels
+                self.scenes[channel, integrator, emitters] = loaded
+
+    def render(self, spp: int, seed: int = 1) -> tuple[np.ndarray, dict]:
+        """The composite at ``spp`` samples (one pass per render) and {(integrator, emitters): seconds}."""
+        width, height = self.camera.size
+        result = np.zeros((height, width, 3), np.float32)
+        seconds: dict = {}
+        for channel in self.channels:
+            image = np.zeros_like(result)
+            for k, (integrator, emitters) in enumerate(self.renders):
+                start = time.perf_counter()
+                part = np.array(self.mi.render(self.scenes[channel, integrator, emitters], spp=spp,
+                                               seed=1000 * k + 100_000 * int(seed)), dtype=np.float64)[..., :3]
+                seconds[integrator, emitters] = seconds.get((integrator, emitters), 0.0) + time.perf_counter() - start
+                image += self.weights[integrator, emitters] * part.astype(np.float32)
+            if channel is None:
+                result = image
+            else:
+                result[..., channel] = image[..., channel]
+        return result, seconds
+
+
 def _render_integrator(mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel, analytic_spheres,
                        bar, seed_base) -> np.ndarray:
     """Average of ``spp`` samples of one integrator, over several seeded passes."""
@@ -283,9 +335,7 @@ def render_reference(
         bar = tqdm(total=spp * len(renders) * len(channels), desc=f"mitsuba {scene.name}", unit="spp",
                    leave=False, dynamic_ncols=True)
     try:
-        c = coverage[..., None].astype(np.float32)
-        weights = {("path", "all"): 1.0, ("path", "environment"): 1.0, ("path", "lights"): 1.0 - c,
-                   ("ptracer", "lights"): c}
+        weights = composite_weights(coverage)
         result = np.zeros((camera.size[1], camera.size[0], 3), np.float32)
         for channel in channels:
             image = np.zeros_like(result)
