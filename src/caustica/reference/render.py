@@ -250,16 +250,20 @@ class LoadedReference:
                 self.scenes[channel, integrator, emitters] = loaded
 
     def render(self, spp: int, seed: int = 1) -> tuple[np.ndarray, dict]:
-        """The composite at ``spp`` samples (one pass per render) and {(integrator, emitters): seconds}."""
+        """The composite at ``spp`` samples (one pass per render) and {(integrator, emitters): seconds}, each
+        timed on its second call at this spp: Dr.Jit compiles kernels anew for a new sample count, which a
+        user rendering at one setting pays once."""
         width, height = self.camera.size
         result = np.zeros((height, width, 3), np.float32)
         seconds: dict = {}
         for channel in self.channels:
             image = np.zeros_like(result)
             for k, (integrator, emitters) in enumerate(self.renders):
+                loaded = self.scenes[channel, integrator, emitters]
+                np.array(self.mi.render(loaded, spp=spp, seed=7_000_000 + k))  # compiles for this spp
                 start = time.perf_counter()
-                part = np.array(self.mi.render(self.scenes[channel, integrator, emitters], spp=spp,
-                                               seed=1000 * k + 100_000 * int(seed)), dtype=np.float64)[..., :3]
+                part = np.array(self.mi.render(loaded, spp=spp, seed=1000 * k + 100_000 * int(seed)),
+                                dtype=np.float64)[..., :3]
                 seconds[integrator, emitters] = seconds.get((integrator, emitters), 0.0) + time.perf_counter() - start
                 image += self.weights[integrator, emitters] * part.astype(np.float32)
             if channel is None:
