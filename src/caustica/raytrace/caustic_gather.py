@@ -66,31 +66,25 @@ class CausticGather:
         k = self.neighbours
         distance, index = self._tree.query(position, k=k, distance_upper_bound=self.max_radius)
         distance, index = distance.reshape(len(position), k), index.reshape(len(position), k)
-        found = np.isfinite(distance)
         # The kernel radius: the k-th neighbour's distance, or max_radius where fewer are that near.
         radius = np.maximum(np.where(np.isfinite(distance[:, -1]), distance[:, -1], self.max_radius), 1e-12)
-        out = self._cone_sum(np.where(found, index, 0), np.where(found, distance, np.inf), radius, normal,
-                             object_index)
+        rows, column = np.nonzero(np.isfinite(distance))
+        out = self._cone_sum(rows, index[rows, column], distance[rows, column], radius, normal, object_index)
         wide = radius < floor  # more than k photons within the footprint: all of them count
         if wide.any():
             lists = self._tree.query_ball_point(position[wide], floor[wide])
-            counts = np.array([len(x) for x in lists])
-            rows = np.repeat(np.arange(len(counts)), counts)
-            members = np.concatenate([np.asarray(x, np.int64) for x in lists]) if counts.sum() else np.zeros(0, np.int64)
+            rows = np.repeat(np.arange(len(lists)), [len(x) for x in lists])
+            members = np.concatenate([np.asarray(x, np.int64) for x in lists]) if len(rows) else np.zeros(0, np.int64)
             near = np.linalg.norm(self._tree.data[members] - position[wide][rows], axis=1)
-            ok = (self._object[members] == object_index[wide][rows])
-            ok &= np.einsum("nj,nj->n", self._normal[members], normal[wide][rows]) > 0.0
-            weight = np.where(ok, np.maximum(1.0 - near / floor[wide][rows], 0.0), 0.0)
-            flux = np.stack([np.bincount(rows, weight * self._flux[members, c], minlength=len(counts))
-                             for c in range(3)], axis=1)
-            out[wide] = flux / (CONE_NORMALIZATION * np.pi * floor[wide][:, None] ** 2)
+            out[wide] = self._cone_sum(rows, members, near, floor[wide], normal[wide], object_index[wide])
         return out
 
-    def _cone_sum(self, index, distance, radius, normal, object_index) -> np.ndarray:
-        """Jensen's cone-filtered estimate over the (N, k) neighbours ``index`` at ``distance`` (inf: none)."""
-        found = np.isfinite(distance)
-        found &= self._object[index] == object_index[:, None]
-        found &= np.einsum("nkj,nj->nk", self._normal[index], normal) > 0.0
-        weight = np.where(found, 1.0 - np.where(found, distance, 0.0) / radius[:, None], 0.0)
-        flux = np.einsum("nk,nkc->nc", weight, self._flux[index].astype(np.float64))
+    def _cone_sum(self, rows, members, distance, radius, normal, object_index) -> np.ndarray:
+        """Jensen's cone-filtered estimate (N, 3) at N points with kernel radii ``radius`` (N,), over the
+        photons ``members`` lying at ``distance`` from point ``rows`` (flat lists of pairs)."""
+        ok = self._object[members] == object_index[rows]
+        ok &= np.einsum("nj,nj->n", self._normal[members], normal[rows]) > 0.0
+        weight = np.where(ok, np.maximum(1.0 - distance / radius[rows], 0.0), 0.0)
+        flux = np.stack([np.bincount(rows, weight * self._flux[members, c], minlength=len(radius))
+                         for c in range(3)], axis=1)
         return flux / (CONE_NORMALIZATION * np.pi * radius[:, None] ** 2)
