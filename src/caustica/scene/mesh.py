@@ -96,11 +96,17 @@ class Mesh:
         repeat vertices along seams.
         """
         if self._open is None:
-            edges, count = self._welded_edges()
-            edges = np.sort(edges, axis=1)
-            _, counts = np.unique(edges[:, 0] * count + edges[:, 1], return_counts=True)
-            self._open = bool(np.any(counts == 1))
+            _, uses, _, _ = self._undirected_edges()
+            self._open = bool(np.any(uses == 1))
         return self._open
+
+    def _undirected_edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """The welded mesh's undirected edges (E, 2) int64 (lower index first), how many faces use each
+        (E,), each vertex's welded index and the welded vertex count."""
+        weld, count = self._weld()
+        edges = np.sort(weld[self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)].astype(np.int64), axis=1)
+        codes, uses = np.unique(edges[:, 0] * count + edges[:, 1], return_counts=True)
+        return np.stack([codes // count, codes % count], axis=1), uses, weld, count
 
     def _welded_edges(self) -> tuple[np.ndarray, int]:
         """Directed edges (a, b) of every face, counter-clockwise, with vertices welded by position
@@ -120,14 +126,12 @@ class Mesh:
         the umbrella Laplacian (mean of the neighbours less the vertex, along the mean curvature normal)
         points to the side of the vertex normal that faces ``eye``, by more than 1e-3 of the mean edge.
         A concave mirror seen from its hollow is 1, a convex or flat one 0, a saddle about 0."""
-        weld, count = self._weld()
-        edges, _ = self._welded_edges()
+        undirected, uses, weld, count = self._undirected_edges()
         position = np.zeros((count, 3))
         position[weld] = self.vertices
         normal = np.zeros((count, 3))
         np.add.at(normal, weld, self.normals.astype(np.float64))
         eye_side = np.sign(np.einsum("ij,ij->i", normal, np.asarray(eye, np.float64) - position))
-        undirected = np.unique(np.sort(edges, axis=1), axis=0)
         neighbours = np.zeros((count, 3))
         degree = np.zeros(count)
         for a, b in ((0, 1), (1, 0)):
@@ -135,10 +139,8 @@ class Mesh:
             np.add.at(degree, undirected[:, a], 1.0)
         laplacian = neighbours / np.maximum(degree, 1.0)[:, None] - position
         # Interior vertices only: a border vertex's neighbours all lie to one side.
-        key = np.sort(edges, axis=1)
-        unique, uses = np.unique(key[:, 0] * count + key[:, 1], return_counts=True)
         border = np.zeros(count, bool)
-        border[unique[uses == 1] // count] = border[unique[uses == 1] % count] = True
+        border[undirected[uses == 1].reshape(-1)] = True
         inside = ~border & (degree > 0)
         if not inside.any():
             return 0.0
