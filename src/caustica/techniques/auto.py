@@ -107,11 +107,10 @@ def plan(scene, quality: str = "balanced") -> Plan:
         view_params.update(internal_bounces=bounces)
         why_glass = f"alone in the environment: depth-search exits (Hu and Qin 2.1), {bounces} internal bounces"
         why_mirror = ""
-    elif mirrors and any(_concave(o, scene.camera) for o in mirrors):
+    elif hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:
         view = "impostors"
         view_params.update(impostor_size=impostor_size)
-        hollow = ", ".join(o.name for o in mirrors if _concave(o, scene.camera))
-        why_mirror = (f"a concave mirror ({hollow}) focuses the reflected rays, where per-vertex's least-squares "
+        why_mirror = (f"a concave mirror ({', '.join(hollow)}) focuses the reflected rays, where per-vertex's least-squares "
                       "viewpoint fails: each pixel's reflected ray searches the nearby objects as impostors "
                       "(Hu and Qin 2.2)")
         why_glass = ""
@@ -125,7 +124,8 @@ def plan(scene, quality: str = "balanced") -> Plan:
         why_glass = why_mirror = ""
     casters = glass + mirrors
     caustics = bool(casters and diffuse and lit)
-    tabled = caustics and not mirrors and _table_pays(glass)
+    tables_pay, missing = _transport_tables(glass) if caustics and not mirrors else (False, [])
+    tabled = tables_pay and not missing
     caustics_by = TABLE if tabled else CAUSTICS
     technique = f"{view}+{caustics_by}" if caustics else view
     params = dict(view_params)
@@ -152,10 +152,7 @@ def plan(scene, quality: str = "balanced") -> Plan:
                 why += " (nothing specular casts caustics)"
             entries.append(PlanEntry(obj.name, kind, view, why))
     notes = []
-    from ..passes.casters import nearly_closed
-
-    missing = [o.name for o in glass if not _has_table(o)]
-    if caustics and not mirrors and missing and any(not o.mesh.is_convex() and nearly_closed(o.mesh) for o in glass):
+    if missing:
         notes.append(f"no light transport table is cached for {', '.join(missing)}; 'caustica precompute MESH "
                      f"--ior N' caches one, and auto then takes the caustics of this non-convex glass from it "
                      f"({TABLE})")
@@ -181,15 +178,18 @@ def _has_table(obj) -> bool:
     return obj.material.abbe is None and has_cached_table(obj.mesh, obj.material.ior)
 
 
-def _table_pays(glass: list) -> bool:
-    """Whether the caustics come from cached transport tables: each glass object has one and one at least
-    is not convex, where light crosses more than the two interfaces caustic mapping estimates; every one is
-    a solid (Iwasaki et al. 4 trace through closed objects) (docs/auto.md:
-    on convex glass caustic mapping's caustics were as accurate or more)."""
+def _transport_tables(glass: list) -> tuple[bool, list[str]]:
+    """Whether cached transport tables would give the caustics of ``glass`` better than caustic mapping, and
+    the names of the glass objects that lack one (listed where some solid glass is not convex). They pay where
+    every object is a solid (Iwasaki et al. 4 trace through closed objects; not a water sheet) and one at
+    least is not convex, so that light crosses more than the two interfaces caustic mapping estimates
+    (docs/auto.md: on convex glass caustic mapping's caustics were as accurate or more)."""
     from ..passes.casters import nearly_closed
 
-    return (all(_has_table(o) and nearly_closed(o.mesh) for o in glass)  # a solid, not a water sheet
-            and any(not o.mesh.is_convex() for o in glass))
+    solid = [nearly_closed(o.mesh) for o in glass]
+    bent = [is_solid and not o.mesh.is_convex() for o, is_solid in zip(glass, solid)]
+    missing = [o.name for o in glass if not _has_table(o)] if any(bent) else []
+    return all(solid) and any(bent), missing
 
 
 class Auto(Technique):
