@@ -253,24 +253,34 @@ class LoadedReference:
         """The composite at ``spp`` samples (one pass per render) and {(integrator, emitters): seconds}, each
         timed on its second call at this spp: Dr.Jit compiles kernels anew for a new sample count, which a
         user rendering at one setting pays once."""
-        width, height = self.camera.size
-        result = np.zeros((height, width, 3), np.float32)
         seconds: dict = {}
-        for channel in self.channels:
-            image = np.zeros_like(result)
-            for k, (integrator, emitters) in enumerate(self.renders):
-                loaded = self.scenes[channel, integrator, emitters]
-                np.array(self.mi.render(loaded, spp=spp, seed=7_000_000 + k))  # compiles for this spp
-                start = time.perf_counter()
-                part = np.array(self.mi.render(loaded, spp=spp, seed=1000 * k + 100_000 * int(seed)),
-                                dtype=np.float64)[..., :3]
-                seconds[integrator, emitters] = seconds.get((integrator, emitters), 0.0) + time.perf_counter() - start
-                image += self.weights[integrator, emitters] * part.astype(np.float32)
-            if channel is None:
-                result = image
-            else:
-                result[..., channel] = image[..., channel]
-        return result, seconds
+
+        def timed(channel, k, integrator, emitters) -> np.ndarray:
+            loaded = self.scenes[channel, integrator, emitters]
+            np.array(self.mi.render(loaded, spp=spp, seed=7_000_000 + k))  # compiles for this spp
+            start = time.perf_counter()
+            part = np.array(self.mi.render(loaded, spp=spp, seed=1000 * k + 100_000 * int(seed)),
+                            dtype=np.float64)[..., :3]
+            seconds[integrator, emitters] = seconds.get((integrator, emitters), 0.0) + time.perf_counter() - start
+            return part.astype(np.float32)
+
+        return _composite(self.camera.size, self.channels, self.renders, self.weights, timed), seconds
+
+
+def _composite(size, channels, renders, weights, part) -> np.ndarray:
+    """The composite (H, W, 3) float32: for each channel pass (None: one pass for all three), the sum over
+    ``renders`` of their ``weights`` times ``part(channel, k, integrator, emitters)``, keeping that channel."""
+    width, height = size
+    result = np.zeros((height, width, 3), np.float32)
+    for channel in channels:
+        image = np.zeros_like(result)
+        for k, (integrator, emitters) in enumerate(renders):
+            image += weights[integrator, emitters] * part(channel, k, integrator, emitters)
+        if channel is None:
+            result = image
+        else:
+            result[..., channel] = image[..., channel]
+    return result
 
 
 def _render_integrator(mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel, analytic_spheres,
@@ -339,23 +349,14 @@ def render_reference(
         bar = tqdm(total=spp * len(renders) * len(channels), desc=f"mitsuba {scene.name}", unit="spp",
                    leave=False, dynamic_ncols=True)
     try:
-        weights = composite_weights(coverage)
-        result = np.zeros((camera.size[1], camera.size[0], 3), np.float32)
-        for channel in channels:
-            image = np.zeros_like(result)
-            for k, (integrator, emitters) in enumerate(renders):
-                if bar is not None:
-                    label = f"{integrator}[{emitters}]"
-                    bar.set_postfix_str(label if channel is None else f"{label} channel {channel}")
-                part = _render_integrator(
-                    mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel, analytic_spheres,
-                    bar, seed_base=1000 * k + 100_000 * int(seed),
-                )
-                image += weights[integrator, emitters] * part
-            if channel is None:
-                result = image
-            else:
-                result[..., channel] = image[..., channel]
+        def rendered(channel, k, integrator, emitters) -> np.ndarray:
+            if bar is not None:
+                label = f"{integrator}[{emitters}]"
+                bar.set_postfix_str(label if channel is None else f"{label} channel {channel}")
+            return _render_integrator(mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel,
+                                      analytic_spheres, bar, seed_base=1000 * k + 100_000 * int(seed))
+
+        result = _composite(camera.size, channels, renders, composite_weights(coverage), rendered)
     finally:
         if bar is not None:
             bar.close()
