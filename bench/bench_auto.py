@@ -39,8 +39,10 @@ def completed_reference(scene, reference: np.ndarray, size, spp: int) -> np.ndar
 
     camera = scene.camera.with_size(*size)
     with caustica.Renderer(size) as renderer:
-        with_caustics = renderer.render(scene, "exact", spp)
-        without = renderer.render(scene, "exact", spp, caustic_photons=0)
+        # The environment's own light left as SH on both sides: the difference is the lights' photons alone
+        # (path[environment] already has the environment's caustics, sun included).
+        with_caustics = renderer.render(scene, "exact", spp, environment_samples=0)
+        without = renderer.render(scene, "exact", spp, caustic_photons=0, environment_samples=0)
     specular = 1.0 - diffuse_coverage(scene, camera)[..., None]
     return reference + specular * (with_caustics - without)
 
