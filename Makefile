@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench setup sysdeps clean
+.PHONY: demo test bench setup sysdeps clean docs
 
 demo: $(STAMP)
 	@mkdir -p out
@@ -14,6 +14,11 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+# The docs site (mkdocs.yml) into site/; --strict: any warning (a broken link, an unreadable docstring) fails.
+docs: $(STAMP)
+	@$(PY) -c "import mkdocs, mkdocstrings, mkdocstrings_handlers.python" 2>/dev/null || $(PY) -m pip install -q -e '.[docs]'
+	$(PY) -m mkdocs build --strict -d site
 
 bench: $(STAMP)
 	$(PY) bench/bench_presets.py
@@ -27,7 +32,7 @@ $(STAMP): pyproject.toml scripts/install-sysdeps.sh
 	@sh scripts/install-sysdeps.sh
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test,metrics,reference,plots,viewer,batch]'
+	$(PY) -m pip install -q -e '.[test,metrics,reference,plots,viewer,batch,docs]'
 	@touch $(STAMP)
 
 clean:

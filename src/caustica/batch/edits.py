@@ -17,7 +17,6 @@ import numpy as np
 
 from ..errors import SceneError, closest_name, first_line, short
 from ..scene.scene import Scene, SceneObject
-from ..scene.transform import rotation_from_euler_degrees
 
 _MATERIAL_FIELDS = ("ior", "absorption_color", "absorption_distance", "color")
 _POSE = ("position", "rotation", "scale")
@@ -139,7 +138,6 @@ def _camera(camera, values: dict):
         azimuth = math.atan2(offset[0], offset[2])
         e = math.radians(values["elevation"])
         offset = radius * np.array([math.cos(e) * math.sin(azimuth), math.sin(e), math.cos(e) * math.cos(azimuth)])
-    turn = rotation_from_euler_degrees([0.0, values.get("azimuth", 0.0) + values.get("orbit", 0.0), 0.0])
-    return dataclasses.replace(camera, position=look_at + turn @ offset, look_at=look_at,
-                               up=turn @ np.asarray(camera.up, dtype=np.float64),
-                               fov_y=values.get("fov_y", camera.fov_y))
+    placed = dataclasses.replace(camera, position=look_at + offset, look_at=look_at,
+                                 fov_y=values.get("fov_y", camera.fov_y))
+    return placed.orbited(values.get("azimuth", 0.0) + values.get("orbit", 0.0))

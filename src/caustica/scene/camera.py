@@ -2,14 +2,16 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import SceneError, short
 from . import rules
-from .transform import look_at_view_from_world, perspective_clip_from_view
+from .transform import look_at_view_from_world, perspective_clip_from_view, rotation_about_axis
 
 
 def fov_y_from_fov_x(fov_x_degrees: float, width: int, height: int) -> float:
@@ -19,6 +21,7 @@ def fov_y_from_fov_x(fov_x_degrees: float, width: int, height: int) -> float:
 
 
 def fov_x_from_fov_y(fov_y_degrees: float, width: int, height: int) -> float:
+    """Horizontal field of view for a vertical one at the given image size."""
     return fov_y_from_fov_x(fov_y_degrees, height, width)
 
 
@@ -60,10 +63,12 @@ class Camera:
 
     @property
     def aspect(self) -> float:
+        """Width over height."""
         return self.size[0] / self.size[1]
 
     @property
     def fov_x(self) -> float:
+        """The horizontal field of view in degrees, at this size."""
         return fov_x_from_fov_y(self.fov_y, *self.size)
 
     def with_size(self, width: int, height: int) -> "Camera":
@@ -83,18 +88,31 @@ class Camera:
             kept = self.__dict__["_resized"] = ((state, size), resized)
         return kept[1]
 
+    def orbited(self, degrees: float, axis: str | Sequence[float] = "y",
+                center: Sequence[float] | None = None) -> Camera:
+        """A new camera turned ``degrees`` about ``axis`` ('x', 'y', 'z' or a vector) through ``center``
+        (default: look_at), right-handed: counter-clockwise seen from the axis' tip, so +Y turns the camera
+        counter-clockwise seen from above. Position, look_at and up turn together; this camera is unchanged."""
+        turn = rotation_about_axis(axis, degrees)
+        pivot = self.look_at if center is None else rules.vector(center, "center")
+        return dataclasses.replace(self, position=pivot + turn @ (self.position - pivot),
+                                   look_at=pivot + turn @ (self.look_at - pivot), up=turn @ self.up)
+
     def _state(self) -> tuple:
         """The fields as a comparable key."""
         return (np.asarray(self.position).tobytes(), np.asarray(self.look_at).tobytes(), np.asarray(self.up).tobytes(),
                 self.fov_y, self.near, self.far, self.size)
 
     def view_from_world(self) -> np.ndarray:
+        """The 4x4 OpenGL view matrix (read-only)."""
         return self._matrices()[0]
 
     def clip_from_view(self) -> np.ndarray:
+        """The 4x4 OpenGL perspective projection (read-only)."""
         return self._matrices()[1]
 
     def clip_from_world(self) -> np.ndarray:
+        """Projection times view (read-only)."""
         return self._matrices()[2]
 
     def _matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

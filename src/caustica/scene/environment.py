@@ -228,6 +228,7 @@ def _angle(degrees) -> float:
 
 
 def procedural_environment(name: str) -> Environment:
+    """A built-in environment by name: 'sky-checker', 'black' or 'white' (PROCEDURAL_ENVIRONMENTS)."""
     if name == "sky-checker":
         return Environment(sky_checker(), source="procedural:sky-checker")
     if name == "black":

@@ -15,6 +15,8 @@ def _intensity(value) -> np.ndarray:
 
 @dataclass
 class PointLight:
+    """Light from one point, ``intensity`` in W/sr."""
+
     position: np.ndarray
     intensity: np.ndarray = field(default_factory=lambda: np.array([10.0, 10.0, 10.0]))
     kind = "point"
@@ -27,7 +29,8 @@ class PointLight:
         self.position = rules.vector(self.position, "position")
         self.intensity = _intensity(self.intensity)
 
-    def point_samples(self):
+    def point_samples(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The light as (position, intensity) point lights: this one."""
         return [(self.position, self.intensity)]
 
 
@@ -79,7 +82,8 @@ class SpotLight:
         t = np.clip((cos_angle - cos_out) / max(cos_in - cos_out, 1e-9), 0.0, 1.0)
         return t * t * (3.0 - 2.0 * t)
 
-    def point_samples(self):
+    def point_samples(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The light as (position, intensity) point lights: this one."""
         return [(self.position, self.intensity)]
 
 
@@ -104,7 +108,8 @@ class LineLight:
         self.samples = rules.integer(self.samples, "samples", 1, rules.MAX_LINE_SAMPLES,
                                      hint=" (GL techniques take 8 light samples in all)")
 
-    def point_samples(self):
+    def point_samples(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The ``samples`` point lights at the segment's stratum centres, each 1/samples of the intensity."""
         ts = (np.arange(self.samples) + 0.5) / self.samples
         return [(self.start + t * (self.end - self.start), self.intensity / self.samples) for t in ts]
 

@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, closest_name, short
 from . import rules
 from .camera import Camera
 from .environment import Environment, procedural_environment
@@ -18,6 +19,8 @@ from .transform import Transform
 
 @dataclass
 class SceneObject:
+    """One object: a named mesh with its material, placed by ``transform`` (object to world)."""
+
     name: str
     mesh: Mesh
     material: Material
@@ -25,6 +28,7 @@ class SceneObject:
     _world: tuple | None = field(default=None, repr=False, compare=False)
 
     def world_from_object(self) -> np.ndarray:
+        """The transform's 4x4 matrix."""
         return self.transform.world_from_object()
 
     def world_mesh(self) -> Mesh:
@@ -56,11 +60,16 @@ class SceneObject:
                              f"+-{rules.MAX_COORDINATE:g}; lower its scale or move it closer")
 
     def moved(self, transform: Transform) -> "SceneObject":
+        """The same mesh and material placed by ``transform``."""
         return SceneObject(self.name, self.mesh, self.material, transform)
 
 
 @dataclass
 class Scene:
+    """Everything one frame renders: camera, objects, lights and environment (radiance scaled by
+    ``intensity_scale``). Pure data; the ``with_camera``, ``orbited`` and ``replace_object`` methods return
+    new scenes that share the untouched parts."""
+
     camera: Camera = field(default_factory=Camera)
     objects: list[SceneObject] = field(default_factory=list)
     lights: list[Light] = field(default_factory=list)
@@ -87,6 +96,43 @@ class Scene:
         if not isinstance(self.name, str):
             raise SceneError(f"name {_type_name(self.name)} must be a string")
         return self
+
+    def with_camera(self, camera: Camera) -> Scene:
+        """A new Scene seen through ``camera``, sharing every other part with this one (unchanged)."""
+        return dataclasses.replace(self, camera=_part(camera, (Camera,), "camera", "a caustica.Camera"))
+
+    def orbited(self, degrees: float, axis: str | Sequence[float] = "y") -> Scene:
+        """A new Scene whose camera is turned ``degrees`` about ``axis`` through its look_at
+        (:meth:`Camera.orbited`): one frame of a turntable."""
+        return self.with_camera(self.camera.orbited(degrees, axis))
+
+    def replace_object(self, name_or_index: str | int, new_object: SceneObject) -> Scene:
+        """A new Scene with the (first) object named ``name_or_index``, or the one at that index, swapped for
+        ``new_object``; the other objects and this scene are unchanged. SceneError for an unknown name or
+        index, listing the scene's object names."""
+        _part(new_object, (SceneObject,), "new_object", "a caustica.SceneObject")
+        index = self._object_index(name_or_index)
+        objects = list(self.objects)
+        objects[index] = new_object
+        return dataclasses.replace(self, objects=objects)
+
+    def _object_index(self, name_or_index: str | int) -> int:
+        """The list index of the object named (or numbered) ``name_or_index``; SceneError if none is."""
+        names = [o.name for o in self.objects]
+        more = f" and {len(names) - 20} more" if len(names) > 20 else ""
+        listing = f"; give one of: {', '.join(map(repr, names[:20]))}{more}" if names else "; the scene has no objects"
+        if isinstance(name_or_index, str):
+            if name_or_index not in names:
+                raise SceneError(f"scene {self.name!r} has no object {short(name_or_index)}"
+                                 f"{closest_name(name_or_index, names)}{listing}")
+            return names.index(name_or_index)
+        if isinstance(name_or_index, (int, np.integer)) and not isinstance(name_or_index, bool):
+            if not -len(names) <= name_or_index < len(names):
+                raise SceneError(f"object index {name_or_index} is out of range for scene {self.name!r} "
+                                 f"({len(names)} objects){listing}")
+            return int(name_or_index) % len(names)
+        raise SceneError(f"object {short(name_or_index)} must be an object's name (a string) or index (an integer)"
+                         f"{listing}")
 
     def objects_of(self, kind: str) -> list[SceneObject]:
         """Objects whose material kind is ``kind`` ('diffuse', 'mirror', 'glass')."""

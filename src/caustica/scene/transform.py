@@ -5,10 +5,12 @@ Matrix names say what they map (pbrt's xFromY): ``world_from_object``,
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import SceneError, short
 from . import rules
 
 
@@ -27,6 +29,26 @@ def rotation_from_euler_degrees(rotation) -> np.ndarray:
     my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
     mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
     return mz @ my @ mx
+
+
+AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def rotation_about_axis(axis: str | Sequence[float], degrees: float) -> np.ndarray:
+    """3x3 right-handed rotation by ``degrees`` about ``axis``: 'x', 'y', 'z' (the same matrix as
+    :func:`rotation_from_euler_degrees` with that one angle) or a non-zero vector (Rodrigues' formula);
+    SceneError for another axis."""
+    degrees = rules.number(degrees, "angle", -rules.MAX_ROTATION, rules.MAX_ROTATION, hint=" degrees")
+    if isinstance(axis, str):
+        if axis.lower() not in AXES:
+            raise SceneError(f"axis {short(axis)} must be 'x', 'y', 'z' or three numbers [x, y, z]")
+        angles = np.zeros(3)
+        angles[AXES[axis.lower()]] = degrees
+        return rotation_from_euler_degrees(angles)
+    k = rules.direction(axis, "axis")
+    a = np.radians(degrees)
+    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.cos(a) * np.eye(3) + np.sin(a) * cross + (1.0 - np.cos(a)) * np.outer(k, k)
 
 
 @dataclass
