@@ -1,18 +1,22 @@
-"""Command line: ``caustica render | view | compare | bench | batch | export | techniques | graph | presets | info``.
+"""Command line: ``caustica render | view | compare | bench | batch | export | precompute | techniques | plan | graph |
+presets | info | completion`` (docs/cli.md).
 
-Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2.
+Bad input prints one line, ``caustica: <problem>; <fix>``, and exits with code 2. ``-q`` prints nothing on
+success, ``-v`` adds detail on stderr (caustica.progress holds the policy, progress bars included).
 """
 from __future__ import annotations
 
 import argparse
 import statistics
 import sys
+import time
 from pathlib import Path
 
 from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
 from .passes.resolve import ANTIALIAS_MODES
+from .progress import NORMAL, QUIET, VERBOSE, detail, is_quiet, note, output_policy
 from .scene.rules import IOR_RANGE
 from .techniques.auto import QUALITY
 
@@ -86,8 +90,8 @@ EXPOSURE = _number(-MAX_EXPOSURE, MAX_EXPOSURE)
 BUDGET = _number(0.001, 1e6)  # auto's frame-time budget, milliseconds (0 or less is no budget: refused)
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
 # so argparse does not read the value as an option.
-_VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--reference-spp", "--quality-size", "--max-spp",
-                  "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers"}
+_VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--timing-frames", "--reference-spp", "--quality-size",
+                  "--max-spp", "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers"}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -138,6 +142,40 @@ def _param(text: str) -> tuple[str, object]:
     return key, parsed
 
 
+class _Deprecated(argparse.Action):
+    """A hidden old spelling of an option: stores its value (a flag: True) where the new one does and leaves
+    the note ``hint`` (printed unless -q) in ``namespace.deprecated``."""
+
+    def __init__(self, option_strings, dest, hint: str = "", **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, default=argparse.SUPPRESS, **kwargs)
+        self.hint = hint
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, True if self.nargs == 0 else values)
+        namespace.deprecated = [*getattr(namespace, "deprecated", []), f"{option_string} is deprecated; {self.hint}"]
+
+
+def _timing_frames_option(parser: argparse.ArgumentParser, default: int, what: str) -> None:
+    """``--timing-frames N``: frames timed after a warm-up; ``--frames``, its old name, still works (with a note)."""
+    parser.add_argument("--timing-frames", type=FRAMES, default=default, metavar="N",
+                        help=f"frames timed after one warm-up {what} (default {default}); only the reported time "
+                             "changes, not the image (not an animation frame count)")
+    parser.add_argument("--frames", type=FRAMES, dest="timing_frames", action=_Deprecated,
+                        hint="use --timing-frames (frames timed, not an animation frame count)")
+
+
+def _output_options(parser: argparse.ArgumentParser, main: bool, quiet=("-q", "--quiet")) -> None:
+    """-q/--quiet, -v/--verbose and --no-progress, taken before the command (``main``) or after it (where
+    they do not override the first)."""
+    default = False if main else argparse.SUPPRESS
+    parser.add_argument(*quiet, dest="quiet", action="store_true", default=default,
+                        help="print nothing on success: no notes, progress, warnings or reports (errors still print)")
+    parser.add_argument("-v", "--verbose", action="store_true", default=default,
+                        help="more detail on stderr: the GL renderer, the plan, every timing")
+    parser.add_argument("--no-progress", action="store_true", default=default,
+                        help="no progress bars or progress lines (the rest prints as usual)")
+
+
 def _environment_option(parser: argparse.ArgumentParser) -> None:
     from .scene.environment import PROCEDURAL_ENVIRONMENTS
 
@@ -169,6 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = _Parser(prog="caustica", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"caustica {__version__}")
+    _output_options(parser, main=True)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     render = sub.add_parser("render", help="render a scene file or preset to PNG or EXR")
@@ -189,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                         help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "
                              "off towards white, mid-grey kept); EXR ignores it (linear float)")
-    render.add_argument("--frames", type=FRAMES, default=3, help="timed frames after one warm-up (GPU techniques)")
+    _timing_frames_option(render, 3, "(GPU techniques)")
     _environment_option(render)
     _camera_option(render)
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
@@ -225,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
     comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
-    comp.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
+    _timing_frames_option(comp, 5, "per technique")
     _environment_option(comp)
     _camera_option(comp)
     comp.add_argument("--json", help="write the figures as JSON here")
@@ -237,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--scenes", type=_names, default=["glass-sphere", "caustic-sphere"], help="comma-separated scenes or presets")
     bench.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated techniques")
     bench.add_argument("--sizes", type=_sizes, default=[256, 512, 1024], help="comma-separated image sides (default 256,512,1024)")
-    bench.add_argument("--frames", type=FRAMES, default=5, help="timed frames after a warm-up (default 5)")
+    _timing_frames_option(bench, 5, "per scene, technique and size")
     _environment_option(bench)
     bench.add_argument("--quality-size", type=_integer(1, 4096), default=256, help="image side of the time-to-quality runs (default 256)")
     bench.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=1024, help="spp of the reference for time-to-quality (cached)")
@@ -263,7 +302,6 @@ def build_parser() -> argparse.ArgumentParser:
                                             "and auto's plan find it)")
     pre.add_argument("--directions", type=_integer(1, 1 << 20), default=129, help="sampled incident directions, 2 r^2 + 1 (default 129)")
     pre.add_argument("--max-depth", type=_integer(1, 64), default=8, help="glass interfaces followed per ray (default 8)")
-    pre.add_argument("--quiet", action="store_true", help="no progress bar")
 
     techniques = sub.add_parser("techniques", help="list the techniques; NAME: its parameters")
     techniques.add_argument("name", nargs="?", help="a technique (or view+caustics): its parameters as a table")
@@ -280,6 +318,14 @@ def build_parser() -> argparse.ArgumentParser:
     graph.add_argument("--dot", metavar="FILE", help="write the graph as Graphviz to FILE ('-': print it)")
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
+    completion = sub.add_parser("completion", help="print a shell completion script (docs/cli.md): "
+                                                   "eval \"$(caustica completion bash)\"")
+    completion.add_argument("shell", choices=SHELLS, help="bash or zsh")
+    for name, command in sub.choices.items():
+        _output_options(command, main=False, quiet=("-q",) if name == "precompute" else ("-q", "--quiet"))
+    pre.add_argument("--quiet", dest="no_progress", action=_Deprecated, nargs=0,  # its meaning before -q
+                     hint="it hides the progress bar only, as before: use --no-progress for that, or -q to print "
+                          "nothing")
     return parser
 
 
@@ -320,11 +366,16 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
     except SystemExit as stop:  # --help, --version, or a bad argument (already reported in one line)
         return stop.code if isinstance(stop.code, int) else 2
-    # Library warnings are held back: an error prints its one line alone; a success shows them after.
-    with warnings.catch_warnings(record=True) as caught:
+    if args.quiet and args.verbose:
+        return _fail("give -q (quiet) or -v (verbose), not both", 2)
+    # Library warnings and deprecation notes are held back: an error prints its one line alone; a success
+    # shows them after.
+    with output_policy(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL, not args.no_progress), \
+            warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")
         from .atomic import Terminated, signals_raise
 
+        start = time.perf_counter()
         try:
             with signals_raise():  # SIGTERM and SIGHUP unwind like Ctrl-C: no temporary file left behind
                 code = COMMANDS[args.command](args)
@@ -341,8 +392,11 @@ def main(argv: list[str] | None = None) -> int:
 
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit's flush
             return 128 + 13
-    for warning in caught:
-        print(f"caustica: warning: {_shown(first_line(warning.message), MAX_MESSAGE)}", file=sys.stderr)
+        for message in getattr(args, "deprecated", []):
+            note(message)
+        for warning in caught:
+            note(f"warning: {_shown(first_line(warning.message), MAX_MESSAGE)}")
+        detail(f"{args.command} took {time.perf_counter() - start:.2f} s")
     return code
 
 
@@ -352,6 +406,12 @@ MAX_MESSAGE = 400  # characters of an error line; a longer message is cut
 def _fail(message: str, code: int) -> int:
     print(f"caustica: {_shown(message, MAX_MESSAGE)}", file=sys.stderr)
     return code
+
+
+def _say(text: str, end: str = "\n") -> None:
+    """A command's report on stdout, unless -q."""
+    if not is_quiet():
+        print(text, end=end)
 
 
 def cmd_render(args) -> int:
@@ -366,19 +426,26 @@ def cmd_render(args) -> int:
     renderer = Renderer(args.size)
     params = _with_quality(args)
     image, ms = renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)
+    plan = (renderer.last_plan.describe() if renderer.last_plan is not None else
+            f"technique: {args.technique} (named; 'caustica plan' shows what auto would choose)")
     if args.explain:
-        print(renderer.last_plan.describe() if renderer.last_plan is not None else
-              f"technique: {args.technique} (named; 'caustica plan' shows what auto would choose)")
+        _say(plan)
+    else:
+        detail(plan)
     timings = [ms]
     if technique.uses_gl:
+        info = renderer.info()
+        detail(f"GL: {info['renderer']} ({info['vendor']}), {info['version']}")
         timings = [renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)[1]
-                   for _ in range(args.frames)]
+                   for _ in range(args.timing_frames)]
         image = renderer.render(scene, args.technique, args.spp, antialias=args.antialias, **params)
+    detail(f"frame times: {ms:.1f} ms" + (f" (warm-up), then {', '.join(f'{t:.1f}' for t in timings)} ms (timed)"
+                                           if technique.uses_gl else ""))
     write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
-    print(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
-          f"{statistics.median(timings):.1f} ms per frame on {where}")
+    _say(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
+         f"{statistics.median(timings):.1f} ms per frame on {where}")
     return 0
 
 
@@ -398,8 +465,8 @@ def cmd_batch(args) -> int:
     finally:
         display.close()
     failed = [row for row in rows if "error" in row]
-    print(f"{len(rows) - len(failed)} of {len(rows)} frames in {args.output} (manifest.jsonl)"
-          + (f"; {len(failed)} failed, e.g. frame {failed[0]['index']}: {failed[0]['error']}" if failed else ""))
+    _say(f"{len(rows) - len(failed)} of {len(rows)} frames in {args.output} (manifest.jsonl)"
+         + (f"; {len(failed)} failed, e.g. frame {failed[0]['index']}: {failed[0]['error']}" if failed else ""))
     return 1 if failed else 0
 
 
@@ -421,12 +488,12 @@ def cmd_view(args) -> int:
         frames = sorted(viewer.frame_ms)
         if frames:
             median = frames[len(frames) // 2]
-            print(f"{viewer.frame_index} frames, {median:.1f} ms per frame ({1000.0 / median:.1f} fps) "
-                  f"on {viewer.device.info['renderer']}")
+            _say(f"{viewer.frame_index} frames, {median:.1f} ms per frame ({1000.0 / median:.1f} fps) "
+                 f"on {viewer.device.info['renderer']}")
         if screenshot:
-            print(f"wrote {viewer.screenshot(screenshot)}")
+            _say(f"wrote {viewer.screenshot(screenshot)}")
         if window_shot:
-            print(f"wrote {viewer.screenshot_window(window_shot)}")
+            _say(f"wrote {viewer.screenshot_window(window_shot)}")
     finally:
         viewer.close()
     return 0
@@ -483,17 +550,17 @@ def cmd_compare(args) -> int:
     for name in args.techniques:
         check_spp(get_technique(name), args.spp)
     scene, = _scenes([args.scene], args)
-    result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.frames,
-                     reference_spp=args.reference_spp, log=lambda m: print(m, file=sys.stderr))
-    print(format_table(result))
+    result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.timing_frames,
+                     reference_spp=args.reference_spp, log=note)
+    _say(format_table(result))
     if json_path:
         _write_json(json_path, result.to_json())
-        print(f"wrote {json_path}")
+        _say(f"wrote {json_path}")
     if sheet_path:
         rows = [(r.technique, r.image, r.error_map) for r in result.results]
         save_sheet(contact_sheet(rows, result.reference_image, "reference: " + result.reference.split(" (")[0],
                                  tonemap=args.tonemap), sheet_path)
-        print(f"wrote {sheet_path}")
+        _say(f"wrote {sheet_path}")
     return 0
 
 
@@ -508,23 +575,22 @@ def cmd_bench(args) -> int:
     scenes = _scenes(args.scenes, args)
     rows, quality = [], []
     for scene in scenes:
-        rows += speed_rows(scene, args.techniques, args.sizes, args.frames)
+        rows += speed_rows(scene, args.techniques, args.sizes, args.timing_frames)
     if not args.no_mitsuba:
         try:
             import mitsuba  # noqa: F401
         except ImportError:
-            print("caustica: time-to-quality skipped: Mitsuba is not installed (pip install 'caustica[reference]')",
-                  file=sys.stderr)
+            note("time-to-quality skipped: Mitsuba is not installed (pip install 'caustica[reference]')")
         else:
             for scene in scenes:
                 quality.append(time_to_quality(scene, args.techniques, args.quality_size, args.reference_spp,
-                                               args.max_spp, args.frames))
+                                               args.max_spp, args.timing_frames))
     if json_path:
         _write_json(json_path, {"frames": rows, "time_to_quality": quality})
-        print(f"wrote {json_path}")
+        _say(f"wrote {json_path}")
     if plot_path:
         plot(rows, quality, plot_path)
-        print(f"wrote {plot_path}")
+        _say(f"wrote {plot_path}")
     return 0
 
 
@@ -534,7 +600,7 @@ def cmd_export(args) -> int:
     output = _check_output(args.output, EXPORT_SUFFIXES)
     scene, = _scenes([args.scene], args)
     export_scene(scene, output)
-    print(f"wrote {output} ({len(scene.objects)} objects, {len(scene.lights)} lights)")
+    _say(f"wrote {output} ({len(scene.objects)} objects, {len(scene.lights)} lights)")
     return 0
 
 
@@ -550,7 +616,7 @@ def cmd_precompute(args) -> int:
     except ValueError as exc:
         raise CausticaError(f"--directions: {exc}") from None
     mesh = load_mesh(args.mesh)
-    table = precompute_table(mesh, args.ior, args.directions, args.max_depth, progress=not args.quiet)
+    table = precompute_table(mesh, args.ior, args.directions, args.max_depth)
     q = quantize(table)
     cached = table_path(mesh, args.ior, args.directions, args.max_depth)
     save_table(cached, q)  # where table_for finds it: renders of this mesh at this IOR take it from here
@@ -558,10 +624,13 @@ def cmd_precompute(args) -> int:
         save_table(output, q)
     e = quantization_errors(table, q)
     written = output or cached
-    print(f"wrote {written}{f' and cached it as {cached}' if output is not None else ''}: {table.vertex_count} vertices x {table.grid.count} directions in "
-          f"{table.stats['seconds']:.1f} s; {e['raw_bytes'] / 1e6:.1f} MB raw, {e['quantized_bytes'] / 1e6:.1f} MB quantized "
-          f"({e['size_ratio_percent']:.0f}%, {e['bytes_per_sample']:.0f} B/sample), file {written.stat().st_size / 1e6:.1f} MB; "
-          f"max error position {e['position_error_percent']:.4f}%, direction {e['direction_error_percent']:.4f}%")
+    _say(f"wrote {written}{f' and cached it as {cached}' if output is not None else ''}: {table.vertex_count} vertices x {table.grid.count} directions in "
+         f"{table.stats['seconds']:.1f} s; {e['raw_bytes'] / 1e6:.1f} MB raw, {e['quantized_bytes'] / 1e6:.1f} MB quantized "
+         f"({e['size_ratio_percent']:.0f}%, {e['bytes_per_sample']:.0f} B/sample), file {written.stat().st_size / 1e6:.1f} MB; "
+         f"max error position {e['position_error_percent']:.4f}%, direction {e['direction_error_percent']:.4f}%")
+    stats = table.stats
+    detail(f"{stats['rays']} rays traced; samples leaving the glass {100 * stats['valid_fraction']:.1f}%, "
+           f"self-occluded {100 * stats['occluded_fraction']:.1f}%")
     return 0
 
 
@@ -570,12 +639,12 @@ def cmd_techniques(args) -> int:
     from .techniques import get_technique, technique_names
 
     if args.json:
-        print(to_json(technique_info(args.name) if args.name else catalogue()))
+        _say(to_json(technique_info(args.name) if args.name else catalogue()))
     elif args.name:
-        print(table(technique_info(args.name)))
+        _say(table(technique_info(args.name)))
     else:
         for name in technique_names():
-            print(f"{name:16s} {get_technique(name).summary}")
+            _say(f"{name:16s} {get_technique(name).summary}")
     return 0
 
 
@@ -584,7 +653,7 @@ def cmd_plan(args) -> int:
     from .techniques.auto import plan
 
     chosen = plan(load_scene(args.scene), args.quality)
-    print(chosen.to_json() if args.json else chosen.describe())
+    _say(chosen.to_json() if args.json else chosen.describe())
     return 0
 
 
@@ -620,8 +689,8 @@ def cmd_graph(args) -> int:
         technique, params = technique.for_scene(load_scene(args.scene), params)
     graph = RenderGraph(technique.build_passes(params))
     if args.dot is None:
-        print(f"{technique.name}: {technique.summary}")
-        print(graph.describe())
+        _say(f"{technique.name}: {technique.summary}")
+        _say(graph.describe())
     elif args.dot == "-":
         print(graph.dot(technique.name), end="")
     else:
@@ -629,7 +698,7 @@ def cmd_graph(args) -> int:
 
         text = graph.dot(technique.name)
         write_atomic(args.dot, lambda tmp: Path(tmp).write_text(text))
-        print(f"wrote {args.dot}")
+        _say(f"wrote {args.dot}")
     return 0
 
 
@@ -638,7 +707,7 @@ def cmd_presets(args) -> int:
 
     for name, make in sorted(PRESETS.items()):
         doc = (make.__doc__ or "").strip().splitlines()
-        print(f"{name:16s} {doc[0] if doc else ''}")
+        _say(f"{name:16s} {doc[0] if doc else ''}")
     return 0
 
 
@@ -646,19 +715,86 @@ def cmd_info(args) -> int:
     from .gpu.context import describe, shared_context
 
     info = describe(shared_context())
-    print(f"renderer:         {info['renderer']}")
-    print(f"vendor:           {info['vendor']}")
-    print(f"version:          {info['version']}")
-    print(f"max texture size: {info['max_texture_size']}")
-    print(f"software:         {'yes (time with ctx.finish() and wall clock)' if info['is_software'] else 'no'}")
-    print(f"float atomics:    {'yes' if info['float_atomics'] else 'no (caustic splats fall back to blending)'}")
+    _say(f"renderer:         {info['renderer']}")
+    _say(f"vendor:           {info['vendor']}")
+    _say(f"version:          {info['version']}")
+    _say(f"max texture size: {info['max_texture_size']}")
+    _say(f"software:         {'yes (time with ctx.finish() and wall clock)' if info['is_software'] else 'no'}")
+    _say(f"float atomics:    {'yes' if info['float_atomics'] else 'no (caustic splats fall back to blending)'}")
     for name, present in info["extensions"].items():
-        print(f"  {name:36s} {'yes' if present else 'no'}")
+        _say(f"  {name:36s} {'yes' if present else 'no'}")
     return 0
 
 
+def cmd_completion(args) -> int:
+    _say(completion_script(args.shell), end="")
+    return 0
+
+
+SHELLS = ("bash", "zsh")
+
+
+def completion_script(shell: str) -> str:
+    """A bash (or zsh, through bashcompinit) completion script for every command, option and choice of
+    :func:`build_parser`, with preset, technique and environment names where a value takes one."""
+    from .scene.environment import PROCEDURAL_ENVIRONMENTS
+    from .scene.presets import PRESETS
+    from .techniques import technique_names
+
+    names = {"scene": sorted(PRESETS), "scenes": sorted(PRESETS), "technique": technique_names(),
+             "techniques": technique_names(), "name": technique_names(), "environment": list(PROCEDURAL_ENVIRONMENTS)}
+    parser = build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    arms = []
+    for command, sub in commands.items():
+        values, free, options, positional = [], [], [], []
+        for action in sub._actions:
+            if action.help == argparse.SUPPRESS:
+                continue
+            words = " ".join(action.choices or names.get(action.dest, []))
+            if not action.option_strings:
+                positional.append(words)
+            elif action.nargs != 0:  # an option that takes a value: its words, else files (bash's default)
+                if words:
+                    values.append(f'        {"|".join(action.option_strings)}) _caustica_words "{words}"; return ;;\n')
+                else:
+                    free += action.option_strings
+            options += action.option_strings
+        if free:
+            values.append(f'        {"|".join(free)}) COMPREPLY=(); return ;;\n')
+        arms.append(f'    {command})\n        case "$prev" in\n{"".join(values)}        esac\n'
+                    f'        _caustica_words "{" ".join(options)}" "{" ".join(positional)}" ;;\n')
+    top = [*commands, *(o for a in parser._actions if a.option_strings for o in a.option_strings)]
+    script = _COMPLETION.replace("@TOP@", " ".join(top)).replace("@ARMS@", "".join(arms))
+    return ("autoload -U +X bashcompinit && bashcompinit\n" if shell == "zsh" else "") + script
+
+
+_COMPLETION = """# caustica shell completion: eval "$(caustica completion bash)" (docs/cli.md)
+_caustica_words() {
+    # $1: the words for an option ("-" first) or, with $2, the options and the positional words
+    if [[ "$cur" == -* || $# -eq 1 ]]; then
+        COMPREPLY=($(compgen -W "$1" -- "$cur"))
+    else
+        COMPREPLY=($(compgen -W "$2" -- "$cur"))
+    fi
+}
+_caustica() {
+    local cur="${COMP_WORDS[COMP_CWORD]}" prev="${COMP_WORDS[COMP_CWORD-1]}" command="" i
+    for ((i = 1; i < COMP_CWORD; i++)); do
+        if [[ "${COMP_WORDS[i]}" != -* ]]; then command="${COMP_WORDS[i]}"; break; fi
+    done
+    case "$command" in
+    "") _caustica_words "@TOP@" ;;
+@ARMS@    esac
+}
+complete -o default -F _caustica caustica
+"""
+
+
 COMMANDS = {"render": cmd_render, "view": cmd_view, "compare": cmd_compare, "bench": cmd_bench,
-            "export": cmd_export, "batch": cmd_batch, "precompute": cmd_precompute, "techniques": cmd_techniques, "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info}
+            "export": cmd_export, "batch": cmd_batch, "precompute": cmd_precompute, "techniques": cmd_techniques,
+            "plan": cmd_plan, "graph": cmd_graph, "presets": cmd_presets, "info": cmd_info,
+            "completion": cmd_completion}
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -56,7 +56,7 @@ per channel keeping that channel.
 
 Variants: ``llvm_ad_rgb`` (vectorised on every core through LLVM) when it
 initialises, else ``scalar_rgb`` with a warning. Samples are split into
-passes with different seeds and averaged, with a tqdm progress bar on stderr.
+passes with different seeds and averaged, with progress on stderr (:mod:`caustica.progress`).
 
 Cache: results are stored as .npy under ``cache_dir`` (default
 ``$CAUSTICA_CACHE`` or ``~/.cache/caustica/reference``), keyed by a hash of the
@@ -78,6 +78,7 @@ import numpy as np
 
 from ..cache import cache_dir, load_array, slug, store_array
 from ..errors import ReferenceUnavailableError, first_line
+from ..progress import progress as progress_display
 from .mitsuba_export import has_absorbing_glass, has_dispersion, image_hash, mesh_file_hash, scene_to_mitsuba
 
 REFERENCE_VERSION = "1"
@@ -342,24 +343,15 @@ def render_reference(
     channels = [0, 1, 2] if has_dispersion(scene) else [None]
     mesh_dir = cache_dir / "meshes"
 
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=spp * len(renders) * len(channels), desc=f"mitsuba {scene.name}", unit="spp",
-                   leave=False, dynamic_ncols=True)
-    try:
+    with progress_display(spp * len(renders) * len(channels), f"mitsuba {scene.name}", unit="spp",
+                          enabled=progress) as bar:
         def rendered(channel, k, integrator, emitters) -> np.ndarray:
-            if bar is not None:
-                label = f"{integrator}[{emitters}]"
-                bar.set_postfix_str(label if channel is None else f"{label} channel {channel}")
+            label = f"{integrator}[{emitters}]"
+            bar.set_postfix_str(label if channel is None else f"{label} channel {channel}")
             return _render_integrator(mi, scene, camera, spp, integrator, emitters, max_depth, mesh_dir, channel,
                                       analytic_spheres, bar, seed_base=1000 * k + 100_000 * int(seed))
 
         result = _composite(camera.size, channels, renders, composite_weights(coverage), rendered)
-    finally:
-        if bar is not None:
-            bar.close()
     result = np.ascontiguousarray(result, dtype=np.float32)
     if cache:
         store_array(path, result)

@@ -35,12 +35,12 @@ Limits:
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..cache import LruCache, array_digest, material_state_key, scene_state_key
+from ..progress import progress, status
 from ..raytrace.caustic_gather import CausticGather
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.environment_light import BRIGHT_RATIO, environment_light
@@ -106,17 +106,14 @@ class Exact(Technique):
         sample_angle = _sample_angle(camera, spp)
         image = np.empty((height, width, 3), dtype=np.float32)
         label = "" if sampling is None else f" ({sampling.samples}+{sampling.bright_samples} environment rays a hit)"
-        bar = _progress(height, f"exact {scene.name}{label}")
-        for first in range(0, height, band):
-            stop = min(height, first + band)
-            origins, dirs = camera.primary_rays(spp, rows=(first, stop))
-            radiance = trace(rays, scene, origins.reshape(-1, 3), dirs.reshape(-1, 3), params.max_depth,
-                             params.min_weight, caustics=caustics, sample_angle=sample_angle, environment=sampling)
-            image[first:stop] = radiance.reshape(stop - first, width, -1, 3).mean(axis=2)
-            if bar is not None:
+        with progress(height, f"exact {scene.name}{label}", unit="rows") as bar:
+            for first in range(0, height, band):
+                stop = min(height, first + band)
+                origins, dirs = camera.primary_rays(spp, rows=(first, stop))
+                radiance = trace(rays, scene, origins.reshape(-1, 3), dirs.reshape(-1, 3), params.max_depth,
+                                 params.min_weight, caustics=caustics, sample_angle=sample_angle, environment=sampling)
+                image[first:stop] = radiance.reshape(stop - first, width, -1, 3).mean(axis=2)
                 bar.update(stop - first)
-        if bar is not None:
-            bar.close()
         return image
 
 
@@ -142,17 +139,6 @@ class Exact(Technique):
 def _sample_angle(camera, spp: int) -> float:
     """One sample's share of a pixel, as an angle: its caustic estimates average at least that footprint."""
     return 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / camera.size[1] / math.sqrt(spp)
-
-
-def _progress(total: int, label: str):
-    """A tqdm bar of image rows on stderr when it is a terminal (and tqdm is installed), else None."""
-    if not sys.stderr.isatty():
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=total, desc=label, unit="rows", leave=False, dynamic_ncols=True)
 
 
 KERNEL_REACH = 0.1  # the caustic kernel's largest radius, in radii of the specular objects' bounding sphere
@@ -187,10 +173,8 @@ def caustic_gather(scene, params) -> CausticGather | None:
            None if environment is None else (array_digest(scene.environment.image), environment.bright))
     gather = _GATHERS.get(key)
     if gather is None:
-        if sys.stderr.isatty():
-            sources = "lights" if environment is None else "lights and the environment's bright part"
-            print(f"caustica: exact: tracing {params.caustic_photons} photons from the {sources} for the caustics",
-                  file=sys.stderr)
+        sources = "lights" if environment is None else "lights and the environment's bright part"
+        status(f"exact: tracing {params.caustic_photons} photons from the {sources} for the caustics")
         hits = trace_photons(scene, count=params.caustic_photons, seed=0, max_depth=params.max_depth,
                              min_weight=params.min_weight, environment=environment)
         gather = CausticGather(hits, params.caustic_neighbours, KERNEL_REACH * target[1])

@@ -23,7 +23,7 @@ an open mesh (its transmittance is then 0).
 
 Everything is vectorised over vertices x directions; the rays go through
 :class:`~caustica.raytrace.embree_scene.RayScene` in blocks, each block split
-over every core (embreex releases the GIL), with a tqdm progress bar on stderr.
+over every core (embreex releases the GIL), with progress on stderr (:mod:`caustica.progress`).
 """
 from __future__ import annotations
 
@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SceneError
+from ..progress import progress as progress_display
 from ..raytrace.embree_scene import RayScene
 from ..raytrace.optics import fresnel_dielectric, normalize, refract
 from ..raytrace.paths import follow_refraction
@@ -164,7 +165,8 @@ def precompute_table(mesh: Mesh, ior: float, directions: int = DEFAULT_DIRECTION
     """Trace every vertex x sampled direction of ``mesh`` (object space) as glass of index ``ior``.
 
     ``analytic_spheres`` traces a mesh that carries ``analytic_sphere`` as the
-    true sphere (as the exact oracle does). ``progress`` shows a tqdm bar on stderr.
+    true sphere (as the exact oracle does). ``progress`` shows progress on stderr
+    (:mod:`caustica.progress`).
     """
     if not np.isfinite(ior) or ior <= 0:
         raise SceneError(f"ior {ior} must be positive (glass is about 1.5, water 1.33)")
@@ -184,7 +186,8 @@ def precompute_table(mesh: Mesh, ior: float, directions: int = DEFAULT_DIRECTION
         "occluded": np.empty((count, d), bool),
     }
     block = max(1, BLOCK_RAYS // d)
-    bar = _progress(count * d, f"transport table ({count} vertices x {d} directions)", progress)
+    bar = progress_display(count * d, f"transport table ({count} vertices x {d} directions)", unit="rays",
+                           enabled=progress, unit_scale=True)
 
     def trace_block(lo: int) -> None:
         # Every direction of a block of vertices at once.
@@ -207,21 +210,3 @@ def precompute_table(mesh: Mesh, ior: float, directions: int = DEFAULT_DIRECTION
     bounds = np.stack([vertices.min(axis=0), vertices.max(axis=0)])
     return TransportTable(ior=float(ior), grid=grid, max_depth=int(max_depth), mesh_hash=mesh.geometry_hash(),
                           bounds=bounds, stats=stats, **out)
-
-
-class _NoBar:
-    def update(self, n):
-        pass
-
-    def close(self):
-        pass
-
-
-def _progress(total: int, desc: str, enabled: bool):
-    if not enabled:
-        return _NoBar()
-    import sys
-
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, unit="ray", unit_scale=True, file=sys.stderr, leave=False)
