@@ -39,8 +39,11 @@ def test_compare_writes_json_with_every_column_and_a_sheet(tmp_path, capsys):
     assert env_map["angular_error"]["count"] > 0 and float(env_map["angular_error"]["mean_deg"]) > 1.0
     from PIL import Image
 
+    from caustica.bench.sheet import MIN_COLUMN
+
     with Image.open(sheet) as image:
-        assert image.size[0] == 3 * 48 and image.size[1] > 2 * 48  # image, error map, reference; two rows
+        # The reference and the FLIP colour bar once, then each technique's image and error map.
+        assert image.size[0] == 2 * MIN_COLUMN and image.size[1] > 3 * 48
 
 
 def test_compare_rejects_bad_output_before_working(tmp_path, capsys):
@@ -139,20 +142,22 @@ def test_contact_sheet_with_clip_is_bit_identical_to_its_old_encoder(monkeypatch
 def test_contact_sheet_with_filmic_keeps_a_bright_region_distinct():
     """Values from 1x to 30x white are all code 255 on a clip sheet; through filmic they keep distinct codes,
     increasing with the value, and the tiles are images.to_srgb8(..., tonemap="filmic")."""
-    from caustica.bench.sheet import LABEL_HEIGHT, contact_sheet
+    from caustica.bench.sheet import compose, contact_sheet, sheet_grid
     from caustica.images import to_srgb8
 
     rows, reference = _sheet_inputs()
     clip = np.asarray(contact_sheet(rows, reference, tonemap="clip"))
     filmic = np.asarray(contact_sheet(rows, reference, tonemap="filmic"))
+    places = compose(sheet_grid(rows, reference, tonemap="filmic"))[1]
+    (x, y), (rx, ry) = places[1][0], places[0][0]  # the first row's image; the reference, above the rows
     ramp = rows[0][1]
     bright = (ramp >= 1.0).all(axis=2)
-    clip_tile, filmic_tile = (s[LABEL_HEIGHT:LABEL_HEIGHT + 48, :64] for s in (clip, filmic))
+    clip_tile, filmic_tile = (s[y:y + 48, x:x + 64] for s in (clip, filmic))
     assert (clip_tile[bright] == 255).all()
     assert len(np.unique(filmic_tile[bright])) > 25 and filmic_tile[bright].max() < 255
     assert (np.diff(filmic_tile[..., 0].astype(int).ravel()) >= 0).all()  # the ramp's codes never go down
     np.testing.assert_array_equal(filmic_tile, to_srgb8(ramp, tonemap="filmic"))
-    reference_tile = filmic[LABEL_HEIGHT:LABEL_HEIGHT + 48, -64:]
+    reference_tile = filmic[ry:ry + 48, rx:rx + 64]
     np.testing.assert_array_equal(reference_tile, to_srgb8(reference, tonemap="filmic"))
 
 

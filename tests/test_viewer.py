@@ -140,6 +140,8 @@ def test_scripted_session_matches_headless_render(display, tmp_path):
 
 
 def test_side_by_side_difference_of_a_technique_with_itself_is_black(display, tmp_path):
+    """Two views side by side, their difference; with the overlay on, each half has a caption box at its
+    lower left (its technique's name)."""
     result = run_child(display, """
 scene = caustica.load_scene("glass-sphere")
 viewer = Viewer(scene, "env-map", size=(128, 128), panel=False, overlay=False)
@@ -147,6 +149,13 @@ viewer.run(frames=2, script=[("side_by_side", "image-space")])
 both = viewer.grab_window()
 result["both"] = list(both.shape)
 result["halves_differ"] = float(abs(both[:, :128].astype(int) - both[:, 128:]).mean())
+viewer.apply(("overlay", True))
+viewer.run(frames=viewer.frame_index + 4)
+captioned = viewer.grab_window()
+result["rects"], result["captions"] = viewer.caption_rects, viewer.state.view_captions(viewer.main, viewer.other)
+result["changed"] = [float(abs(captioned[128 - y - h:128 - y, x:x + w].astype(int) - both[128 - y - h:128 - y, x:x + w])
+                           .mean()) for x, y, w, h in viewer.caption_rects]
+viewer.apply(("overlay", False))
 viewer.apply(("side_by_side", "env-map", True))
 viewer.run(frames=viewer.frame_index + 2)
 result["difference_max"] = int(viewer.grab_window()[:, :128].max())
@@ -155,6 +164,10 @@ result["live"] = report.live_objects
 """, tmp_path)
     assert result["both"] == [128, 256, 3]  # the window widened to hold two views
     assert result["halves_differ"] > 0.5  # env-map and image-space differ on the sphere
+    assert result["captions"] == ["env-map", "image-space"]
+    (x0, y0, w0, _), (x1, y1, _, _) = result["rects"]
+    assert x0 < 128 and x0 + w0 <= 128 and x1 >= 128 and y0 < 20 and y1 < 20  # one per half, at the bottom
+    assert all(change > 5.0 for change in result["changed"])  # the boxes are drawn over the views
     assert result["difference_max"] <= 1  # |a - a| = 0
     assert result["live"] == {}
 
@@ -488,3 +501,4 @@ def test_live_frames_honour_auto_budget(tmp_path, monkeypatch):
     finally:
         live.release()
         device.release()
+

@@ -288,3 +288,181 @@ def test_a_bad_tonemap_is_refused_before_a_window_opens(monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(CausticaError, match="unknown tonemap 'aces'; use one of clip, filmic"):
         Viewer(caustica.load_scene("glass-sphere"), "env-map", tonemap="aces")  # not "no display found"
+
+
+def test_the_default_technique_is_auto():
+    """No technique given: the viewer, its state and 'caustica view' all plan one for the scene (auto)."""
+    import inspect
+
+    from caustica.cli import build_parser
+    from caustica.viewer import Viewer
+
+    assert ViewerState(caustica.load_scene("glass-sphere")).technique == "auto"
+    assert inspect.signature(Viewer).parameters["technique"].default == "auto"
+    assert build_parser().parse_args(["view", "glass-sphere"]).technique == "auto"
+
+
+def test_panel_labels_fit_beside_their_widgets_for_every_technique():
+    """The label column is as wide as the longest label (those cut to "shadow map si", "search distanc" and
+    "internal bound" before), and the widgets keep a usable width, for every technique in the panel's list."""
+    from caustica.viewer.panel import (FIXED_LABELS, LABEL_SPACING, MIN_WIDGET_WIDTH, label_column, panel_labels,
+                                       technique_choices, technique_labels, text_width, widget_width)
+
+    seen = set()
+    for technique in technique_choices():
+        labels = [*FIXED_LABELS, *technique_labels(technique)]
+        column = label_column(labels)
+        assert all(text_width(label) + LABEL_SPACING <= column for label in labels), technique
+        assert widget_width(labels) >= MIN_WIDGET_WIDTH, technique
+        seen.update(labels)
+    assert {"shadow map size", "search distance", "internal bounces", "environment light samples"} <= seen
+    # A whole panel: per-object with caustics (its techniques' parameters too) beside exact, materials, lights.
+    state = state_of("tvcg-fig11", "per-object+caustic-mapping")
+    state.set_side_by_side("exact")
+    labels = panel_labels(state)
+    assert {"absorption distance", "environment light samples", "search linear steps"} <= set(labels)
+    assert any(label.endswith(" position") or label.endswith(" direction") for label in labels)
+    assert widget_width(labels) >= MIN_WIDGET_WIDTH
+    assert label_column(["ior##0", "technique##object1"]) == text_width("technique") + LABEL_SPACING
+
+
+def test_the_label_sizes_are_imgui_s_own():
+    """GLYPH_WIDTH and the style constants are what ImGui measures and uses (no window or GL needed)."""
+    imgui = pytest.importorskip("imgui_bundle").imgui
+    from caustica.viewer import panel
+
+    imgui.create_context()
+    try:
+        io = imgui.get_io()
+        io.set_ini_filename(None)  # no imgui.ini in the working directory
+        io.backend_flags |= imgui.BackendFlags_.renderer_has_textures  # the font atlas is built without a renderer
+        io.display_size = (800, 600)
+        imgui.new_frame()
+        for label in {*panel.FIXED_LABELS, *panel.technique_labels("exact"), *panel.technique_labels("depth-search")}:
+            assert imgui.calc_text_size(label).x == panel.text_width(label)
+        style = imgui.get_style()
+        assert (style.item_inner_spacing.x, style.window_padding.x, style.scrollbar_size, style.indent_spacing) == (
+            panel.LABEL_SPACING, panel.WINDOW_PADDING, panel.SCROLLBAR, panel.INDENT)
+        imgui.end_frame()
+    finally:
+        imgui.destroy_context()
+
+
+def test_views_are_captioned_with_their_techniques():
+    from caustica.viewer.frames import LiveImage
+
+    state = state_of("glass-sphere")
+    done = LiveImage("env-map", color=object())
+    assert state.view_captions(done) == [""]  # one current view: the overlay names it
+    state.set_side_by_side("image-space")
+    assert state.view_captions(done, LiveImage("image-space", color=object())) == ["env-map", "image-space"]
+    state.set_side_by_side("mitsuba")
+    assert state.view_captions() == ["env-map", "mitsuba (cached reference)"]
+    state.set_side_by_side("image-space", difference=True)
+    assert state.view_captions(done, done) == ["|env-map - image-space| x 4"]
+
+
+def test_a_running_exact_render_shows_its_progress_in_the_caption():
+    from caustica.viewer.frames import LiveImage
+
+    state = state_of("glass-sphere")
+    state.set_side_by_side("exact")
+    starting = LiveImage("exact", pending=True, progress=0.0)
+    preview = LiveImage("exact", color=object(), pending=True, progress=0.374, preview=4)
+    assert state.view_captions(None, starting) == ["env-map", "exact: rendering 0%, nothing to show yet"]
+    assert state.view_captions(None, preview)[1] == "exact: rendering 37%, 1/4 resolution"
+    state.set_side_by_side("exact", difference=True)
+    assert state.view_captions(None, preview) == ["|env-map - exact| x 4: exact rendering 37%, 1/4 resolution"]
+    state.set_side_by_side("mitsuba")  # one stage, no estimate: the last image is shown meanwhile
+    assert state.view_captions(None, LiveImage("mitsuba", color=object(), pending=True))[1] == (
+        "mitsuba (cached reference): rendering, showing the last image")
+    state.set_side_by_side(None)
+    assert state.view_captions(LiveImage("env-map", color=object(), pending=True, progress=0.5, preview=8)) == [
+        "env-map: rendering 50%, 1/8 resolution"]
+
+
+def test_a_cpu_job_renders_in_stages_and_estimates_its_progress():
+    """Stages of rising size; progress counts their pixels, the running stage's from the last one's rate."""
+    import threading
+
+    from caustica.viewer.frames import CpuJob, stage_sizes
+
+    assert stage_sizes((512, 384)) == [(64, 48), (128, 96), (512, 384)]
+    assert stage_sizes((64, 48)) == [(16, 12), (64, 48)]  # 8x6 is under MIN_PREVIEW
+    assert stage_sizes((20, 20)) == [(20, 20)]
+    now = [0.0]
+    gates = {size: threading.Event() for size in stage_sizes((64, 48))}
+    reached = threading.Semaphore(0)
+
+    def render(size):
+        reached.release()
+        gates[size].wait(10)
+        now[0] += 1.0 if size == (16, 12) else 0.0  # the preview takes one second of the fake clock
+        return np.zeros((size[1], size[0], 3), np.float32)
+
+    job = CpuJob("key", render, stage_sizes((64, 48)), clock=lambda: now[0]).start()
+    assert reached.acquire(timeout=10) and job.progress() == 0.0 and job.image is None
+    gates[(16, 12)].set()
+    assert reached.acquire(timeout=10)  # the full stage started: 192 pixels a second so far
+    assert job.done == 1 and job.image.shape == (12, 16, 3) and job.preview == 4
+    assert job.progress() == pytest.approx(192 / (192 + 3072))
+    now[0] += 5.0
+    assert job.progress() == pytest.approx((192 + 5 * 192) / (192 + 3072))
+    now[0] += 100.0
+    assert job.progress() == pytest.approx((192 + 0.95 * 3072) / (192 + 3072))  # an estimate never says done
+    gates[(64, 48)].set()
+    job.thread.join(10)
+    assert job.done == 2 and job.progress() == 1.0 and job.preview == 1 and job.error is None
+    cancelled = CpuJob("key", render, [(16, 12), (64, 48)])
+    cancelled.cancel()
+    cancelled.start().thread.join(10)
+    assert cancelled.done == 0 and cancelled.image is None
+
+
+def test_the_live_exact_view_shows_a_preview_then_the_full_image(monkeypatch):
+    """The viewer's exact frame (a headless device): progress and the 1/4 preview while the full stage runs,
+    then the image at the view's size."""
+    import threading
+    import time
+
+    from caustica.gpu.device import GpuDevice
+    from caustica.viewer import frames
+
+    release = threading.Event()
+    staged = frames._cpu_render
+
+    def gated(scene, camera, technique, params, spp):
+        render = staged(scene, camera, technique, params, spp)
+        return lambda size: (release.wait(60) if size == tuple(camera.size) else None, render(size))[1]
+
+    monkeypatch.setattr(frames, "_cpu_render", gated)
+    scene = caustica.load_scene("glass-sphere")
+    camera = scene.camera.with_size(64, 48)
+    params = {"caustic_photons": 0, "environment_samples": 0}
+    device = GpuDevice()
+    live = frames.LiveRenderer(device)
+    try:
+        first = live.render("second", scene, camera, "exact", params, state_key=1)
+        assert first.pending and first.color is None and first.progress == 0.0
+        job = live._jobs["second"]
+        deadline = time.time() + 60
+        while job.done < 1 and time.time() < deadline:
+            job.thread.join(0.05)
+        preview = live.render("second", scene, camera, "exact", params, state_key=1)
+        assert preview.pending and tuple(preview.color.size) == (16, 12) and preview.preview == 4
+        assert 0.0 < preview.progress < 1.0
+        release.set()
+        live.wait("second", 60)
+        full = live.render("second", scene, camera, "exact", params, state_key=1)
+        assert not full.pending and tuple(full.color.size) == (64, 48) and full.progress is None and full.preview == 1
+    finally:
+        release.set()
+        live.release()
+        device.release()
+
+
+def test_the_script_help_says_what_script_takes():
+    from caustica.viewer.app import EVENTS, SCRIPT_HELP
+
+    assert SCRIPT_HELP.startswith("a JSON file") and '["wait", N]' in SCRIPT_HELP
+    assert all(name in SCRIPT_HELP.split("events: ")[1] for name in EVENTS)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..renderer import Renderer
 from ..techniques import get_technique
-from .timing import timed_render
+from .timing import steps, timed_render
 
 REGIONS = ("all", "refractor", "caustic", "rest")
 METRICS = ("psnr_linear", "psnr_srgb", "relmse", "ssim", "flip")
@@ -63,7 +63,7 @@ def _finite(value):
     return value
 
 
-def reference_image(scene, size, reference_spp: int, progress: bool = True):
+def reference_image(scene, size, reference_spp: int, progress: bool | None = None):
     """(image, description): Mitsuba when installed, else the exact oracle at the same spp."""
     from ..errors import CausticaError
 
@@ -83,8 +83,9 @@ def reference_image(scene, size, reference_spp: int, progress: bool = True):
 
 
 def compare(scene, techniques: list[str], size=None, spp: int = 4, frames: int = 5, reference_spp: int = 256,
-            progress: bool = True, log=print) -> CompareResult:
-    """Render each technique and the reference; measure them per region."""
+            progress: bool | None = None, log=print) -> CompareResult:
+    """Render each technique and the reference; measure them per region. ``progress``: the reference's
+    progress display (caustica.progress: None follows the policy, True always, False never)."""
     from ..metrics import angular_error, compare_images, exact_exit_directions, flip_map, region_masks
 
     for name in techniques:
@@ -96,38 +97,61 @@ def compare(scene, techniques: list[str], size=None, spp: int = 4, frames: int =
     masks = region_masks(scene, camera, spp=max(1, spp))
     exact_dirs = None
     results = []
-    for name in techniques:
-        log(f"rendering {name} ...")
-        image, ms = timed_render(renderer, scene, name, spp, frames)
-        metrics = compare_images(image, reference, masks)
-        angular = None
-        if get_technique(name).uses_gl:
-            directions = renderer.exit_directions(scene, name)
-            if directions is not None:
-                if exact_dirs is None:
-                    exact_dirs = exact_exit_directions(scene, camera)
-                dirs, valid = directions
-                angular = angular_error(dirs, exact_dirs[0], valid & exact_dirs[1])
-        elif name == "exact":
-            angular = {"mean_deg": 0.0, "p95_deg": 0.0, "count": int(masks["refractor"].sum())}
-        results.append(TechniqueResult(name, ms, metrics, angular, image, flip_map(image, reference)))
+    with steps(len(techniques), f"compare {scene.name}", "techniques") as bar:
+        for name in techniques:
+            log(f"rendering {name} ...")
+            bar.set_postfix_str(name)
+            image, ms = timed_render(renderer, scene, name, spp, frames)
+            metrics = compare_images(image, reference, masks)
+            angular = None
+            if get_technique(name).uses_gl:
+                directions = renderer.exit_directions(scene, name)
+                if directions is not None:
+                    if exact_dirs is None:
+                        exact_dirs = exact_exit_directions(scene, camera)
+                    dirs, valid = directions
+                    angular = angular_error(dirs, exact_dirs[0], valid & exact_dirs[1])
+            elif name == "exact":
+                angular = {"mean_deg": 0.0, "p95_deg": 0.0, "count": int(masks["refractor"].sum())}
+            results.append(TechniqueResult(name, ms, metrics, angular, image, flip_map(image, reference)))
+            bar.update()
     gl = renderer.info()["renderer"] if renderer._device is not None else "none (CPU techniques only)"
     return CompareResult(scene.name, camera.size, spp, description, gl,
                          {k: int(v.sum()) for k, v in masks.items()}, results, reference)
 
 
+TABLE_HEADER = ("technique", "ms", "PSNR lin", "PSNR sRGB", "relMSE", "SSIM", "FLIP", "angle mean/p95 (deg)")
+
+
+def table_cells(r: TechniqueResult, region: str) -> list[str]:
+    """One technique's row of the report in ``region``, as the cells under TABLE_HEADER."""
+    m = r.metrics[region]
+    angle = "-" if r.angular is None else f"{r.angular['mean_deg']:.3f}/{r.angular['p95_deg']:.3f}"
+    return [r.technique, f"{r.ms:.1f}", f"{m['psnr_linear']:.2f}", f"{m['psnr_srgb']:.2f}", f"{m['relmse']:.5f}",
+            f"{m['ssim']:.3f}", f"{m['flip']:.3f}", angle]
+
+
+def column_widths(rows: list[list[str]]) -> list[int]:
+    """The widest cell of each column."""
+    return [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+
+
+def aligned(rows: list[list[str]], widths: list[int] | None = None) -> list[str]:
+    """Rows of cells as lines, each column ``widths`` wide (default: its widest cell here): the first
+    left-aligned, the others right-aligned, two spaces apart, so a column starts at the same place on every line."""
+    widths = widths or column_widths(rows)
+    return ["  ".join(cell.ljust(w) if i == 0 else cell.rjust(w) for i, (cell, w) in enumerate(zip(row, widths)))
+            for row in rows]
+
+
 def format_table(result: CompareResult) -> str:
-    """The report: one block per region, one row per technique."""
+    """The report: one block per region, one row per technique; the columns as wide as their content in
+    every block, so long technique names keep them aligned."""
+    blocks = {region: [list(TABLE_HEADER), *(table_cells(r, region) for r in result.results)] for region in REGIONS}
+    widths = column_widths([row for block in blocks.values() for row in block])
     lines = [f"scene {result.scene}, {result.size[0]}x{result.size[1]}, {result.spp} spp; "
              f"reference: {result.reference}; GL: {result.renderer}"]
-    header = f"{'technique':14s} {'ms':>9s} {'PSNR lin':>9s} {'PSNR sRGB':>9s} {'relMSE':>9s} {'SSIM':>6s} {'FLIP':>6s} {'angle mean/p95 (deg)':>21s}"
-    for region in REGIONS:
+    for region, block in blocks.items():
         pixels = result.region_pixels.get(region, sum(result.region_pixels.values()))
-        lines.append(f"\n[{region}] ({pixels} pixels)")
-        lines.append(header)
-        for r in result.results:
-            m = r.metrics[region]
-            angle = "-" if r.angular is None else f"{r.angular['mean_deg']:.3f}/{r.angular['p95_deg']:.3f}"
-            lines.append(f"{r.technique:14s} {r.ms:9.1f} {m['psnr_linear']:9.2f} {m['psnr_srgb']:9.2f} "
-                         f"{m['relmse']:9.5f} {m['ssim']:6.3f} {m['flip']:6.3f} {angle:>21s}")
+        lines += [f"\n[{region}] ({pixels} pixels)", *aligned(block, widths)]
     return "\n".join(lines)

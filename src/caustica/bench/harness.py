@@ -17,7 +17,7 @@ import numpy as np
 from ..atomic import write_atomic
 from ..renderer import Renderer
 from ..techniques import get_technique
-from .timing import timed_render
+from .timing import steps, timed_render
 
 
 def triangle_count(scene) -> int:
@@ -27,23 +27,26 @@ def triangle_count(scene) -> int:
 def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
     """One row per (size, technique): ms, ratio to plain, per-pass ms."""
     rows = []
-    for size in sizes:
-        renderer = Renderer((size, size))
-        _, plain_ms = timed_render(renderer, scene, "plain", 1, frames)
-        profiler = Renderer((size, size), profile_passes=True)
-        for name in techniques:
-            _, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
-            pass_ms = {}
-            if get_technique(name).uses_gl:
-                profiler.render(scene, name)
-                profiler.render(scene, name)
-                pass_ms = profiler.last_pass_ms
-            row = {"scene": scene.name, "size": size, "technique": name, "ms": ms, "plain_ms": plain_ms,
-                   "ratio_to_plain": ms / plain_ms, "pass_ms": pass_ms, "triangles": triangle_count(scene),
-                   "renderer": renderer.info()["renderer"] if get_technique(name).uses_gl else "CPU (Embree)"}
-            rows.append(row)
-            log(f"{scene.name:16s} {size:5d}^2 {name:12s} {ms:9.2f} ms  x{ms / plain_ms:5.2f} plain  "
-                + " ".join(f"{k} {v:.1f}" for k, v in pass_ms.items()) + f"  [{row['renderer']}]")
+    with steps(len(sizes) * len(techniques), f"bench {scene.name}", "renders") as bar:
+        for size in sizes:
+            renderer = Renderer((size, size))
+            _, plain_ms = timed_render(renderer, scene, "plain", 1, frames)
+            profiler = Renderer((size, size), profile_passes=True)
+            for name in techniques:
+                bar.set_postfix_str(f"{name} {size}^2")
+                _, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
+                pass_ms = {}
+                if get_technique(name).uses_gl:
+                    profiler.render(scene, name)
+                    profiler.render(scene, name)
+                    pass_ms = profiler.last_pass_ms
+                row = {"scene": scene.name, "size": size, "technique": name, "ms": ms, "plain_ms": plain_ms,
+                       "ratio_to_plain": ms / plain_ms, "pass_ms": pass_ms, "triangles": triangle_count(scene),
+                       "renderer": renderer.info()["renderer"] if get_technique(name).uses_gl else "CPU (Embree)"}
+                rows.append(row)
+                bar.update()
+                log(f"{scene.name:16s} {size:5d}^2 {name:12s} {ms:9.2f} ms  x{ms / plain_ms:5.2f} plain  "
+                    + " ".join(f"{k} {v:.1f}" for k, v in pass_ms.items()) + f"  [{row['renderer']}]")
     return rows
 
 
@@ -54,7 +57,7 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
     from ..metrics import region_masks, relmse
     from ..reference.render import LoadedReference, render_reference
 
-    reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=True)
+    reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=None)  # the policy's
     renderer = Renderer((size, size))
     techniques_out = {}
     caustic = region_masks(scene, renderer.camera_for(scene))["caustic"]
@@ -73,20 +76,22 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
     caustic_renders = [key for key, weight in loaded.weights.items() if key in loaded.renders
                        and (np.isscalar(weight) or np.any(np.asarray(weight)[caustic] > 0))] if caustic.any() else []
     curve = []
-    spp = 1
-    while spp <= max_spp:
-        # seed 1: samples independent of the reference's, so its error is not underestimated
-        image, seconds = loaded.render(spp, seed=1)
-        start = time.perf_counter()
-        render_reference(scene, size=(size, size), spp=spp, cache=False, progress=False, seed=1)
-        point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
-                 **errors(image)}
-        if caustic_renders:
-            point["seconds_caustic"] = sum(seconds[key] for key in caustic_renders)
-        curve.append(point)
-        log(f"  mitsuba {spp:4d} spp: render {point['seconds']:7.2f} s (end to end {point['end_to_end_seconds']:.2f} s), "
-            + ", ".join(f"{k} {curve[-1][k]:.5f}" for k in regions))
-        spp *= 2
+    counts = [1 << k for k in range(max_spp.bit_length())]  # 1, 2, 4, ... up to max_spp
+    with steps(len(counts), f"mitsuba {scene.name} time to quality", "spp counts") as bar:
+        for spp in counts:
+            bar.set_postfix_str(f"{spp} spp")
+            # seed 1: samples independent of the reference's, so its error is not underestimated
+            image, seconds = loaded.render(spp, seed=1)
+            start = time.perf_counter()
+            render_reference(scene, size=(size, size), spp=spp, cache=False, progress=False, seed=1)
+            point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
+                     **errors(image)}
+            if caustic_renders:
+                point["seconds_caustic"] = sum(seconds[key] for key in caustic_renders)
+            curve.append(point)
+            bar.update()
+            log(f"  mitsuba {spp:4d} spp: render {point['seconds']:7.2f} s (end to end "
+                f"{point['end_to_end_seconds']:.2f} s), " + ", ".join(f"{k} {curve[-1][k]:.5f}" for k in regions))
     for name, entry in techniques_out.items():
         for key in regions:  # whole image, and the caustic region where the scene has one
             suffix = "" if key == "relmse" else "_caustic"

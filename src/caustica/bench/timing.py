@@ -1,9 +1,16 @@
-"""Frame timing shared by compare and bench: median of N frames after a warm-up."""
+"""Frame timing shared by compare and bench: median of N frames after a warm-up; and their progress."""
 from __future__ import annotations
 
 import statistics
 
+from ..progress import progress
 from ..techniques import get_technique
+
+
+def steps(total: int, desc: str, unit: str = "steps"):
+    """The progress of compare's and bench's loops of long steps, ``update()`` after each: where they make it
+    (caustica.progress's policy: a bar on a terminal, plain lines in a log, nothing when quiet or under a second)."""
+    return progress(total, desc, unit=unit)
 
 
 def timed_render(renderer, scene, technique: str, spp: int, frames: int, params: dict | None = None):

@@ -26,9 +26,9 @@ from .frames import (
     prune_meshes,
     release_device,
 )
+from .panel import PANEL_WIDTH
 from .state import ViewerState, animated_variant  # noqa: F401 (animated_variant: imported from here too)
 
-PANEL_WIDTH = 340  # pixels at the window's right edge while the panel is open
 NO_DISPLAY = "no display found (DISPLAY is not set); use 'caustica render' for headless images"
 MISSING_PACKAGES = "the viewer needs glfw and imgui-bundle; run: pip install 'caustica[viewer]'"
 ANIMATION_STEP = 1.0 / 30.0  # seconds of scene time per frame in scripted runs (reproducible)
@@ -117,6 +117,7 @@ class Viewer:
         self._drag = {"button": None, "pos": (0.0, 0.0), "shift": False}
         self._cursor_over_panel = False
         self.overlay_rect = None  # where ImGui last drew the overlay (x, y, w, h from the lower left)
+        self.caption_rects: list = []  # and the views' captions (technique names, a CPU render's progress)
         self._script: deque = deque()
         self._grab, self._grab_path, self.last_window = False, None, None
         self._last_time = time.perf_counter()
@@ -238,7 +239,8 @@ class Viewer:
                 self.ctx.screen.viewport = (0, 0, width, height)
             panel = (width - PANEL_WIDTH, 0, PANEL_WIDTH, height) if self.show_panel else None
             self.ui.composite(self.display, (width, height), panel,
-                              [self.overlay_rect] if self.show_overlay and self.overlay_rect else [])
+                              [self.overlay_rect, *self.caption_rects] if self.show_overlay and self.overlay_rect
+                              else [])
         if self._grab or self._grab_path:
             data = self.ctx.screen.read(viewport=(0, 0, width, height), components=3)
             self.last_window = np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)[::-1].copy()
@@ -253,7 +255,7 @@ class Viewer:
 
     def _draw_ui(self) -> None:
         """One ImGui frame of the panel and overlay, rendered into the bound target (the UI layer)."""
-        from .panel import draw_overlay, draw_panel
+        from .panel import draw_captions, draw_overlay, draw_panel
 
         imgui = self.imgui
         self.gui.process_inputs()
@@ -262,6 +264,7 @@ class Viewer:
             draw_panel(self)
         if self.show_overlay:
             draw_overlay(self)
+            self.caption_rects = draw_captions(self, self.layout())
         imgui.render()
         self.gui.render(imgui.get_draw_data())
 
@@ -568,3 +571,10 @@ EVENTS = {
     "screenshot": Viewer.screenshot, "screenshot_window": Viewer.screenshot_window,
     "wait": lambda v, frames=1: None, "close": lambda v: v.glfw.set_window_should_close(v.window, True),
 }
+
+# 'caustica view --script FILE': what the option takes (cli.py's _read_script reads the file, Viewer.run runs it).
+SCRIPT_HELP = ("a JSON file holding a list of [event, args...] lists, applied in order, one a frame "
+               "([\"wait\", N] takes N frames), e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"], "
+               "[\"param\", \"iterations\", 3], [\"wait\", 10], [\"screenshot\", \"a.png\"]]; events: "
+               + ", ".join(sorted(EVENTS)) + "; the window closes once the script and --frames are both done "
+               "(without --frames it stays open)")

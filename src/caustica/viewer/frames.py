@@ -4,14 +4,16 @@ A rasterized technique runs exactly the graph ``Renderer.render`` runs
 (``Renderer.render_frame``: same device, same supersampled size) but skips the readback: the
 window draws the ``color`` texture and the pass inspector any other channel.
 CPU techniques (``exact``, ``mitsuba``) run through ``Renderer.render`` in a
-worker thread; their image is uploaded when it is ready and reused until the
-view changes.
+worker thread (:class:`CpuJob`); their image is uploaded when it is ready and
+reused until the view changes. ``exact`` renders in stages of rising
+resolution (1/8, then 1/4 of the view a side, then all of it: 8% more rays), so
+the view shows a coarse image within moments and its progress meanwhile.
 """
 from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -33,6 +35,8 @@ class LiveImage:
     render_ms: float = 0.0
     pending: bool = False  # a CPU render is still running
     error: str | None = None
+    progress: float | None = None  # a running CPU render's fraction done (None: not known)
+    preview: int = 1  # the shown CPU image is 1/preview of the view's resolution (1: all of it)
 
 
 def channel_textures(channels: dict) -> dict:
@@ -45,6 +49,78 @@ def channel_textures(channels: dict) -> dict:
             if hasattr(texture, "glo") and hasattr(texture, "components") and hasattr(texture, "size"):
                 found[f"{name}[{i}]" if isinstance(value, (list, tuple)) else name] = texture
     return found
+
+
+STAGED = ("exact",)  # CPU techniques rendered in stages of rising resolution (mitsuba is a cached reference)
+PREVIEW_SCALES = (8, 4)  # their previews: 1/8 then 1/4 of the view a side
+MIN_PREVIEW = 8  # pixels: a preview smaller than this a side is skipped
+
+
+def stage_sizes(size, scales=PREVIEW_SCALES) -> list[tuple[int, int]]:
+    """The sizes a staged CPU render goes through: each preview (1/scale a side), coarsest first, then ``size``."""
+    width, height = (int(v) for v in size)
+    stages = []
+    for scale in sorted(scales, reverse=True):
+        small = (max(1, round(width / scale)), max(1, round(height / scale)))
+        if min(small) >= MIN_PREVIEW and small not in stages and small != (width, height):
+            stages.append(small)
+    return [*stages, (width, height)]
+
+
+class CpuJob:
+    """One CPU render in a worker thread, in stages: ``render(size)`` is called for each of ``sizes``.
+
+    ``image`` is the last stage finished (``done`` of them), ``ms`` its render time; ``cancel()`` ends
+    the job after the running stage. ``clock`` is the time source (tests pass their own)."""
+
+    def __init__(self, key, render, sizes, clock=time.perf_counter):
+        self.key, self.sizes = key, [tuple(size) for size in sizes]
+        self.image, self.done, self.ms, self.error = None, 0, 0.0, None
+        self.cancelled, self.uploaded = False, 0  # uploaded: stages the LiveRenderer has put in a texture
+        self._render, self._clock = render, clock
+        self._stage_start, self._rate = clock(), None  # the rate: pixels a second of the last stage
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def start(self) -> "CpuJob":
+        self.thread.start()
+        return self
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+    @property
+    def alive(self) -> bool:
+        return self.thread.is_alive()
+
+    def _run(self) -> None:
+        try:
+            for index, size in enumerate(self.sizes):
+                if self.cancelled:
+                    return
+                start = self._stage_start = self._clock()
+                image = self._render(size)
+                end = self._clock()
+                self._rate = size[0] * size[1] / max(end - start, 1e-9)
+                self.image, self.ms, self._stage_start = image, (end - start) * 1000.0, end
+                self.done = index + 1
+        except Exception as exc:  # shown in the panel; the viewer keeps running
+            self.error = first_line(exc)
+
+    def progress(self) -> float:
+        """The fraction of the job's pixels rendered: the stages done, and of the running one what the last
+        stage's rate gives for its time so far (at most 95% of it)."""
+        pixels = [w * h for w, h in self.sizes]
+        done = sum(pixels[:self.done])
+        if self.done < len(pixels) and self._rate:
+            done += min(0.95 * pixels[self.done], (self._clock() - self._stage_start) * self._rate)
+        return done / sum(pixels)
+
+    @property
+    def preview(self) -> int:
+        """How many times coarser than the last stage the shown image is, a side (1: the full size)."""
+        if self.image is None:
+            return 1
+        return max(1, round(self.sizes[-1][0] / self.image.shape[1]))
 
 
 class LiveRenderer:
@@ -65,7 +141,7 @@ class LiveRenderer:
         tech, parameters = self.renderer.resolve(tech, scene, camera, tech.make_params(**params), spp)
         if isinstance(tech, RasterTechnique):
             return self._render_raster(slot, tech, scene, camera, parameters, spp, profile)
-        return self._render_cpu(slot, technique, scene, camera, params, spp, state_key)
+        return self._render_cpu(slot, technique, tech.name, scene, camera, params, spp, state_key)
 
     def _render_raster(self, slot, tech, scene, camera, parameters, spp, profile) -> LiveImage:
         self._give_back(slot)
@@ -78,39 +154,29 @@ class LiveRenderer:
         k = frame.camera.size[0] // camera.size[0]
         return LiveImage(tech.name, frame.read("color"), k, dict(frame.channels), dict(frame.pass_ms or {}), elapsed)
 
-    def _render_cpu(self, slot, technique, scene, camera, params, spp, state_key) -> LiveImage:
-        # Start a worker for a new view; show the last finished image meanwhile.
+    def _render_cpu(self, slot, technique, resolved, scene, camera, params, spp, state_key) -> LiveImage:
+        # Start a worker for a new view (a stale one stops after its stage); show the last image meanwhile.
         self._give_back(slot)
         job = self._jobs.get(slot)
         key = (technique, state_key, tuple(sorted(params.items())), spp, tuple(camera.size))
-        if job is None or (job["key"] != key and not job["thread"].is_alive()):
-            job = {"key": key, "result": None, "error": None, "ms": 0.0, "uploaded": False}
-            job["thread"] = threading.Thread(target=self._cpu_job, args=(job, scene, camera, technique, params, spp),
-                                             daemon=True)
-            job["thread"].start()
-            self._jobs[slot] = job
-        if job["result"] is not None and not job["uploaded"]:
-            self._upload(slot, job["result"])
-            job["uploaded"] = True
-        pending = job["thread"].is_alive() or job["key"] != key
-        return LiveImage(technique, self._uploads.get(slot), 1, {}, {}, job["ms"], pending, job["error"])
-
-    def _cpu_job(self, job, scene, camera, technique, params, spp) -> None:
-        import dataclasses
-
-        try:
-            renderer = Renderer(camera.size)  # CPU only: never touches the window's context from this thread
-            start = time.perf_counter()
-            job["result"] = renderer.render(dataclasses.replace(scene, camera=camera), technique, spp, **params)
-            job["ms"] = (time.perf_counter() - start) * 1000.0
-        except Exception as exc:  # shown in the panel; the viewer keeps running
-            job["error"] = first_line(exc)
+        if job is None or (job.key != key and not job.alive):
+            sizes = stage_sizes(camera.size) if resolved in STAGED else [tuple(camera.size)]
+            job = self._jobs[slot] = CpuJob(key, _cpu_render(scene, camera, technique, params, spp), sizes).start()
+        elif job.key != key:
+            job.cancel()
+        if job.done > job.uploaded:
+            self._upload(slot, job.image)
+            job.uploaded = job.done
+        pending = job.alive or job.key != key
+        return LiveImage(technique, self._uploads.get(slot), 1, {}, {}, job.ms, pending, job.error,
+                         job.progress() if pending and job.key == key and len(job.sizes) > 1 else None,
+                         job.preview if job.key == key else 1)
 
     def wait(self, slot: str, timeout: float | None = None) -> None:
         """Block until the CPU render of ``slot`` finishes (scripted runs and tests)."""
         job = self._jobs.get(slot)
         if job is not None:
-            job["thread"].join(timeout)
+            job.thread.join(timeout)
 
     def _upload(self, slot: str, image: np.ndarray) -> None:
         """A CPU image (row 0 at the top) into an RGBA32F texture (row 0 at the bottom)."""
@@ -133,13 +199,22 @@ class LiveRenderer:
     def release(self) -> None:
         """Hand back every pooled texture and release the uploads (before the device is released)."""
         for job in self._jobs.values():
-            job["thread"].join(5.0)
+            job.cancel()
+            job.thread.join(5.0)
         for slot in list(self._frames):
             self._give_back(slot)
         for texture in self._uploads.values():
             texture.release()
         self._uploads.clear()
         self._jobs.clear()
+
+
+def _cpu_render(scene, camera, technique: str, params: dict, spp: int):
+    """``render(size)``: ``technique`` of ``scene`` seen by ``camera`` at that size (a CpuJob's stage)."""
+    def render(size):
+        # CPU only: never touches the window's context from the worker thread.
+        return Renderer(size).render(replace(scene, camera=camera.with_size(*size)), technique, spp, **params)
+    return render
 
 
 def prune_meshes(device, scene) -> None:

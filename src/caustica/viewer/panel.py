@@ -15,8 +15,20 @@ from ..techniques import get_technique, technique_names
 from .display import MODES
 from .frames import channel_textures
 from .params import MATERIAL_FIELDS, param_specs
+from .state import render_status, technique_label
 
 SPP_CHOICES = (1, 4, 9, 16)
+PANEL_WIDTH = 360  # pixels at the window's right edge while the panel is open
+# The label column, measured without ImGui as ImGui lays the panel out with its default font and style:
+# ProggyClean 13 px is monospaced, 7 px a glyph (imgui.calc_text_size says the same; tests check it).
+GLYPH_WIDTH = 7.0
+LABEL_SPACING = 4.0  # style.item_inner_spacing.x: between a widget and its label
+WINDOW_PADDING, SCROLLBAR, INDENT = 8.0, 14.0, 21.0  # style.window_padding.x, scrollbar_size, indent_spacing
+MIN_WIDGET_WIDTH = 110.0  # the narrowest a widget gets, at one tree level under a scrollbar
+# Labels of the panel's own widgets whose label sits right of the item width (the parameters' come from them).
+FIXED_LABELS = ("technique", "spp", "exposure", "tonemap", "time", "fov y", "distance", "channel", "view as",
+                "range", "second", "gain", "file")
+OWN_EDITORS = ("techniques", "technique_params")  # per-object's parameters: edited per object and per technique
 
 
 @functools.lru_cache(maxsize=1)
@@ -38,9 +50,54 @@ def _combo(imgui, label: str, value, choices) -> tuple[bool, object]:
     return changed, choices[index]
 
 
+def field_label(name: str) -> str:
+    """A parameter's or material field's label: its name with spaces (``shadow_map_size`` -> ``shadow map size``)."""
+    return name.replace("_", " ")
+
+
+def light_label(light, index: int) -> str:
+    """The label of a light's position (or direction) widget."""
+    return f"{light.kind} {index} {'position' if hasattr(light, 'position') else 'direction'}"
+
+
+def technique_labels(technique: str) -> list[str]:
+    """The labels of ``technique``'s parameter widgets (what the panel shows for it)."""
+    return [field_label(spec.name) for spec in param_specs(get_technique(technique)) if spec.name not in OWN_EDITORS]
+
+
+def panel_labels(state) -> list[str]:
+    """Every label the panel may show for ``state`` (a ViewerState) beside an item-wide widget: its own, the
+    parameters of the technique, the second one and per-object's techniques in use, materials, lights."""
+    labels = [*FIXED_LABELS, *technique_labels(state.technique)]
+    if state.second:
+        labels += technique_labels(state.second)
+    if state.technique.split("+")[0] == "per-object":
+        for technique in {state.object_technique(o.name) for o in state.scene.objects_of("glass")}:
+            labels += technique_labels(technique)
+    labels += [field_label(field[0]) for obj in state.scene.objects
+               for field in MATERIAL_FIELDS.get(obj.material.kind, ())]
+    return labels + [light_label(light, i) for i, light in enumerate(state.scene.lights)]
+
+
+def text_width(text: str) -> float:
+    """Width in pixels of ``text`` in ImGui's default font (monospaced)."""
+    return GLYPH_WIDTH * len(text)
+
+
+def label_column(labels, measure=text_width, spacing: float = LABEL_SPACING) -> float:
+    """Pixels kept right of the widgets for their labels: the longest label (what ImGui shows: the text before
+    any ``##``) and the gap before it."""
+    return max((measure(label.split("##")[0]) for label in labels), default=0.0) + spacing
+
+
+def widget_width(labels, depth: int = 1) -> float:
+    """The widgets' width in the panel when the label column fits ``labels``, at tree ``depth`` under a scrollbar."""
+    return PANEL_WIDTH - 2 * WINDOW_PADDING - SCROLLBAR - depth * INDENT - label_column(labels)
+
+
 def param_widget(imgui, spec, value):
     """One widget for one parameter; returns (changed, new value)."""
-    label = spec.name.replace("_", " ")
+    label = field_label(spec.name)
     if spec.kind == "bool":
         return imgui.checkbox(label, bool(value))
     if spec.kind == "choice":
@@ -60,7 +117,7 @@ def param_widget(imgui, spec, value):
 
 def _parameters(viewer, imgui, technique: str, params: dict, second: bool) -> None:
     for spec in param_specs(get_technique(technique)):
-        if spec.name in ("techniques", "technique_params"):  # per-object's: edited per object and below
+        if spec.name in OWN_EDITORS:
             continue
         value = params.get(spec.name, spec.default)
         changed, new = param_widget(imgui, spec, value)
@@ -92,13 +149,15 @@ def draw_panel(viewer) -> None:
     """The panel window along the right edge."""
     imgui = viewer.imgui
     width, height = viewer.glfw.get_framebuffer_size(viewer.window)
-    from .app import PANEL_WIDTH
-
     imgui.set_next_window_pos((width - PANEL_WIDTH, 0))
     imgui.set_next_window_size((PANEL_WIDTH, height))
     imgui.set_next_window_bg_alpha(1.0)  # opaque: the window under it is not cleared each frame
     flags = imgui.WindowFlags_.no_move | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
     imgui.begin("caustica", None, flags)
+    # Widgets end where the longest label starts (negative: from the right edge, at any tree depth).
+    column = label_column(panel_labels(viewer.state), lambda text: imgui.calc_text_size(text).x,
+                          imgui.get_style().item_inner_spacing.x)
+    imgui.push_item_width(-column)
     imgui.text(f"{viewer.scene.name}  ({viewer.device.info['renderer'][:28]})")
     if viewer.error:
         imgui.text_colored((1.0, 0.45, 0.35, 1.0), viewer.error[:200])
@@ -142,6 +201,7 @@ def draw_panel(viewer) -> None:
     imgui.text_disabled("drag: orbit  right drag: pan  wheel: zoom")
     imgui.text_disabled("shift drag / arrows, PgUp/PgDn: move light")
     imgui.text_disabled("F frame  R reset  I inspect  S shot  Tab panel")
+    imgui.pop_item_width()
     imgui.end()
 
 
@@ -155,9 +215,9 @@ def _materials(viewer, imgui) -> None:
         for name, kind, low, high in fields:
             value = getattr(obj.material, name)
             if kind == "color":
-                changed, new = imgui.color_edit3(f"{name.replace('_', ' ')}##{index}", [float(v) for v in value])
+                changed, new = imgui.color_edit3(f"{field_label(name)}##{index}", [float(v) for v in value])
             else:
-                changed, new = imgui.drag_float(f"{name.replace('_', ' ')}##{index}", float(value), 0.005, low, high, "%.3f")
+                changed, new = imgui.drag_float(f"{field_label(name)}##{index}", float(value), 0.005, low, high, "%.3f")
             if changed:
                 viewer.set_material(index, name, np.clip(np.asarray(new, dtype=float), low, high)
                                     if kind == "color" else float(np.clip(new, low, high)))
@@ -176,11 +236,11 @@ def _object_technique(viewer, imgui, obj, index: int) -> None:
 def _lights(viewer, imgui) -> None:
     for index, light in enumerate(viewer.scene.lights):
         if hasattr(light, "position"):
-            changed, new = imgui.drag_float3(f"{light.kind} {index} position", [float(v) for v in light.position], 0.02)
+            changed, new = imgui.drag_float3(light_label(light, index), [float(v) for v in light.position], 0.02)
             if changed:
                 viewer.move_light(index, position=new)
         elif hasattr(light, "direction"):
-            changed, new = imgui.drag_float3(f"{light.kind} {index} direction", [float(v) for v in light.direction], 0.01)
+            changed, new = imgui.drag_float3(light_label(light, index), [float(v) for v in light.direction], 0.01)
             if changed and np.linalg.norm(new) > 1e-6:
                 viewer.move_light(index, position=new)
 
@@ -223,7 +283,7 @@ def _inspector(viewer, imgui) -> None:
 
 def _side_by_side(viewer, imgui) -> None:
     choices = [None, *technique_choices()]
-    labels = ["(off)", *[c if c != "mitsuba" else "mitsuba (cached reference)" for c in choices[1:]]]
+    labels = ["(off)", *[technique_label(c) for c in choices[1:]]]
     index = choices.index(viewer.second) if viewer.second in choices else 0
     changed, index = imgui.combo("second", index, labels)
     if changed:
@@ -233,8 +293,8 @@ def _side_by_side(viewer, imgui) -> None:
         if changed:
             viewer.set_side_by_side(viewer.second, difference)
         changed, viewer.difference_gain = imgui.drag_float("gain", viewer.difference_gain, 0.1, 0.1, 1000.0, "%.1f")
-        if viewer.other.pending:
-            imgui.text("rendering on the CPU...")
+        if render_status(viewer.other):
+            imgui.text(render_status(viewer.other))
         if imgui.tree_node("second's parameters"):
             _parameters(viewer, imgui, viewer.second, viewer.second_params, second=True)
             imgui.tree_pop()
@@ -258,15 +318,40 @@ def _window_rect(imgui, window_height: int) -> tuple[int, int, int, int]:
     return int(x), int(window_height - y - h), int(w) + 1, int(h) + 1
 
 
+OVERLAY_FLAGS = ("no_decoration", "always_auto_resize", "no_inputs", "no_saved_settings", "no_focus_on_appearing",
+                 "no_nav")  # the overlay's and the captions' ImGui windows: text only, no input
+
+
+def _text_window_flags(imgui) -> int:
+    return functools.reduce(lambda a, b: a | b, (getattr(imgui.WindowFlags_, name) for name in OVERLAY_FLAGS))
+
+
+def draw_captions(viewer, rects) -> list:
+    """Each view's caption (ViewerState.view_captions) at its lower left; returns where they were drawn
+    (x, y, w, h from the window's lower left) for the UI layer to blend."""
+    imgui = viewer.imgui
+    height = viewer.glfw.get_window_size(viewer.window)[1]
+    drawn = []
+    for index, (text, (x, y, w, _)) in enumerate(zip(viewer.state.view_captions(viewer.main, viewer.other), rects)):
+        if not text:
+            continue
+        imgui.set_next_window_pos((x + 8, height - y - 8), 0, (0.0, 1.0))
+        imgui.set_next_window_bg_alpha(0.55)
+        imgui.begin(f"caption {index}", None, _text_window_flags(imgui))
+        imgui.push_text_wrap_pos(max(GLYPH_WIDTH, w - 16 - 2 * WINDOW_PADDING))  # the box stays in its view
+        imgui.text(text)
+        imgui.pop_text_wrap_pos()
+        drawn.append(_window_rect(imgui, height))
+        imgui.end()
+    return drawn
+
+
 def draw_overlay(viewer) -> None:
     """Frame time (ms, fps), the technique's render ms and, when profiling, per-pass ms, top left of the view."""
     imgui = viewer.imgui
     imgui.set_next_window_pos((8, 8))
     imgui.set_next_window_bg_alpha(0.55)
-    flags = (imgui.WindowFlags_.no_decoration | imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_inputs
-             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_focus_on_appearing
-             | imgui.WindowFlags_.no_nav)
-    imgui.begin("overlay", None, flags)
+    imgui.begin("overlay", None, _text_window_flags(imgui))
     viewer.overlay_rect = _window_rect(imgui, viewer.glfw.get_window_size(viewer.window)[1])
     frame = statistics.median(viewer.frame_ms) if viewer.frame_ms else 0.0
     imgui.text(f"{viewer.technique}: {frame:.1f} ms/frame, {1000.0 / frame if frame else 0.0:.1f} fps")

@@ -40,6 +40,22 @@ def animated_variant(scene_name: str):
     return None
 
 
+def technique_label(name: str) -> str:
+    """How the viewer names a technique in its lists and captions (``mitsuba`` is the cached reference)."""
+    return "mitsuba (cached reference)" if name == "mitsuba" else name
+
+
+def render_status(image) -> str:
+    """What a view's caption says of its frame (a frames.LiveImage, or None): nothing when it is current;
+    while a CPU render runs, its progress, what is shown meanwhile, e.g. ``rendering 37%, 1/4 resolution``."""
+    if image is None or not image.pending:
+        return ""
+    status = "rendering" if image.progress is None else f"rendering {image.progress:.0%}"
+    if image.color is None:
+        return status + ", nothing to show yet"
+    return status + (f", 1/{image.preview} resolution" if image.preview > 1 else ", showing the last image")
+
+
 class ViewerState:
     """The edited scene and view settings; ``viewport()`` gives the first view's (width, height) in pixels
     (the scene camera's size unless a window says otherwise)."""
@@ -87,6 +103,23 @@ class ViewerState:
     def side_by_side(self) -> bool:
         """Two views side by side (a second technique, not differenced)."""
         return bool(self.second) and not self.difference
+
+    def view_captions(self, main=None, other=None) -> list[str]:
+        """The text over each view, from its frame (``main``, ``other``: frames.LiveImage or None): side by
+        side, each half's technique; differenced, both names and the gain; a lone view only while a CPU render
+        runs. Each adds ``render_status`` (a CPU render's progress); '' is no caption."""
+        def caption(name, image):
+            status = render_status(image)
+            return f"{technique_label(name)}: {status}" if status else technique_label(name)
+
+        if self.side_by_side:
+            return [caption(self.technique, main), caption(self.second, other)]
+        if self.second:  # the difference view
+            status = "; ".join(f"{name} {render_status(image)}" for name, image in
+                               ((self.technique, main), (self.second, other)) if render_status(image))
+            return [f"|{self.technique} - {technique_label(self.second)}| x {self.difference_gain:g}"
+                    + (f": {status}" if status else "")]
+        return [caption(self.technique, main) if render_status(main) else ""]
 
     # The camera.
     def camera(self, size=None):
