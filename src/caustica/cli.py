@@ -252,7 +252,14 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--frames", type=FRAMES, help="quit after this many frames (scripted runs)")
     view.add_argument("--screenshot", help="write the last frame here (.png sRGB or .exr linear)")
     view.add_argument("--window-screenshot", help="write the whole last window, panel included, here (.png)")
-    view.add_argument("--script", help="a JSON list of events, e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"]]")
+    view.add_argument("--script", metavar="FILE",
+                      help="a JSON file holding a list of [event, args...] lists, applied in order, one a frame "
+                           "([\"wait\", N] takes N frames), e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"], "
+                           "[\"param\", \"iterations\", 3], [\"wait\", 10], [\"screenshot\", \"a.png\"]]; events: close, "
+                           "drag_light, exposure, frame, inspect, light, material, object_technique, orbit, overlay, pan, "
+                           "panel, param, play, reset, screenshot, screenshot_window, side_by_side, spp, technique, time, "
+                           "tonemap, wait, zoom; the window closes once the script and --frames are both done "
+                           "(without --frames it stays open)")
     view.add_argument("--no-panel", action="store_true", help="start with the panel hidden (Tab toggles it)")
     view.add_argument("--play", action="store_true", help="start the animation of an animated preset (caustics-pool)")
     _environment_option(view)
@@ -268,7 +275,9 @@ def build_parser() -> argparse.ArgumentParser:
     _environment_option(comp)
     _camera_option(comp)
     comp.add_argument("--json", help="write the figures as JSON here")
-    comp.add_argument("--sheet", help="write a contact sheet PNG here (image, FLIP error map, reference)")
+    comp.add_argument("--sheet", help="write a contact sheet PNG here: a title (scene, size, spp, GL renderer), the "
+                                      "reference and the FLIP colour bar, then each technique's image with its ms, PSNR "
+                                      "and FLIP beside its FLIP error map")
     comp.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                       help="the sheet's tone curve: clip (default) or filmic (as 'render --tonemap'); the figures do not change")
 
@@ -538,7 +547,7 @@ def _write_json(path: Path, data) -> None:
 
 def cmd_compare(args) -> int:
     from .bench.compare import compare, format_table
-    from .bench.sheet import contact_sheet, save_sheet
+    from .bench.sheet import compare_sheet, save_sheet
     from .techniques.base import check_spp, get_technique
 
     json_path = _check_output(args.json, (".json",))
@@ -557,9 +566,7 @@ def cmd_compare(args) -> int:
         _write_json(json_path, result.to_json())
         _say(f"wrote {json_path}")
     if sheet_path:
-        rows = [(r.technique, r.image, r.error_map) for r in result.results]
-        save_sheet(contact_sheet(rows, result.reference_image, "reference: " + result.reference.split(" (")[0],
-                                 tonemap=args.tonemap), sheet_path)
+        save_sheet(compare_sheet(result, args.tonemap), sheet_path)
         _say(f"wrote {sheet_path}")
     return 0
 
