@@ -1,9 +1,11 @@
-"""Benchmark: post-process edge anti-aliasing against k x k supersampling, per scene.
+"""Benchmark: footprint-filtered environment lookups and post-process edge anti-aliasing against
+k x k supersampling, per scene.
 
 The error of each way of anti-aliasing is measured against the same technique's own image at 8 x 8
-samples per pixel (so it is the aliasing alone, not the technique's error against ground truth), on
-the presets and on a twin of each with the camera orbited by 35 degrees and raised (scenes the edge
-filter was not tuned on). Costs are ms per frame in the same run (ctx.finish() and wall clock).
+samples per pixel with bilinear (point) environment lookups, a box filter of the pixel (so it is the
+aliasing alone, not the technique's error against ground truth), on the presets and on a twin of each
+with the camera orbited by 35 degrees and raised (scenes the filters were not tuned on). Costs are ms
+per frame in the same run (ctx.finish() and wall clock), relative to 1 spp with bilinear lookups.
 
     .venv/bin/python bench/bench_antialias.py [--presets a,b] [--size 192x144] [--technique auto]
 """
@@ -22,8 +24,11 @@ from caustica.renderer import Renderer
 
 PRESETS = ["glass-sphere", "caustic-sphere", "tvcg-fig10", "caustics-point", "caustics-ring", "caustics-bunny",
            "door-mirror", "mirror-concave", "spectacle-convex", "tvcg-fig14", "tvcg-fig24", "caustics-prism"]
-WAYS = [("1 spp", 1, "none"), ("1 spp + edge", 1, "edge"), ("4 spp", 4, "none"), ("4 spp + edge", 4, "edge"),
-        ("9 spp", 9, "none")]
+WAYS = [  # (name, spp, antialias, Environment.filter)
+    ("1 spp", 1, "none", "bilinear"), ("1 spp footprint", 1, "none", "footprint"),
+    ("1 spp footprint + edge", 1, "edge", "footprint"), ("4 spp", 4, "none", "bilinear"),
+    ("4 spp footprint", 4, "none", "footprint"), ("9 spp", 9, "none", "bilinear"),
+]
 
 
 def orbited(scene, degrees: float, lift: float):
@@ -55,7 +60,7 @@ def main(argv=None) -> None:
     parser.add_argument("--technique", default="auto")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
-    totals = {name: [] for name, _, _ in WAYS}
+    totals = {name: [] for name, *_ in WAYS}
     rows = []
     with Renderer(size) as renderer:
         gl = renderer.info()["renderer"]
@@ -68,10 +73,12 @@ def main(argv=None) -> None:
                     break
                 if variant == "orbited":
                     scene = orbited(scene, 35.0, 0.15)
+                scene.environment.filter = "bilinear"
                 reference = renderer.render(scene, args.technique, 64)
                 cells = []
                 base_ms = None
-                for name, spp, antialias in WAYS:
+                for name, spp, antialias, environment_filter in WAYS:
+                    scene.environment.filter = environment_filter
                     image, ms = timed(renderer, scene, args.technique, spp, antialias)
                     base_ms = base_ms or ms
                     lin, srgb = psnr_linear(image, reference), psnr_srgb(image, reference)
@@ -79,9 +86,10 @@ def main(argv=None) -> None:
                     cells.append(f"{lin:.1f} / {srgb:.1f} / {ms / base_ms:.2f}")
                 rows.append(f"| {preset} ({variant}) | " + " | ".join(cells) + " |")
                 print(rows[-1], file=sys.stderr, flush=True)
-    print(f"{args.size}, technique {args.technique}, against its own 64 spp (8 x 8) image; GL: {gl}\n")
+    print(f"{args.size}, technique {args.technique}, against its own 64 spp (8 x 8) image with bilinear "
+          f"environment lookups; GL: {gl}\n")
     print("cells: PSNR linear / PSNR sRGB (dB) / ms relative to 1 spp\n")
-    print("| scene | " + " | ".join(name for name, _, _ in WAYS) + " |")
+    print("| scene | " + " | ".join(name for name, *_ in WAYS) + " |")
     print("|---|" + "---|" * len(WAYS))
     print("\n".join(rows))
     means = [np.mean(np.array(v), axis=0) for v in totals.values()]

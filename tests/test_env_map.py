@@ -19,12 +19,20 @@ def psnr(image, reference, peak=1.0):
 def sphere_scene(material, size=(96, 96), fov_y=40.0):
     camera = Camera(position=[0.0, 0.3, 4.0], look_at=[0.0, 0.0, 0.0], fov_y=fov_y, size=size)
     obj = SceneObject("ball", sphere(1.0, subdivisions=5), material, Transform())
-    return Scene(camera=camera, objects=[obj], environment=procedural_environment("sky-checker"))
+    return Scene(camera=camera, objects=[obj], environment=bilinear(procedural_environment("sky-checker")))
+
+
+def bilinear(environment):
+    """Per-sample comparisons with the CPU lookup and ``exact``: the same bilinear sample in each
+    direction (Environment.filter; the footprint filter has its own tests in test_environment_filter)."""
+    environment.filter = "bilinear"
+    return environment
 
 
 def test_background_matches_cpu_environment_lookup(renderer):
     """Every background pixel is the environment in the pixel's ray direction, as Mitsuba samples it."""
     scene = Scene(camera=Camera(position=[0, 0, 0], look_at=[0.3, 0.4, -1.0], fov_y=80, size=(128, 96)))
+    bilinear(scene.environment)
     gpu = renderer.render(scene, "env-map")
     _, dirs = scene.camera.primary_rays()
     cpu = scene.environment.lookup(dirs[:, :, 0])

@@ -49,7 +49,9 @@ def flat_floor() -> SceneObject:
 
 
 def scene_of(objects, camera=FRONT, light=LIGHT, environment="sky-checker") -> Scene:
-    return Scene(camera=camera, objects=objects, lights=[light], environment=procedural_environment(environment))
+    env = procedural_environment(environment)
+    env.filter = "bilinear"  # per-sample comparisons with exact: the same environment lookup per sample
+    return Scene(camera=camera, objects=objects, lights=[light], environment=env)
 
 
 def sphere_mask(camera: Camera, center, radius: float) -> np.ndarray:

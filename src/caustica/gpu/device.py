@@ -48,16 +48,21 @@ class GpuDevice:
         return self.info["max_texture_size"]
 
     def environment_texture(self, environment):
-        """The environment image as an RGB32F texture: linear filter, wrap in x, clamp in y (kept by
-        the image's content, so that reloading a scene finds the texture of an equal image)."""
-        key = array_digest(environment.image)
+        """The environment image as an RGB32F texture, wrap in x, clamp in y: mipmapped for the footprint
+        filter (common/environment.glsl), one level for ``bilinear`` (kept by the image's content and
+        filter, so that reloading a scene finds the texture of an equal image)."""
+        key = (array_digest(environment.image), environment.filter)
         texture = self._environments.get(key)
         if texture is None:
             h, w = environment.image.shape[:2]
             texture = self.ctx.texture((w, h), 3, np.ascontiguousarray(environment.image, dtype="f4").tobytes(),
                                        dtype="f4")
             texture.repeat_x, texture.repeat_y = True, False
-            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            if environment.filter == "footprint":
+                texture.build_mipmaps()
+                texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            else:
+                texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._environments[key] = texture
         return texture
 

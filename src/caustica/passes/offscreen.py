@@ -39,6 +39,12 @@ class OffscreenCamera:
     def forward(self) -> np.ndarray:
         return -self._view[2, :3]
 
+    def pixel_angle(self) -> float:
+        """Radians one pixel subtends at the image centre (Camera.pixel_angle): the projection's
+        [1, 1] is 1 / tan(fov_y / 2)."""
+        projection = self._clip @ np.linalg.inv(self._view)
+        return float(2.0 / (projection[1, 1] * self.size[1]))
+
 
 def aimed_camera(position, target, up, half_width: float, half_height: float, near: float, far: float,
                  size: tuple[int, int]) -> OffscreenCamera:

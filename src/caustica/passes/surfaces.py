@@ -224,6 +224,7 @@ class ShadeSurfaces(Pass):
         set_uniform(background, "environment", 0)
         set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
         set_uniform(background, "intensity_scale", float(scene.intensity_scale))
+        set_uniform(background, "environment_pixel_angle", camera.pixel_angle())
         gpu.draw_fullscreen(background)
         ctx.fbo.depth_mask = True
         ctx.depth_func = "<"
@@ -315,6 +316,7 @@ class ShadeSurfaces(Pass):
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
         camera, scene = frame.camera, frame.scene
         set_uniform(program, "environment", 0)
+        set_uniform(program, "environment_pixel_angle", camera.pixel_angle())
         bind_samplers(program, self.inputs, [frame.read(name) for name in self.inputs], self.FIRST_INPUT_UNIT)
         set_uniform(program, "camera_position", camera.position.astype("f4"))
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())

@@ -71,6 +71,10 @@ class Camera:
         """The horizontal field of view in degrees, at this size."""
         return fov_x_from_fov_y(self.fov_y, *self.size)
 
+    def pixel_angle(self) -> float:
+        """Radians one pixel subtends at the image centre, at this size."""
+        return float(2.0 * np.tan(np.radians(self.fov_y) / 2.0) / self.size[1])
+
     def with_size(self, width: int, height: int) -> "Camera":
         """The same camera at another resolution (vertical field of view kept). Only the size is checked
         anew (the other fields are this camera's, checked already); the copy is kept for the next frame

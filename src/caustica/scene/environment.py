@@ -21,6 +21,7 @@ from ..errors import EnvironmentImageError, closest_name, short
 from . import rules
 
 PROCEDURAL_ENVIRONMENTS = ("sky-checker", "black", "white")
+ENVIRONMENT_FILTERS = ("footprint", "bilinear")  # Environment.filter
 MAX_ROTATION = 1e6  # degrees either way: any angle a scene means, and no float that has lost its fraction
 
 
@@ -46,11 +47,15 @@ class Environment:
     """Radiance image (H, W, 3) float32, linear RGB, and where it came from.
 
     ``rotation`` (degrees) and ``strength`` record what :meth:`rotated` and :meth:`scaled` baked
-    into ``image`` since ``source`` was read; they are not constructor arguments.
+    into ``image`` since ``source`` was read; they are not constructor arguments. ``filter``: how the
+    raster techniques look it up, ``footprint`` (the mean over each pixel's directions, as supersampling
+    gives; docs/antialiasing.md) or ``bilinear`` (one bilinear sample in the pixel's direction, as
+    Mitsuba and ``exact`` take per sample).
     """
 
     image: np.ndarray
     source: str = "procedural:sky-checker"
+    filter: str = "footprint"
     rotation: float = field(default=0.0, init=False)
     strength: float = field(default=1.0, init=False)
     _sh: np.ndarray | None = field(default=None, repr=False, compare=False)
@@ -76,6 +81,9 @@ class Environment:
             raise EnvironmentImageError(f"environment image {self.source} holds values up to {max(-low, high):.3g}, "
                                         f"above {rules.MAX_INTENSITY:g}; rescale the image")
         self.image = np.ascontiguousarray(image, dtype=np.float32)
+        if self.filter not in ENVIRONMENT_FILTERS:
+            raise EnvironmentImageError(f"environment filter {short(self.filter)} is unknown; choose one of "
+                                        f"{', '.join(ENVIRONMENT_FILTERS)}")
 
     def rotated(self, degrees: float) -> "Environment":
         """This environment turned by ``degrees`` about +Y, right-handed (counter-clockwise seen from above):
@@ -101,7 +109,7 @@ class Environment:
         return self._derived(self.image * np.float32(strength), self.rotation, self.strength * strength)
 
     def _derived(self, image: np.ndarray, rotation: float, strength: float) -> "Environment":
-        env = Environment(image, source=self.source)
+        env = Environment(image, source=self.source, filter=self.filter)
         env.rotation, env.strength = float(rotation), float(strength)
         return env
 

@@ -298,11 +298,11 @@ def _image_size(table: _Table) -> tuple[int, int]:
 
 def _environment(data: dict, base_dir: Path) -> Environment:
     table = _Table(data, "environment", {"file": STRING, "procedural": STRING, "rotation": NUMBER,
-                                         "strength": NUMBER})
+                                         "strength": NUMBER, "filter": STRING})
     if "file" in table and "procedural" in table:
         raise SceneError("environment has both file and procedural; give only one of them")
     rotation, strength = table.get("rotation", NUMBER, 0.0), table.get("strength", NUMBER, 1.0)
-    with rules.context("environment", ("file", "procedural", "rotation", "strength")):
+    with rules.context("environment", ("file", "procedural", "rotation", "strength", "filter")):
         if "file" in table:
             env = load_environment(base_dir / _path(table.get("file", STRING), "environment.file"))
         else:
@@ -316,6 +316,9 @@ def _environment(data: dict, base_dir: Path) -> Environment:
             env = env.rotated(rotation)
         if strength != 1.0:
             env = env.scaled(strength)
+        if "filter" in table:
+            env.filter = table.get("filter", STRING)
+            env.validate()
         return env
 
 

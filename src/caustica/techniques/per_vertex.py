@@ -345,7 +345,8 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     (backward or forward).use(2)
     m = obj.world_from_object()
     for name, value in (("environment", 0), ("reflection_map", 1), ("zoom_map", 2),
-                        ("intensity_scale", float(frame.scene.intensity_scale))):
+                        ("intensity_scale", float(frame.scene.intensity_scale)),
+                        ("environment_pixel_angle", frame.camera.pixel_angle())):
         set_uniform(program, name, value)
     set_object_transform(program, m)
     set_uniform(program, "clip_from_world", frame.camera.clip_from_world())

@@ -1,8 +1,40 @@
-// Equirectangular environment lookup with Mitsuba 3's mapping and bilinear sampling:
-// u = atan2(d.x, -d.z) / 2pi mod 1, v = acos(d.y) / pi, row 0 at +Y (the texture is
-// uploaded top row first, so row 0 sits at t = 0). Columns are sampled at u * W - 0.5
-// (wrapping), rows at v * (H - 1): the texture coordinate below places them there.
+// Equirectangular environment lookup with Mitsuba 3's mapping: u = atan2(d.x, -d.z) / 2pi mod 1,
+// v = acos(d.y) / pi, row 0 at +Y (the texture is uploaded top row first, so row 0 sits at t = 0).
+// Columns are sampled at u * W - 0.5 (wrapping), rows at v * (H - 1): the texture coordinate below
+// places them there.
+//
+// Environment.filter "footprint" (a mipmapped texture, gpu/device.py): each lookup is the mean over the
+// directions the pixel covers (docs/antialiasing.md, "Footprint-filtered environment"). The screen-space
+// derivatives of the direction (ray differentials, Igehy 1999, taken from the quad's neighbours) map to
+// (u, t) by the chain rule; the analytic gradient of u does not see the seam where u wraps, which
+// implicit derivatives of (u, t) would blur. "bilinear" (one level): one bilinear sample, as Mitsuba
+// takes per sample. Fragment stages only (derivatives).
 const float PI = 3.14159265358979;
+const int ENVIRONMENT_TAPS = 8;            // most lookups along a footprint's longer side
+const float ENVIRONMENT_LOD_SCALE = 0.5;   // gradients as GL's level of detail takes them, against a box
+const float ENVIRONMENT_MAGNIFICATION_MAX = 13.0;  // most radians between neighbours' directions per pixel angle
+uniform float environment_pixel_angle;  // radians a pixel subtends at the image centre (0: no filtering)
+
+// The mean of the texture over the parallelogram (u, t) + a gradient_x + b gradient_y, |a|, |b| <= 1/2:
+// taps along its longer side, each a trilinear lookup as wide as the shorter side and its own share of
+// the longer (anisotropic filtering, done here: llvmpipe's GL_EXT_texture_filter_anisotropic
+// mis-filters textureGrad). A mip level's bilinear tent spans about twice the footprint GL's level of
+// detail names, hence ENVIRONMENT_LOD_SCALE.
+vec3 environment_footprint(sampler2D environment, vec2 uv, vec2 gradient_x, vec2 gradient_y) {
+    vec2 size = vec2(textureSize(environment, 0));
+    float length_x = length(gradient_x * size), length_y = length(gradient_y * size);
+    vec2 major = length_x >= length_y ? gradient_x : gradient_y;
+    vec2 minor = length_x >= length_y ? gradient_y : gradient_x;
+    float ratio = max(length_x, length_y) / max(min(length_x, length_y), 1.0);
+    int taps = int(clamp(ceil(ratio), 1.0, float(ENVIRONMENT_TAPS)));
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < taps; ++i) {
+        vec2 offset = ((float(i) + 0.5) / float(taps) - 0.5) * major;
+        sum += textureGrad(environment, uv + offset, minor * ENVIRONMENT_LOD_SCALE,
+                           major * (ENVIRONMENT_LOD_SCALE / float(taps))).rgb;
+    }
+    return sum / float(taps);
+}
 
 vec3 environment_radiance(sampler2D environment, vec3 d) {
     d = normalize(d);
@@ -10,5 +42,19 @@ vec3 environment_radiance(sampler2D environment, vec3 d) {
     float u = fract(atan(d.x, -d.z) / (2.0 * PI));
     float v = acos(clamp(d.y, -1.0, 1.0)) / PI;
     float t = (v * (size.y - 1.0) + 0.5) / size.y;
-    return texture(environment, vec2(u, t)).rgb;
+    if (textureQueryLevels(environment) == 1) return textureLod(environment, vec2(u, t), 0.0).rgb;  // bilinear
+    // d(atan2(x, -z)) = (x dz - z dx) / (x^2 + z^2); d(acos y) = -dy / sqrt(1 - y^2).
+    float horizontal = max(d.x * d.x + d.z * d.z, 1e-8);
+    vec2 per_xz = vec2(d.z, -d.x) * (-1.0 / (2.0 * PI * horizontal));   // du = dot(per_xz, (dx, dz))
+    float per_y = -(size.y - 1.0) / (size.y * PI * sqrt(horizontal));   // dt = per_y * dy
+    vec3 ddx = dFdx(d), ddy = dFdy(d);
+    // A neighbour whose direction differs by more than a curved surface magnifies (another bounce,
+    // total internal reflection, a rim) is no footprint: that axis stays unfiltered rather than blurred
+    // across the discontinuity (and a NaN neighbour too).
+    float footprint_max = ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle;
+    if (!(dot(ddx, ddx) <= footprint_max * footprint_max)) ddx = vec3(0.0);
+    if (!(dot(ddy, ddy) <= footprint_max * footprint_max)) ddy = vec3(0.0);
+    vec2 gradient_x = vec2(dot(per_xz, ddx.xz), per_y * ddx.y);
+    vec2 gradient_y = vec2(dot(per_xz, ddy.xz), per_y * ddy.y);
+    return environment_footprint(environment, vec2(u, t), gradient_x, gradient_y);
 }
