@@ -1,16 +1,22 @@
 """The techniques and their parameters, from their declarations: ``caustica techniques --json`` and
 ``caustica techniques NAME`` print them, ``python -m caustica.docs_techniques [PATH]`` writes
-``docs/techniques.md`` (tests/test_params.py checks that the file is current).
+``docs/techniques.md`` (tests/test_params.py checks that the file is current);
+``python -m caustica.docs_techniques --which-technique [PATH]`` writes ``docs/which-technique.md`` from the
+auto planner (tests/test_which_technique.py checks that one).
 """
 from __future__ import annotations
 
+import contextlib
 import json
+import re
 import sys
 from pathlib import Path
 
 from .parameters import allowed_text, describe
 
 DOCS_PATH = Path(__file__).resolve().parents[2] / "docs" / "techniques.md"
+WHICH_PATH = DOCS_PATH.with_name("which-technique.md")
+AUTO_DOCS = DOCS_PATH.with_name("auto.md")
 _COLUMNS = ("name", "type", "default", "allowed", "unit", "help", "paper")
 
 
@@ -87,5 +93,179 @@ def write(path: Path = DOCS_PATH) -> Path:
     return path
 
 
+def plan_rules(path: Path = AUTO_DOCS) -> list[tuple[str, str]]:
+    """docs/auto.md's table of what auto picks per kind of scene, as (scene holds, technique) rows
+    (tests/test_auto.py checks each row against :func:`caustica.plan`)."""
+    text = path.read_text(encoding="utf-8")
+    block = text[text.index("<!-- plan-rules -->"):text.index("<!-- /plan-rules -->")]
+    rows = re.findall(r"^\| ([^|]+?) \| ([^|]+?) \|$", block, flags=re.M)
+    return [(kind, technique) for kind, technique in rows if kind != "scene holds" and set(kind) != {"-"}]
+
+
+@contextlib.contextmanager
+def tables_cached(cached: bool):
+    """Plan as if a light transport table were (or were not) cached for every glass mesh, whatever
+    ``$CAUSTICA_CACHE`` holds: the planner's one look-up, ``transport.runtime.has_cached_table``, answers
+    ``cached``."""
+    from .transport import runtime
+
+    original = runtime.has_cached_table
+    runtime.has_cached_table = lambda *args, **kwargs: cached
+    try:
+        yield
+    finally:
+        runtime.has_cached_table = original
+
+
+def preset_plans() -> list[dict]:
+    """Per built-in preset: its object and light counts and auto's plan without and with cached transport
+    tables."""
+    from . import load_scene
+    from .scene.presets import preset_names
+    from .techniques.auto import plan
+
+    out = []
+    for name in preset_names():
+        scene = load_scene(name)
+        kinds = [o.material.kind for o in scene.objects]
+        with tables_cached(False):
+            bare = plan(scene)
+        with tables_cached(True):
+            tabled = plan(scene)
+        out.append({"preset": name, "counts": {k: kinds.count(k) for k in ("glass", "mirror", "diffuse")},
+                    "lights": len(scene.lights), "plan": bare, "with_tables": tabled})
+    return out
+
+
+def situation(chosen) -> str:
+    """The kind of scene a plan's branch of the planner stands for, in words."""
+    view, _, caustics = chosen.technique.partition("+")
+    kinds = {entry.kind for entry in chosen.objects}
+    words = {"depth-search": "Glass alone in the environment",
+             "per-vertex": "Flat and convex mirrors, no glass",
+             "env-map": "Nothing specular"}.get(view)
+    if view == "impostors":
+        words = ("Glass near other geometry" + (" and mirrors" if "mirror" in kinds else "") if "glass" in kinds
+                 else "A concave mirror, no glass")
+    words = words or f"`{view}`"
+    if caustics:
+        words += {"caustic-mapping": ", under a light: caustics by caustic mapping",
+                  "transport-table": ", under a light, solid glass not all convex, with a cached transport table: "
+                                     "caustics from the table"}.get(caustics, f", caustics by `{caustics}`")
+    return words
+
+
+def _markdown_text(text: str) -> str:
+    """reStructuredText markup of a docstring as Markdown: ``x`` and :role:`x` become `x`."""
+    return re.sub(r":\w+:`([^`]+)`", r"`\1`", text.replace("``", "`"))
+
+
+def technique_limits(name: str) -> list[str]:
+    """The paragraphs of a technique's module docstring that state its limits ("Limits", "Approximate"), a list
+    that follows a paragraph ending in ':' included; [] where the module documents another technique."""
+    from .techniques import get_technique
+
+    doc = sys.modules[type(get_technique(name)).__module__].__doc__ or ""
+    if not doc.startswith(f"``{name}``"):
+        return []
+    paragraphs, out = doc.strip().split("\n\n"), []
+    for i, paragraph in enumerate(paragraphs):
+        if re.search(r"^(Limits|Approximate)\b|\bLimits( \(the paper's\))?:", paragraph):
+            out.append(" ".join(paragraph.split()))
+            if paragraph.rstrip().endswith(":") and i + 1 < len(paragraphs):
+                out.append(_doc_list(paragraphs[i + 1]))
+    return [_markdown_text(p) for p in out]
+
+
+def _doc_list(paragraph: str) -> str:
+    """A docstring's bulleted paragraph as Markdown, one line per item."""
+    items = re.split(r"^\s*- ", paragraph.strip(), flags=re.M)
+    return "\n".join("- " + " ".join(item.split()) for item in items if item.strip())
+
+
+def _technique_section(name: str) -> list[str]:
+    from .techniques import get_technique
+
+    lines = [f"### `{name}`", "", get_technique(name).summary + "."]
+    limits = technique_limits(name)
+    return lines + [""] + [part for p in limits for part in (p, "")] if limits else lines + [""]
+
+
+def which_technique_markdown(plans: list[dict] | None = None) -> str:
+    """docs/which-technique.md: what auto picks in each situation and why (its rules, and its plan of every
+    preset), and each technique's strengths and limits from the registry."""
+    from .techniques import auto as auto_module
+    from .techniques import technique_names
+    from .techniques.auto import QUALITY
+
+    plans = preset_plans() if plans is None else plans
+    out = ["# Which technique when", "",
+           "Generated from the `auto` planner (`caustica.plan`, src/caustica/techniques/auto.py), docs/auto.md's "
+           "table of its rules and the technique registry by `python -m caustica.docs_techniques "
+           "--which-technique`; do not edit by hand (tests/test_which_technique.py checks that it is current). "
+           "`caustica plan SCENE` prints the plan of any scene; docs/auto.md has the measurements behind the "
+           "rules, and [the gallery](gallery.md) every preset rendered with `auto`, its frame time and its error "
+           "against `exact`.", "",
+           "## What auto picks", "",
+           "docs/auto.md's table, which tests/test_auto.py checks against the planner on a scene of each kind:", "",
+           "| scene holds | auto renders with |", "|---|---|"]
+    out += [f"| {kind} | `{technique}` |" for kind, technique in plan_rules()]
+    rules = next(p for p in (auto_module.__doc__ or "").split("\n\n") if p.lstrip().startswith("- "))
+    out += ["", "The planner's rules and their reasons, from its docstring:", "", _markdown_text(_doc_list(rules))]
+    groups: dict[str, list] = {}
+    for row in plans:
+        for key in ("plan", "with_tables"):
+            if key == "plan" or row[key].technique != row["plan"].technique:
+                groups.setdefault(situation(row[key]), []).append((row["preset"], row[key]))
+    out += ["", "## Situations", "",
+            "Each situation is a branch of the planner, with the built-in presets that take it (`caustica "
+            "presets`). The reasons are the planner's own, from its plan of the first preset listed (the plans "
+            "are made at quality `balanced`; a transport table counts as cached only where the situation says "
+            "so, since the plan depends on the tables in `$CAUSTICA_CACHE`)."]
+    for words, members in sorted(groups.items(), key=lambda item: item[1][0][1].technique):
+        example_name, example = members[0]
+        out += ["", f"### {words}", "", f"auto picks `{example.technique}`.", "",
+                "Presets: " + ", ".join(f"`{name}`" for name, _ in members) + ".", "",
+                f"Why, in the planner's words (`{example_name}`):", ""]
+        seen = set()
+        for entry in example.objects:
+            if (entry.kind, entry.handled_by) not in seen:
+                seen.add((entry.kind, entry.handled_by))
+                out.append(f"- {entry.kind} (`{entry.object}`), by `{entry.handled_by}`: {entry.reason}")
+        out += [f"- note: {note}" for note in example.notes]
+    out += ["", "## Every preset", "",
+            "| preset | glass | mirrors | diffuse | lights | auto picks | with transport tables cached |",
+            "|---|---|---|---|---|---|---|"]
+    for row in plans:
+        counts, bare, tabled = row["counts"], row["plan"].technique, row["with_tables"].technique
+        out.append(f"| `{row['preset']}` | {counts['glass']} | {counts['mirror']} | {counts['diffuse']} | "
+                   f"{row['lights']} | `{bare}` | {'same' if tabled == bare else f'`{tabled}`'} |")
+    out += ["", "## Quality", "", "`-p quality=` (or `--quality`) sets what the plan's cost depends on:", "",
+            "| quality | internal bounces | impostor texels | caustic-map texels | shadow-map texels |",
+            "|---|---|---|---|---|"]
+    out += [f"| {name} | " + " | ".join(map(str, values)) + " |" for name, values in QUALITY.items()]
+    picked = sorted({part for row in plans for key in ("plan", "with_tables") for part in row[key].technique.split("+")}
+                    | {part for _, technique in plan_rules() for part in technique.split("+")})
+    out += ["", "## The techniques auto picks", "",
+            "Each technique's summary (what it does) and the limits its module documents.", ""]
+    for name in picked:
+        out += _technique_section(name)
+    out += ["## The other techniques", "", "Named with `--technique NAME` (`caustica techniques` lists them; "
+            "`view+caustics` composes a view technique with a caustic one).", ""]
+    for name in technique_names():
+        if name not in picked and name != "auto":
+            out += _technique_section(name)
+    return "\n".join(out).rstrip() + "\n"
+
+
+def write_which_technique(path: Path = WHICH_PATH) -> Path:
+    path.write_text(which_technique_markdown(), encoding="utf-8")
+    return path
+
+
 if __name__ == "__main__":
-    print(f"wrote {write(Path(sys.argv[1]) if len(sys.argv) > 1 else DOCS_PATH)}")
+    args = sys.argv[1:]
+    if args[:1] == ["--which-technique"]:
+        print(f"wrote {write_which_technique(Path(args[1]) if len(args) > 1 else WHICH_PATH)}")
+    else:
+        print(f"wrote {write(Path(args[0]) if args else DOCS_PATH)}")
