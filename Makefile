@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench setup sysdeps clean docs
+.PHONY: demo test bench setup sysdeps clean docs gallery gpu-suite
 
 demo: $(STAMP)
 	@mkdir -p out
@@ -19,6 +19,12 @@ test: $(STAMP)
 docs: $(STAMP)
 	@$(PY) -c "import mkdocs, mkdocstrings, mkdocstrings_handlers.python" 2>/dev/null || $(PY) -m pip install -q -e '.[docs]'
 	$(PY) -m mkdocs build --strict -d site
+
+gallery: $(STAMP)
+	$(PY) scripts/make_gallery.py
+
+gpu-suite:
+	bash bench/gpu_suite.sh
 
 bench: $(STAMP)
 	$(PY) bench/bench_presets.py

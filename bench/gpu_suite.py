@@ -189,7 +189,9 @@ def run_suite(out: Path, techniques, presets, sizes, warmup: int, frames: int, b
         log(f"GL renderer: {info['renderer']} ({info['version']})")
         write(data, out)
         written = time.perf_counter()
-        jobs = [(t, s, size) for t in techniques for s in scenes for size in sizes]
+        # Preset by preset, every technique on each: a run the budget stops keeps every technique's figures
+        # on the presets it reached (technique by technique, it would lose the last techniques entirely).
+        jobs = [(t, s, size) for s in scenes for size in sizes for t in techniques]
         for i, (technique, name, size) in enumerate(jobs, 1):
             elapsed = time.perf_counter() - start
             if elapsed > budget_s:
