@@ -51,6 +51,10 @@ def test_orbit_with_two_workers_matches_one_worker(tmp_path):
         assert np.array_equal(pixels(tmp_path / "one", a), pixels(tmp_path / "two", b))
     assert not np.array_equal(pixels(tmp_path / "one", one[0]), pixels(tmp_path / "one", one[3]))
     assert all(r["renderer"] and r["technique"] == "plain" and r["seed"] == 0 and r["ms"] > 0 for r in two)
+    from caustica.batch.devices import ENV, placement
+
+    assert {r["device"] for r in one} == {int(os.environ.get(ENV, 0))}  # this process's device
+    assert {r["device"] for r in two} == set(placement()[:2])  # the machine's GPUs, llvmpipe without one
 
 
 @pytest.mark.parametrize("technique", ["env-map+photon-splats", "auto"])
@@ -392,6 +396,67 @@ def test_labels_are_the_frames_layers(tmp_path, fmt):
             assert np.array_equal(written[name], expected[name]), name
     ids = read_labels(tmp_path / rows[0]["files"]["labels"])["id"]
     assert set(np.unique(ids)) == {-1, 0, 1}  # background, ball, floor
+
+
+def egl(index: int, *extensions: str, cuda: int | None = None):
+    from caustica.batch.devices import EglDevice
+
+    return EglDevice(index, frozenset(extensions), cuda)
+
+
+NV, SOFT = "EGL_NV_device_cuda", "EGL_MESA_device_software"
+
+
+def test_workers_take_turns_on_the_devices():
+    from caustica.batch.devices import assign, gpus
+
+    assert assign(5, [0, 1]) == [0, 1, 0, 1, 0] and assign(2, [3]) == [3, 3] and assign(1, [2, 0]) == [2]
+    assert gpus([egl(0, NV), egl(1, NV), egl(2, SOFT)]) == [0, 1]  # NVIDIA's GPUs, not Mesa's llvmpipe
+    assert gpus([egl(0, SOFT), egl(1, "EGL_EXT_device_drm")]) == [1]  # a Mesa GPU
+    assert gpus([egl(0, SOFT)]) == [0] and gpus([]) == [0]  # llvmpipe where there is nothing else
+
+
+def test_placement_checks_the_devices(monkeypatch):
+    from caustica.batch.devices import ENV, placement
+
+    monkeypatch.delenv(ENV, raising=False)
+    two = [egl(0, NV, cuda=1), egl(1, NV, cuda=0), egl(2, SOFT)]
+    assert placement(None, two) == [0, 1] and placement("2, 0", two) == [2, 0] and placement([1], two) == [1]
+    with pytest.raises(caustica.CausticaError, match=r"no EGL device 7 on this machine \(EGL lists 3, indices 0 to 2"):
+        placement([7], two)
+    with pytest.raises(caustica.CausticaError, match="must be EGL device indices"):
+        placement("a,b", two)
+    monkeypatch.setenv(ENV, "2")
+    assert placement(None, two) == [2]
+    monkeypatch.setenv(ENV, "9")
+    with pytest.raises(caustica.CausticaError, match=f"{ENV}='9': there is no EGL device 9"):
+        placement(None, two)
+
+
+def test_ray_gpus_map_to_egl_devices_by_cuda_ordinal():
+    from caustica.batch.devices import ray_device
+
+    listed = [egl(0, NV, cuda=1), egl(1, NV, cuda=0), egl(2, SOFT)]  # EGL's order is not CUDA's
+    assert ray_device([0], listed) == 1 and ray_device(["1"], listed) == 0
+    assert ray_device([1], [egl(0, NV), egl(1, NV, cuda=0)]) == 1  # the one GPU the driver lets CUDA see
+    assert ray_device([3], [egl(0, NV), egl(1, NV), egl(2, SOFT)]) == 1  # no ordinals: EGL's order, round robin
+    assert ray_device(["GPU-5d1c"], listed) == 0 and ray_device([], listed) is None
+
+
+def test_devices_pin_spawned_workers_and_land_in_the_manifest(tmp_path, capsys):
+    out = tmp_path / "out"
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(out), "--frames", "2", "--size", "16x16", "-t", "plain",
+                         "--devices", "0,0"], capsys)
+    assert code == 0, err
+    rows = rows_of(out)
+    assert [r["device"] for r in rows] == [0, 0] and rows[0]["renderer"] == rows[1]["renderer"] != ""
+    assert len({r["worker"] for r in rows}) == 2 and os.getpid() not in {r["worker"] for r in rows}  # one per device
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(tmp_path / "none"), "--devices", "7"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "no EGL device 7 on this machine" in err, err
+    assert not (tmp_path / "none").exists()
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(tmp_path / "none"), "--devices", "0", "--ray", "local"],
+                        capsys)
+    assert code == 2 and "not both" in err
 
 
 @pytest.mark.slow

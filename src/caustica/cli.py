@@ -91,7 +91,8 @@ BUDGET = _number(0.001, 1e6)  # auto's frame-time budget, milliseconds (0 or les
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
 # so argparse does not read the value as an option.
 _VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--timing-frames", "--reference-spp", "--quality-size",
-                  "--max-spp", "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers"}
+                  "--max-spp", "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers",
+                  "--devices"}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -109,6 +110,16 @@ def _names(text: str) -> list[str]:
     if not names:
         raise argparse.ArgumentTypeError("give at least one name, comma-separated")
     return names
+
+
+def _device_indices(text: str) -> list[int]:
+    try:
+        indices = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"devices '{_shown(text)}' must be EGL device indices like 0,1") from None
+    if not indices or min(indices) < 0:
+        raise argparse.ArgumentTypeError(f"devices '{_shown(text)}' must be EGL device indices (0 or more) like 0,1")
+    return indices
 
 
 def _sizes(text: str) -> list[int]:
@@ -189,6 +200,15 @@ def _camera_option(parser: argparse.ArgumentParser) -> None:
                                                          "file's first)")
 
 
+def _labels_options(parser: argparse.ArgumentParser, where: str) -> None:
+    """``--labels LIST`` and ``--labels-format exr|npz`` (docs/labels.md), for render and batch."""
+    from .labels import FORMATS, LABELS
+
+    parser.add_argument("--labels", type=_names, metavar="LIST",
+                        help=f"label layers {where}, comma-separated: {', '.join(LABELS)}")
+    parser.add_argument("--labels-format", choices=FORMATS, help="labels file: exr (multi-layer, default) or npz")
+
+
 def _scenes(names: list[str], args) -> list:
     """The scenes ``names`` load, each with ``--environment`` in place of its own when given."""
     from . import load_scene
@@ -233,6 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
     _camera_option(render)
     render.add_argument("-p", "--param", type=_param, action="append", default=[],
                         help="technique parameter name=value (repeatable)")
+    _labels_options(render, "written beside the image (OUT's name, suffix .labels.exr or .labels.npz)")
 
     view = sub.add_parser("view", help="interactive window: orbit, switch techniques, edit parameters, inspect passes")
     view.add_argument("scene", help="a .toml or glTF (.glb, .gltf) scene file, or a preset name (see 'caustica presets')")
@@ -339,7 +360,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _batch_parser(sub) -> None:
-    from .batch.sweep import LABEL_FORMATS, MAX_FRAMES as MAX_BATCH_FRAMES
+    from .batch.sweep import MAX_FRAMES as MAX_BATCH_FRAMES
 
     batch = sub.add_parser("batch", help="render a dataset: many frames of a scene or sweep file, with a manifest "
                                          "(resumable; spawned workers or Ray)")
@@ -354,11 +375,13 @@ def _batch_parser(sub) -> None:
     batch.add_argument("--size", type=_size, help="image size WxH (default: the sweep's, else the scene camera's)")
     batch.add_argument("--spp", type=SPP, help="samples per pixel, a square (default: the sweep's, else 1)")
     batch.add_argument("-t", "--technique", help="technique name (default: the sweep's, else auto)")
-    batch.add_argument("--labels", type=_names, help="label layers per frame, comma-separated (id, depth, ...)")
-    batch.add_argument("--labels-format", choices=LABEL_FORMATS, help="labels file: exr (multi-layer, default) "
-                                                                     "or npz")
-    batch.add_argument("--workers", type=_integer(1, 256), default=1, help="spawned worker processes, one GL "
-                                                                           "context each (default 1: this process)")
+    _labels_options(batch, "per frame")
+    batch.add_argument("--workers", type=_integer(1, 256), help="spawned worker processes, one GL context each, "
+                                                                "round robin on the EGL devices (default 1: this "
+                                                                "process; with --devices one per device)")
+    batch.add_argument("--devices", type=_device_indices, metavar="LIST",
+                       help="EGL device indices the workers take turns on, e.g. 0,1 (default: every GPU EGL lists; "
+                            "docs/batch.md)")
     batch.add_argument("--ray", metavar="ADDRESS|local", help="render as Ray tasks on the cluster at ADDRESS, or on "
                                                                "a local Ray (pip install 'caustica[batch]')")
     batch.add_argument("--force", action="store_true", help="start over in a folder that holds another job's "
@@ -431,10 +454,18 @@ def cmd_render(args) -> int:
     output = _check_output(args.output, OUTPUT_SUFFIXES)
     technique = get_technique(args.technique)
     check_spp(technique, args.spp)
+    names, labels_out = _labels_output(args, output)
     scene, = _scenes([args.scene], args)
     renderer = Renderer(args.size)
     params = _with_quality(args)
-    image, ms = renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)
+
+    def frame(labels):
+        """((image, layers or None), ms) of one render, with the layers ``labels`` (None: none)."""
+        result, ms = renderer.render_timed(scene, args.technique, args.spp, labels=labels, antialias=args.antialias,
+                                           **params)
+        return (result if labels is not None else (result, None)), ms
+
+    (image, layers), ms = frame(None if technique.uses_gl else names)  # a CPU technique renders once
     plan = (renderer.last_plan.describe() if renderer.last_plan is not None else
             f"technique: {args.technique} (named; 'caustica plan' shows what auto would choose)")
     if args.explain:
@@ -445,17 +476,35 @@ def cmd_render(args) -> int:
     if technique.uses_gl:
         info = renderer.info()
         detail(f"GL: {info['renderer']} ({info['vendor']}), {info['version']}")
-        timings = [renderer.render_timed(scene, args.technique, args.spp, antialias=args.antialias, **params)[1]
-                   for _ in range(args.timing_frames)]
-        image = renderer.render(scene, args.technique, args.spp, antialias=args.antialias, **params)
+        timings = [frame(None)[1] for _ in range(args.timing_frames)]  # the timed frames without labels
+        (image, layers), _ = frame(names)
     detail(f"frame times: {ms:.1f} ms" + (f" (warm-up), then {', '.join(f'{t:.1f}' for t in timings)} ms (timed)"
                                            if technique.uses_gl else ""))
+    if layers is not None:
+        from .labels import write_labels
+
+        write_labels(labels_out, layers, args.labels_format or "exr")
     write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
     _say(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
-         f"{statistics.median(timings):.1f} ms per frame on {where}")
+         f"{statistics.median(timings):.1f} ms per frame on {where}"
+         + (f"; labels {', '.join(names)} in {labels_out}" if layers is not None else ""))
     return 0
+
+
+def _labels_output(args, output: Path) -> tuple:
+    """render's label names (checked: one line naming the nearest) and the file they go to, checked
+    writable; (None, None) without ``--labels``."""
+    if args.labels is None:
+        if args.labels_format is not None:
+            raise CausticaError("--labels-format needs --labels (the layers to write, e.g. --labels id,depth)")
+        return None, None
+    from .atomic import check_writable
+    from .labels import check_labels, labels_file
+
+    names = check_labels(args.labels)
+    return names, check_writable(output.with_name(labels_file(output.stem, args.labels_format or "exr")))
 
 
 def cmd_batch(args) -> int:
@@ -463,14 +512,12 @@ def cmd_batch(args) -> int:
     from .batch import batch
     from .batch.progress import ProgressDisplay
 
-    if args.ray is not None and args.workers != 1:
-        raise CausticaError("give --workers or --ray, not both (Ray sizes its own workers)")
     display = ProgressDisplay()
     try:
         rows = batch(args.scene, args.output, args.frames, orbit=args.orbit, size=args.size, spp=args.spp,
                      technique=args.technique, labels=args.labels, labels_format=args.labels_format,
                      environment=args.environment, camera=args.camera, workers=args.workers, ray=args.ray,
-                     force=args.force, progress=display)
+                     devices=args.devices, force=args.force, progress=display)
     finally:
         display.close()
     failed = [row for row in rows if "error" in row]

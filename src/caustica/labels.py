@@ -211,6 +211,12 @@ def flow_layers(scene, camera, glass: np.ndarray) -> dict:
 # Files ------------------------------------------------------------------------------------------
 
 
+def labels_file(stem: str, format: str = "exr") -> str:
+    """The name of the labels file of the image whose name, suffix dropped, is ``stem``:
+    ``frame_000012`` -> ``frame_000012.labels.exr`` (batch frames and ``caustica render --labels``)."""
+    return f"{stem}.labels.{format}"
+
+
 def write_labels(path, layers: dict, format: str | None = None) -> Path:
     """Write ``layers`` ({name: (H, W) or (H, W, C) array}) to one file, atomically: ``format`` 'exr'
     (one multi-layer OpenEXR, channels ``name.suffix`` as EXR_SUFFIXES; integer layers as exact FLOAT

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from ..errors import CausticaError, GLUnavailableError, first_line
+from .devices import ENV
 
 
 class FrameWorker:
@@ -23,6 +24,8 @@ class FrameWorker:
         self.editor = SceneEditor(job.base_scene(), job.base_dir)
         self.renderer = Renderer(job.size)
         self.uses_gl = get_technique(job.technique).uses_gl
+        # The EGL device index of this process's context (batch/devices.py): None for CPU techniques.
+        self.device = int(os.environ.get(ENV, 0)) if self.uses_gl else None
         self._where: str | None = None
 
     def render(self, index: int) -> dict:
@@ -38,7 +41,7 @@ class FrameWorker:
         except Exception as exc:  # any failure of one frame is its row; the run goes on
             message = first_line(exc)
             row["error"] = message if isinstance(exc, CausticaError) else f"{type(exc).__name__}: {message}"
-        row.update(time=round(time.time(), 3), worker=os.getpid())
+        row.update(time=round(time.time(), 3), worker=os.getpid(), device=self.device)
         return row
 
     def _render(self, index: int, values: dict) -> dict:

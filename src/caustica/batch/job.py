@@ -56,10 +56,12 @@ class Job:
 
     def files(self, index: int) -> dict[str, str]:
         """The files of frame ``index``, relative to the output folder, by role."""
+        from ..labels import labels_file
+
         stem = self.output.format(index=index)
         files = {"image": f"{stem}.{self.image_format}"}
         if self.labels:
-            files["labels"] = f"{stem}.labels.{self.labels_format}"
+            files["labels"] = labels_file(stem, self.labels_format)
         return files
 
     def description(self, scene) -> dict:
@@ -188,10 +190,10 @@ class Progress:
         return left / self.rate if self.rate else None
 
 
-def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, force: bool = False,
+def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, devices=None, force: bool = False,
             progress=None) -> list[dict]:
-    """Render the job's unfinished frames into ``job.out_dir`` and return every frame's manifest row,
-    sorted. ``progress(Progress)`` is called after each frame (an exception from it stops the run,
+    """Render the job's unfinished frames into ``job.out_dir`` (``workers``, ``ray``, ``devices``: as
+    workers.render_frames) and return every frame's manifest row, sorted. ``progress(Progress)`` is called after each frame (an exception from it stops the run,
     the finished frames kept)."""
     out = Path(job.out_dir)
     if out.exists() and not out.is_dir():
@@ -204,12 +206,13 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, fo
     manifest = Manifest(out)
     manifest.lock()
     try:
-        return _run(job, manifest, manifest.claim(job_key(description), description, force), workers, ray, progress)
+        rows = manifest.claim(job_key(description), description, force)
+        return _run(job, manifest, rows, workers, ray, devices, progress)
     finally:
         manifest.unlock()
 
 
-def _run(job: Job, manifest: Manifest, rows: dict, workers: int, ray, progress) -> list[dict]:
+def _run(job: Job, manifest: Manifest, rows: dict, workers: int, ray, devices, progress) -> list[dict]:
     from .workers import render_frames
 
     out = manifest.dir
@@ -218,7 +221,7 @@ def _run(job: Job, manifest: Manifest, rows: dict, workers: int, ray, progress) 
     pending = [i for i in range(job.frames) if i not in finished]
     try:
         with manifest:
-            for row in render_frames(job, pending, workers=workers, ray=ray):
+            for row in render_frames(job, pending, workers=workers, ray=ray, devices=devices):
                 if "error" not in row and not manifest.present(row):
                     row = {**row, "error": f"its files are not in {out} as written (on a cluster the output "
                                            "folder must be on a file system every node shares)"}

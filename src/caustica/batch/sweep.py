@@ -17,13 +17,13 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..errors import SceneError, closest_name, first_line, short
+from ..labels import FORMATS as LABEL_FORMATS
 from ..scene.io import _KIND_TEXT, _convert, _read_toml
 
 NUMBER, VEC3, RGB, SCALE, STRING, MATERIAL = "number", "vec3", "rgb", "numbers3", "string", "material"
 MAX_FRAMES = 10_000_000
 DEFAULT_OUTPUT = "frame_{index:06d}"
 IMAGE_FORMATS = ("png", "exr")
-LABEL_FORMATS = ("exr", "npz")
 
 # The keys each table of a sweep file takes, and their kinds.
 SETTINGS = {"scene": STRING, "frames": "integer", "seed": "integer", "size": "size", "spp": "integer",

@@ -2,31 +2,37 @@
 manifest rows as frames finish (in any order) and only the caller writes the manifest.
 
 Spawned workers (multiprocessing 'spawn', never fork: a fork after GL hangs) each make their own
-FrameWorker and EGL context. A worker that dies takes its frame with it: that frame's row is an
-error and a new worker takes over. Ray runs one actor per GPU of the cluster (``num_gpus=1``), or
-per CPU where it has none, each over chunks of frames.
+FrameWorker and EGL context, on the EGL device devices.py places them on (round robin). A worker
+that dies takes its frame with it: that frame's row is an error and a new worker takes over, on the
+same device. Ray runs one actor per GPU of the cluster (``num_gpus=1``), on the EGL device of the GPU
+Ray gives it (devices.ray_device), or per CPU where it has none, each over chunks of frames.
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import deque
 
 from ..errors import CausticaError, GLUnavailableError, MissingExtraError, first_line
+from .devices import ENV, assign
 from .frame import FrameWorker
 
 POLL_S = 0.2  # how often the parent looks for dead workers while it waits
 
 
-def render_frames(job, indices: list[int], workers: int = 1, ray: str | None = None):
-    """Rows of the frames ``indices`` of ``job``, as they finish."""
+def render_frames(job, indices: list[int], workers: int = 1, ray: str | None = None, devices=None):
+    """Rows of the frames ``indices`` of ``job``, as they finish: in this process (one worker, no
+    ``devices``), else in ``workers`` spawned processes placed round robin on the EGL device indices
+    ``devices`` (default: this process's, CAUSTICA_EGL_DEVICE or 0), or on Ray."""
     if not indices:
         return iter(())
     if ray is not None:
         return _ray_frames(job, indices, ray)
-    if workers <= 1:
+    if workers <= 1 and devices is None:
         return _inline(job, indices)
-    return _spawned(job, indices, min(workers, len(indices)))
+    spread = assign(min(workers, len(indices)), devices or [int(os.environ.get(ENV, 0))])
+    return _spawned(job, indices, spread)
 
 
 def _inline(job, indices):
@@ -38,10 +44,12 @@ def _inline(job, indices):
         worker.close()
 
 
-def _worker_main(job, conn) -> None:
-    """A spawned worker: render each index the parent sends on ``conn`` until None (or the parent's end)."""
+def _worker_main(job, conn, device: int) -> None:
+    """A spawned worker on EGL device ``device``: render each index the parent sends on ``conn`` until
+    None (or the parent's end)."""
     worker = None
     try:
+        os.environ[ENV] = str(device)  # read when the context is made (gpu/context.py)
         worker = FrameWorker(job)
         while (index := conn.recv()) is not None:
             conn.send(("row", worker.render(index)))
@@ -54,22 +62,23 @@ def _worker_main(job, conn) -> None:
             worker.close()
 
 
-def _spawned(job, indices: list[int], count: int):
-    """Each worker has its own pipe and one frame at a time: a worker killed at any moment holds no
-    lock another needs, and the parent knows which frame it took with it."""
+def _spawned(job, indices: list[int], devices: list[int]):
+    """One worker per entry of ``devices`` (its EGL device index). Each worker has its own pipe and one
+    frame at a time: a worker killed at any moment holds no lock another needs, and the parent knows
+    which frame it took with it."""
     import multiprocessing
     from multiprocessing.connection import wait
 
     ctx = multiprocessing.get_context("spawn")
-    waiting, remaining, restarts = deque(indices), set(indices), 0
-    workers: dict = {}  # parent end of the pipe -> [process, the index it renders or None]
+    waiting, remaining, restarts, count = deque(indices), set(indices), 0, len(devices)
+    workers: dict = {}  # parent end of the pipe -> [process, the index it renders or None, its device]
 
-    def start():
+    def start(device: int):
         ours, theirs = ctx.Pipe()
-        process = ctx.Process(target=_worker_main, args=(job, theirs), daemon=True)
+        process = ctx.Process(target=_worker_main, args=(job, theirs, device), daemon=True)
         process.start()
         theirs.close()
-        workers[ours] = [process, None]
+        workers[ours] = [process, None, device]
         hand(ours)
 
     def hand(conn):
@@ -95,15 +104,15 @@ def _spawned(job, indices: list[int], count: int):
         hand(conn)
         return payload
 
-    for _ in range(count):
-        start()
+    for device in devices:
+        start(device)
     try:
         while remaining:
             sentinels = {w[0].sentinel: conn for conn, w in workers.items()}
             for ready in wait(list(workers) + list(sentinels), timeout=POLL_S):
                 if ready in workers and (row := receive(ready)) is not None:
                     yield row
-            for conn, (process, index) in list(workers.items()):
+            for conn, (process, index, device) in list(workers.items()):
                 if process.is_alive():
                     continue
                 while conn.poll() and (row := receive(conn)) is not None:  # sent before it died
@@ -115,27 +124,34 @@ def _spawned(job, indices: list[int], count: int):
                 elif index is not None and index in remaining:
                     remaining.discard(index)
                     yield {"index": index, "values": job.values(index), "seed": job.seed, "time": round(time.time(), 3),
-                           "worker": process.pid,
+                           "worker": process.pid, "device": device,
                            "error": f"the worker process died (exit code {process.exitcode}) rendering this frame"}
                 if waiting and process.exitcode != 0 and len(workers) < count:
                     restarts += 1
                     if restarts > count + len(indices):
                         raise CausticaError("batch workers keep dying before they render; run with --workers 1 "
                                             "to see why")
-                    start()
+                    start(device)
     finally:
-        for process, _ in workers.values():
+        for process, *_ in workers.values():
             process.terminate()
-        for process, _ in workers.values():
+        for process, *_ in workers.values():
             process.join(5)
         for conn in workers:
             conn.close()
 
 
 class _RayFrames:
-    """A Ray actor: one FrameWorker, rendering chunks of frames."""
+    """A Ray actor: one FrameWorker, rendering chunks of frames; given a GPU, on its EGL device."""
 
     def __init__(self, job):
+        import ray
+
+        from .devices import egl_devices, ray_device
+
+        device = ray_device(ray.get_gpu_ids(), egl_devices())
+        if device is not None:
+            os.environ[ENV] = str(device)
         self.worker = FrameWorker(job)
 
     def render(self, indices: list[int]) -> list[dict]:
