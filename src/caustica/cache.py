@@ -128,8 +128,10 @@ _DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); 
 
 
 def scene_state_key(scene) -> tuple:
-    """What shadow maps and light paths depend on: lights and object geometry and placement."""
+    """What shadow maps and light paths depend on: lights, the environment (its sun is a light:
+    passes/environment_lights.py) and object geometry and placement."""
     parts = [state_key(light) for light in scene.lights]
+    parts.append(("environment", array_digest(scene.environment.image)))
     for obj in scene.objects:
         parts.append((obj.mesh.content_hash(), tuple(np.round(obj.world_from_object().ravel(), 9))))
     return tuple(parts)

@@ -11,6 +11,7 @@ angles, and the shadow of an occluder resting on the receiver stays attached.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import moderngl
@@ -28,6 +29,7 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
+from .environment_lights import environment_sun
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -45,19 +47,18 @@ class LightSample:
     intensity: np.ndarray
     cone_cos: tuple[float, float] = (1.0, 1.0)
     clip_from_world: np.ndarray | None = None  # directional and spot maps
+    environment: bool = False  # the environment's sun (passes/environment_lights.py), not one of scene.lights
 
 
 def light_samples(scene) -> list[LightSample]:
-    """Expand the scene's lights into point/directional/spot samples."""
+    """Expand the scene's lights into point/directional/spot samples, then the environment's sun as a
+    directional sample (passes/environment_lights.py) where it has one and a sample is free."""
     center = scene.bounds().mean(axis=0)
     radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
     samples: list[LightSample] = []
     for light in scene.lights:
         if isinstance(light, DirectionalLight):
-            origin = center - light.direction * 2.0 * radius
-            view = look_at_view_from_world(origin, center, up_hint(light.direction))
-            clip = orthographic_clip_from_view(radius, radius, 0.01 * radius, 4.0 * radius) @ view
-            samples.append(LightSample(LIGHT_DIRECTIONAL, origin, light.direction, light.intensity, clip_from_world=clip))
+            samples.append(_directional_sample(light, center, radius))
         elif isinstance(light, SpotLight):
             view = look_at_view_from_world(light.position, light.position + light.direction, up_hint(light.direction))
             far = np.linalg.norm(light.position - center) + 2 * radius
@@ -72,7 +73,18 @@ def light_samples(scene) -> list[LightSample]:
             f"the scene has {len(samples)} light samples but at most {MAX_LIGHTS} are supported; "
             "use fewer lights or fewer line-light samples"
         )
+    sun = environment_sun(scene.environment).light
+    if sun is not None and len(samples) < MAX_LIGHTS:
+        samples.append(dataclasses.replace(_directional_sample(sun, center, radius), environment=True))
     return samples
+
+
+def _directional_sample(light: DirectionalLight, center: np.ndarray, radius: float) -> LightSample:
+    """A directional light's sample: an orthographic map over the sphere (center, radius) around the scene."""
+    origin = center - light.direction * 2.0 * radius
+    view = look_at_view_from_world(origin, center, up_hint(light.direction))
+    clip = orthographic_clip_from_view(radius, radius, 0.01 * radius, 4.0 * radius) @ view
+    return LightSample(LIGHT_DIRECTIONAL, origin, light.direction, light.intensity, clip_from_world=clip)
 
 
 def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) -> None:

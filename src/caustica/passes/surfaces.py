@@ -16,6 +16,7 @@ from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
+from .environment_lights import ambient_sh
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
@@ -321,8 +322,9 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "camera_position", camera.position.astype("f4"))
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
-        set_uniform(program, "irradiance_sh", scene.environment.irradiance_sh().astype("f4"))
-        bind_lights(program, frame.read("light_samples"), frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
+        samples = frame.read("light_samples")
+        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples).astype("f4"))
+        bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         elif frame.optional("caustic_tiles") is not None:

@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ..errors import TechniqueError
+from ..passes.environment_lights import environment_sun
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -95,6 +96,9 @@ def plan(scene, quality: str = "balanced") -> Plan:
     mirrors = [o for o in objects if o.material.kind == "mirror"]
     diffuse = [o for o in objects if o.material.kind == "diffuse"]
     lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    sun = environment_sun(scene.environment).light  # a light of the shadow and caustic maps too
+    if sun is not None and np.any(sun.intensity > 0):
+        lit.append(sun)
     view_params: dict = {"shadow_map_size": shadow_size}
     if glass and len(objects) > 1:  # glass with anything else, another glass object included
         view = "impostors"
@@ -142,7 +146,7 @@ def plan(scene, quality: str = "balanced") -> Plan:
             how = ("the light transport table cached for each glass object (Iwasaki et al.)" if tabled
                    else "caustic mapping (Shah et al.)")
             entries.append(PlanEntry(obj.name, kind, f"{view} + {caustics_by}",
-                                     f"diffuse receiver: shadow maps, and caustics from {len(lit)} light(s) through "
+                                     f"diffuse receiver: shadow maps, and caustics from {_lights(lit, sun)} through "
                                      f"{len(casters)} specular object(s) by {how}"))
         else:
             why = "diffuse: shadow maps and the environment's irradiance"
@@ -159,6 +163,12 @@ def plan(scene, quality: str = "balanced") -> Plan:
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
+
+
+def _lights(lit: list, sun) -> str:
+    """'N light(s)', naming the environment's sun among them (passes/environment_lights.py)."""
+    text = f"{len(lit)} light(s)"
+    return text + (", the environment's sun among them (a directional light)" if any(x is sun for x in lit) else "")
 
 
 CONCAVE = 0.25  # a mirror is concave when this fraction of its surface bends towards the camera

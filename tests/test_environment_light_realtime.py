@@ -1,0 +1,122 @@
+"""The environment's light in the raster techniques (issue 23 parts 2, 3; passes/environment_lights.py).
+
+Known answers: the environment's sun (a small bright disc) lights and shadows a floor as the directional
+light of the same irradiance does; an IOR-1 ball under the sun casts no shadow (its caustic gives the light
+back); far from objects a floor under a constant environment has radiance = albedo (irradiance pi), with a
+sun added pi + the sun's irradiance times its cosine; the sun is no light of scene.lights.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from caustica.metrics.images import psnr_linear
+from caustica.passes.environment_lights import environment_sun
+from caustica.scene import (Camera, Diffuse, DirectionalLight, Environment, Glass, Scene, SceneObject, Transform)
+from caustica.scene.environment import uv_to_direction
+from caustica.scene.shapes import box, plane, sphere
+
+SIZE = (96, 96)
+SUN = np.array([0.35, 0.8, -0.3]) / np.linalg.norm([0.35, 0.8, -0.3])  # towards the sun
+SUN_RADIUS, SUN_RIM, SUN_RADIANCE = 4.0, 1.0, 150.0  # degrees (disc radius, width of its linear rim), W/m^2/sr
+ALBEDO = 0.8
+
+
+def sun_image(background: float = 0.0, width: int = 512) -> np.ndarray:
+    """An equirectangular image of ``background`` radiance with the sun's disc (a linear rim of SUN_RIM), its
+    texels at the directions the lookup (Mitsuba's) gives them: u = (x + 1/2) / W, v = y / (H - 1)."""
+    h = width // 2
+    uu, vv = np.meshgrid((np.arange(width) + 0.5) / width, np.arange(h) / (h - 1))
+    angle = np.degrees(np.arccos(np.clip(uv_to_direction(np.stack([uu, vv], -1)) @ SUN, -1.0, 1.0)))
+    disc = np.clip((SUN_RADIUS - angle) / SUN_RIM + 0.5, 0.0, 1.0)
+    return np.repeat((background + SUN_RADIANCE * disc)[..., None], 3, axis=2).astype(np.float32)
+
+
+def sun_irradiance() -> float:
+    """The disc's radiance integrated over solid angle (1-D quadrature over the angle from its centre)."""
+    theta = np.radians(np.linspace(0.0, SUN_RADIUS + SUN_RIM, 20001))
+    profile = np.clip((SUN_RADIUS - np.degrees(theta)) / SUN_RIM + 0.5, 0.0, 1.0)
+    return float(np.trapezoid(SUN_RADIANCE * profile * 2.0 * np.pi * np.sin(theta), theta))
+
+
+def floor_scene(objects=(), environment=None, lights=()) -> Scene:
+    camera = Camera(position=[0.0, 5.0, 3.5], look_at=[0.0, 0.0, -0.3], fov_y=50.0, size=SIZE)
+    floor = SceneObject("floor", plane((8.0, 8.0)), Diffuse([ALBEDO] * 3))
+    return Scene(camera=camera, objects=[floor, *objects], lights=list(lights),
+                 environment=environment or Environment(sun_image()))
+
+
+def red_box() -> SceneObject:
+    return SceneObject("box", box((0.6, 0.8, 0.6)), Diffuse([0.7, 0.15, 0.1]), Transform(position=[0.0, 0.4, 0.0]))
+
+
+def floor_hits(camera: Camera) -> np.ndarray:
+    """Per pixel: where the primary ray meets the floor (y = 0)."""
+    origin, direction = (a[:, :, 0] for a in camera.primary_rays())
+    return origin + (-origin[..., 1] / direction[..., 1])[..., None] * direction
+
+
+def test_sun_is_extracted_with_its_irradiance_and_direction():
+    sun = environment_sun(Environment(sun_image())).light
+    assert sun is not None
+    assert np.degrees(np.arccos(-sun.direction @ SUN)) < 0.2
+    assert sun.intensity == pytest.approx([sun_irradiance()] * 3, rel=0.01)
+    assert environment_sun(Environment(np.ones((64, 128, 3), np.float32))).light is None  # no bright part
+
+
+def test_sun_only_environment_is_the_equivalent_directional_light(renderer):
+    """The same image and shadow as a black environment with DirectionalLight(-SUN, sun_irradiance)."""
+    sun_scene = floor_scene([red_box()])
+    light_scene = floor_scene([red_box()], Environment(sun_image(0.0) * 0.0),
+                              [DirectionalLight(direction=-SUN, intensity=[sun_irradiance()] * 3)])
+    a, b = renderer.render(sun_scene, "env-map"), renderer.render(light_scene, "env-map")
+    assert not sun_scene.lights  # derived per frame, never the user's
+    assert psnr_linear(a, b) > 35.0
+    # The shadow (grey floor darker than half the lit floor) lies where the light's does.
+    hit = floor_hits(sun_scene.camera)
+    on_floor = np.abs(hit).max(axis=-1) < 3.0
+    lit = ALBEDO / np.pi * sun_irradiance() * SUN[1]
+    shadows = [on_floor & (image.mean(axis=-1) < 0.5 * lit) & (np.abs(image[..., 0] - image[..., 1]) < 0.05 * lit)
+               for image in (a, b)]
+    assert shadows[1].sum() > 100
+    assert (shadows[0] & shadows[1]).sum() / (shadows[0] | shadows[1]).sum() > 0.9
+    # And it is a shadow where the geometry says: the floor whose ray to the sun meets the box's middle.
+    middle = hit + (0.4 / SUN[1]) * SUN
+    beneath = on_floor & np.all(np.abs(middle[..., [0, 2]]) < 0.2, axis=-1)
+    assert beneath.sum() > 20 and a[beneath].mean() < 0.05 * lit
+
+
+def test_ior1_ball_casts_no_shadow(renderer):
+    """Under the sun (with caustics, as auto plans them) a ball of IOR 1 gives back all the light it blocks."""
+    ball = SceneObject("ball", sphere(0.5, 4), Glass(ior=1.0), Transform(position=[0.0, 1.0, 0.0]))
+    with_ball, without = floor_scene([ball]), floor_scene()
+    image = renderer.render(with_ball, "auto")
+    assert "caustic-mapping" in renderer.last_plan.technique
+    empty = renderer.render(without, "env-map")
+    hit = floor_hits(with_ball.camera)
+    shadow = (np.linalg.norm((hit + SUN / SUN[1])[..., [0, 2]], axis=-1) < 0.35) & (np.abs(hit).max(axis=-1) < 3.0)
+    # Floor pixels the ball does not cover on screen (seen past it, through it would be the refraction).
+    origin, direction = (x[:, :, 0] for x in with_ball.camera.primary_rays())
+    to_centre = np.array([0.0, 1.0, 0.0]) - origin
+    along = (to_centre * direction).sum(-1)
+    miss = np.linalg.norm(to_centre - along[..., None] * direction, axis=-1) > 0.55
+    region = shadow & miss
+    assert region.sum() > 30
+    ratio = image[region].mean() / empty[region].mean()
+    assert ratio == pytest.approx(1.0, abs=0.08), ratio
+
+
+@pytest.mark.parametrize("with_sun", [False, True], ids=["constant", "constant+sun"])
+def test_floor_far_from_objects_under_constant_environment(renderer, with_sun):
+    """Radiance = albedo / pi * (pi * 1 + E_sun cos) on the floor away from the box and its shadow."""
+    environment = Environment(sun_image(1.0) if with_sun else np.ones((256, 512, 3), np.float32))
+    scene = floor_scene([red_box()], environment)
+    image = renderer.render(scene, "env-map")
+    hit = floor_hits(scene.camera)
+    far = (np.abs(hit).max(axis=-1) < 3.0) & (np.linalg.norm(hit[..., [0, 2]], axis=-1) > 2.0)
+    far &= np.linalg.norm((hit + (0.8 / SUN[1]) * SUN)[..., [0, 2]], axis=-1) > 1.2  # off the box's sun shadow
+    assert far.sum() > 500
+    sun = sun_irradiance() * SUN[1] if with_sun else 0.0
+    expected = ALBEDO / np.pi * (np.pi + sun)
+    assert image[far].mean(axis=0) == pytest.approx([expected] * 3, rel=0.01)
+    assert np.abs(image[far] / expected - 1.0).max() < 0.03
