@@ -28,7 +28,7 @@ def batch(scene_or_sweep, out_dir, frames: int | None = None, *, orbit: float | 
 
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise CausticaError(f"workers must be a positive integer (got {workers!r})")
-    if ray is not None and (workers is not None or devices is not None):
+    if ray is not None and (workers not in (None, 1) or devices is not None):
         raise CausticaError("give workers and devices, or ray, not both (Ray sizes its own workers and "
                             "gives each a GPU)")
     spread = None if ray is not None else placement(devices)
