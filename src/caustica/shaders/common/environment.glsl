@@ -14,6 +14,11 @@ const int ENVIRONMENT_TAPS = 8;            // most lookups along a footprint's l
 const float ENVIRONMENT_LOD_SCALE = 0.5;   // gradients as GL's level of detail takes them, against a box
 const float ENVIRONMENT_MAGNIFICATION_MAX = 13.0;  // most radians between neighbours' directions per pixel angle
 uniform float environment_pixel_angle;  // radians a pixel subtends at the image centre (0: no filtering)
+// Which surface this pixel shades, where a quad's pixels may show different ones: deferred shading's
+// resolve sets it from the G-buffer (common/surface_main.glsl). A neighbour on another surface
+// gives no footprint. Drawn per fragment, a quad's lanes that miss the triangle extrapolate its
+// own surface, so it stays 0.
+float environment_surface_id = 0.0;
 
 // The mean of the texture over the parallelogram (u, t) + a gradient_x + b gradient_y, |a|, |b| <= 1/2:
 // taps along its longer side, each a trilinear lookup as wide as the shorter side and its own share of
@@ -52,8 +57,8 @@ vec3 environment_radiance(sampler2D environment, vec3 d) {
     // total internal reflection, a rim) is no footprint: that axis stays unfiltered rather than blurred
     // across the discontinuity (and a NaN neighbour too).
     float footprint_max = ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle;
-    if (!(dot(ddx, ddx) <= footprint_max * footprint_max)) ddx = vec3(0.0);
-    if (!(dot(ddy, ddy) <= footprint_max * footprint_max)) ddy = vec3(0.0);
+    if (!(dot(ddx, ddx) <= footprint_max * footprint_max) || dFdx(environment_surface_id) != 0.0) ddx = vec3(0.0);
+    if (!(dot(ddy, ddy) <= footprint_max * footprint_max) || dFdy(environment_surface_id) != 0.0) ddy = vec3(0.0);
     vec2 gradient_x = vec2(dot(per_xz, ddx.xz), per_y * ddx.y);
     vec2 gradient_y = vec2(dot(per_xz, ddy.xz), per_y * ddy.y);
     return environment_footprint(environment, vec2(u, t), gradient_x, gradient_y);
