@@ -120,3 +120,32 @@ def test_floor_far_from_objects_under_constant_environment(renderer, with_sun):
     expected = ALBEDO / np.pi * (np.pi + sun)
     assert image[far].mean(axis=0) == pytest.approx([expected] * 3, rel=0.01)
     assert np.abs(image[far] / expected - 1.0).max() < 0.03
+
+
+# ---- part 2: the environment's lobes (auto's environment_lobes) -------------------------------------
+
+
+def test_lobes_leave_the_open_floor_at_albedo(renderer):
+    """Far from objects nothing blocks a lobe: the floor keeps radiance = albedo under a constant environment."""
+    scene = floor_scene([red_box()], Environment(np.ones((128, 256, 3), np.float32)))
+    image = renderer.render(scene, "auto", environment_lobes=16)
+    hit = floor_hits(scene.camera)
+    far = (np.abs(hit).max(axis=-1) < 3.0) & (np.linalg.norm(hit[..., [0, 2]], axis=-1) > 2.0)
+    assert far.sum() > 500
+    assert image[far].mean(axis=0) == pytest.approx([ALBEDO] * 3, rel=0.01)
+    near = (np.abs(hit).max(axis=-1) < 3.0) & (np.abs(hit[..., 0]) < 0.45) & (hit[..., 2] > 0.3) & (hit[..., 2] < 0.4)
+    assert near.sum() > 3 and image[near].mean() < 0.85 * ALBEDO  # beside the box: part of the sky is the box's
+    assert image[near].mean() < renderer.render(scene, "auto", environment_lobes=0)[near].mean() - 0.1
+
+
+def test_lobes_shadow_the_floor_under_a_slab(renderer):
+    """Under a 3 x 3 slab 0.3 above the floor, the constant sky reaches the centre only below 11 degrees of
+    elevation: E = pi sin^2(11 deg), radiance 0.8 * 0.037; unoccluded SH gave the albedo, 0.8."""
+    slab = SceneObject("slab", box((3.0, 0.05, 3.0)), Diffuse([0.5] * 3), Transform(position=[0.0, 0.325, 0.0]))
+    scene = floor_scene([slab], Environment(np.ones((128, 256, 3), np.float32)))
+    scene.camera = Camera(position=[0.0, 0.15, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=40.0, size=SIZE)
+    image = renderer.render(scene, "auto", environment_lobes=16)
+    hit = floor_hits(scene.camera)
+    centre = np.abs(hit[..., [0, 2]]).max(axis=-1) < 0.5
+    assert centre.sum() > 20
+    assert image[centre].mean() < 0.15 * ALBEDO

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..cache import array_digest
 from ..raytrace.environment_light import environment_light, hammersley
-from ..scene.environment import Environment
+from ..scene.environment import Environment, uv_to_direction
 from ..scene.lights import DirectionalLight
 
 SUN_SAMPLES = 16384  # stratified samples of the bright part (its integral to about 1e-4 on sky-checker's sun)
@@ -70,3 +70,111 @@ def ambient_sh(environment: Environment, samples) -> np.ndarray:
         return environment_sun(environment).rest_sh
     return environment.irradiance_sh()
 
+
+# Part 2: the rest of the environment's light, occluded -------------------------------------------------
+
+LOBES = 16  # auto's count of environment lobes with shadow maps (docs/environment-light.md)
+LOBE_MAP_SIZE = 256  # texels a side of each lobe's map
+MAX_LOBES = 32  # lighting.glsl's MAX_ENV_LOBES
+
+
+@dataclass(frozen=True)
+class EnvironmentLobes:
+    """The rest of the environment's sky (without its sun) cut into ``count`` strata of equal power, each a
+    direction of travel and its irradiance vector's length per channel: where a stratum's shadow map says
+    its direction is blocked, its share max(0, n . -direction) * irradiance leaves the SH ambient."""
+
+    directions: np.ndarray  # (K, 3) unit directions of travel (minus each stratum's mean direction)
+    irradiance: np.ndarray  # (K, 3) per channel: |sum of radiance * solid angle * direction| over the stratum
+
+
+def environment_lobes(environment: Environment, sun_taken: bool, count: int = LOBES) -> EnvironmentLobes:
+    """The :class:`EnvironmentLobes` of ``environment`` (its rest when ``sun_taken``), cached on it."""
+    key = (array_digest(environment.image), bool(sun_taken), int(count))
+    cache = getattr(environment, "_lobe_cache", None)
+    if cache is None or cache[0] != key:
+        image = environment_light(environment).rest.image if sun_taken else environment.image
+        cache = (key, _strata(image.astype(np.float64), int(count)))
+        environment._lobe_cache = cache
+    return cache[1]
+
+
+def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
+    """Stratified importance over the upper hemisphere: rows cut into sqrt(count) bands of equal power
+    (luminance times solid angle, at the lookup's texel directions u = (x + 1/2) / W, v = y / (H - 1)), each
+    band's columns into count / bands segments of equal power. Light from below the horizon stays unoccluded
+    SH: above a floor it arrives as the floor's bounce, which no raster technique traces, and the ground's
+    unoccluded light stands in for it better than its shadow (measured: docs/environment-light.md)."""
+    h, w = image.shape[:2]
+    uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, np.arange(h) / (h - 1))
+    direction = uv_to_direction(np.stack([uu, vv], axis=-1))
+    weighted = image * (np.sin(np.pi * vv) * (np.pi / (h - 1)) * (2.0 * np.pi / w))[..., None]
+    sky = (direction[..., 1] > 0.0)[..., None]
+    weighted = weighted * sky  # above the horizon only
+    power = weighted.mean(axis=2) + 1e-30 * sky[..., 0]  # a black sky still cuts into strata
+    bands = max(int(round(np.sqrt(count))), 1)
+    per_band = [count // bands + (1 if b < count % bands else 0) for b in range(bands)]
+    row_edges = _equal_cuts(power.sum(axis=1), bands)
+    directions, irradiance = [], []
+    for (top, bottom), columns in zip(zip(row_edges[:-1], row_edges[1:]), per_band):
+        column_edges = _equal_cuts(power[top:bottom].sum(axis=0), columns)
+        for left, right in zip(column_edges[:-1], column_edges[1:]):
+            cell = (slice(top, bottom), slice(left, right))
+            vectors = np.einsum("hwc,hwk->ck", weighted[cell], direction[cell])  # per channel: sum L dw d
+            mean = np.einsum("hw,hwk->k", power[cell], direction[cell])
+            norm = np.linalg.norm(mean)
+            directions.append(-mean / norm if norm > 0 else np.array([0.0, -1.0, 0.0]))
+            irradiance.append(np.linalg.norm(vectors, axis=1))
+    return EnvironmentLobes(np.array(directions), np.array(irradiance))
+
+
+def _equal_cuts(weights: np.ndarray, parts: int) -> list[int]:
+    """Indices 0 = e_0 < e_1 < ... < e_parts = len(weights) cutting ``weights`` into parts of about equal sum
+    (each part at least one entry)."""
+    cdf = np.cumsum(weights) / weights.sum()
+    edges = [0]
+    for k in range(1, parts):
+        cut = int(np.searchsorted(cdf, k / parts)) + 1
+        edges.append(min(max(cut, edges[-1] + 1), len(weights) - (parts - k)))
+    return edges + [len(weights)]
+
+
+def lobe_settings(params) -> tuple[int, int]:
+    """(lobes, texels a side of each map) a frame's parameters ask for: the ``environment_lobes`` and
+    ``environment_lobe_size`` attributes auto sets on the planned technique's parameters (on the view's of a
+    composite's pair), else (0, LOBE_MAP_SIZE)."""
+    first = params[0] if isinstance(params, tuple) and params else params
+    count = int(getattr(first, "environment_lobes", 0) or 0)
+    if not 0 <= count <= MAX_LOBES:
+        raise ValueError(f"environment_lobes must be 0 to {MAX_LOBES} (got {count})")
+    return count, int(getattr(first, "environment_lobe_size", LOBE_MAP_SIZE) or LOBE_MAP_SIZE)
+
+
+@dataclass
+class EnvironmentShadows:
+    """ShadowMaps' ``environment_shadows``: the lobes, their directional samples (passes/lights.py's
+    LightSample, one tile each) and the atlas of their distance maps (r32f, K N x N)."""
+
+    atlas: object
+    tiles: list
+    lobes: EnvironmentLobes
+
+
+def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
+    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit``."""
+    from ..gpu.meshes import set_uniform, write_uniform_array
+
+    count = len(shadows.tiles)
+    rows = {"env_lobe_origin": [t.position for t in shadows.tiles],
+            "env_lobe_direction": [t.direction for t in shadows.tiles],
+            "env_lobe_irradiance": shadows.lobes.irradiance}
+    for name, values in rows.items():
+        padded = np.zeros((MAX_LOBES, 3), "f4")
+        padded[:count] = values
+        write_uniform_array(program, name, padded)
+    clips = np.tile(np.eye(4, dtype="f4"), (MAX_LOBES, 1, 1))
+    clips[:count] = [t.clip_from_world for t in shadows.tiles]
+    write_uniform_array(program, "env_lobe_clip_from_world", np.ascontiguousarray(clips.transpose(0, 2, 1)))
+    set_uniform(program, "env_lobe_count", count)
+    shadows.atlas.use(unit)
+    set_uniform(program, "env_shadow_atlas", unit)

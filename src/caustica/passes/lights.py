@@ -29,7 +29,7 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import environment_sun
+from .environment_lights import EnvironmentShadows, environment_lobes, environment_sun, lobe_settings
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -96,35 +96,54 @@ def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) ->
 
 
 class ShadowMaps(Pass):
-    """Distance-to-light maps for every light sample (reused while lights and objects stay put)."""
+    """Distance-to-light maps for every light sample (reused while lights and objects stay put), and, where
+    the frame's parameters ask for ``environment_lobes`` (auto sets it), the environment's lobes' directional
+    maps side by side in one atlas (passes/environment_lights.py)."""
 
     reads = ()
     writes = (
         Channel("light_samples", "host[light]", "point/directional/spot samples with their shadow projections"),
         Channel("shadow_maps", "r32f[light]", "per light sample: distance to the light (6-face atlas for points)"),
+        Channel("environment_shadows", "host", "EnvironmentShadows: the environment's lobes and their maps' atlas, "
+                                               "or None"),
     )
 
     def __init__(self, size: int = 1024):
         self.size = size
 
     def cache_key(self, frame: Frame):
-        return self.size, scene_state_key(frame.scene)
+        return self.size, lobe_settings(frame.params), scene_state_key(frame.scene)
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
         frame.write("light_samples", samples)
-        frame.write("shadow_maps", [self._render(frame, s) for s in samples])
+        frame.write("shadow_maps", [self._render(frame, [s], frame.scene.objects) for s in samples])
+        frame.write("environment_shadows", self._environment_shadows(frame, samples))
 
-    def _render(self, frame: Frame, sample: LightSample):
-        ctx, gpu, n = frame.gpu.ctx, frame.gpu, self.size
-        faces = 6 if sample.type == LIGHT_POINT else 1
+    def _environment_shadows(self, frame: Frame, samples: list[LightSample]):
+        count, size = lobe_settings(frame.params)
+        if not count:
+            return None
+        scene = frame.scene
+        lobes = environment_lobes(scene.environment, any(s.environment for s in samples), count)
+        center = scene.bounds().mean(axis=0)
+        radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+        tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
+        # Glass lets the environment through (its light reaches the floor refracted, not stopped): opaque casters only.
+        opaque = [o for o in scene.objects if o.material.kind != "glass"]
+        atlas = self._render(frame, tiles, opaque, size)
+        return EnvironmentShadows(atlas, tiles, lobes)
+
+    def _render(self, frame: Frame, samples: list[LightSample], objects, size: int | None = None):
+        """One map: a point sample's six-face atlas, or the directional and spot ``samples`` as tiles side by side."""
+        ctx, gpu, n = frame.gpu.ctx, frame.gpu, size or self.size
+        sample = samples[0]
+        faces = 6 if sample.type == LIGHT_POINT else len(samples)
         color = frame.own(ctx.texture((n * faces, n), 1, dtype="f4"))  # nearest filtered, unlike pooled ones
         depth = frame.own(ctx.depth_renderbuffer((n * faces, n)))
         fbo = frame.own(ctx.framebuffer([color], depth))
         along = 1 if sample.type == LIGHT_DIRECTIONAL else 0
         program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/distance.frag", {"ALONG_DIRECTION": along})
-        set_uniform(program, "origin", sample.position.astype("f4"))
-        set_uniform(program, "direction", sample.direction.astype("f4"))
         fbo.use()
         fbo.clear(1e30, 1e30, 1e30, 1e30, depth=1.0)
         ctx.enable(moderngl.DEPTH_TEST)
@@ -138,8 +157,11 @@ class ShadowMaps(Pass):
                 far = np.linalg.norm(p - frame.scene.bounds().mean(axis=0)) + 2 * radius
                 clip = perspective_clip_from_view(90.0, 1.0, 1e-3 * radius, far) @ view
             else:
+                sample = samples[face]
                 clip = sample.clip_from_world
-            draw_objects(frame, program, frame.scene.objects, clip)
+            set_uniform(program, "origin", sample.position.astype("f4"))
+            set_uniform(program, "direction", sample.direction.astype("f4"))
+            draw_objects(frame, program, objects, clip)
         color.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return color
 
@@ -150,6 +172,7 @@ def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int
     is the receiver's normal offset in texel widths of its map."""
     count = len(samples)
     set_uniform(program, "light_count", count)
+    set_uniform(program, "shadow_bias", shadow_bias)  # the environment lobes' maps take it too
     if count == 0:
         return
 
@@ -170,7 +193,6 @@ def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int
         program["light_clip_from_world"].write(np.ascontiguousarray(clips.transpose(0, 2, 1)).tobytes())
     set_uniform(program, "cube_forward", CUBE_FORWARD.astype("f4"))
     set_uniform(program, "cube_up", CUBE_UP.astype("f4"))
-    set_uniform(program, "shadow_bias", shadow_bias)
     units = []
     for i in range(MAX_LIGHTS):
         unit = first_unit + min(i, count - 1)

@@ -16,12 +16,13 @@ from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
-from .environment_lights import ambient_sh
+from .environment_lights import ambient_sh, bind_environment_shadows
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
+ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas (passes/environment_lights.py)
 
 
 class RefractorSurfaces(Pass):
@@ -137,7 +138,8 @@ class ShadeSurfaces(Pass):
     FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT = FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT  # the module's (ShadeOptions checks)
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
     # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py).
-    optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES"}
+    optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES",
+                "environment_shadows": "ENVIRONMENT_SHADOWS"}
 
     def __init__(self, *args, options: ShadeOptions | None = None, **overrides):
         """``args``, ``overrides``: ShadeOptions fields (in order, by name), over ``options`` when given.
@@ -325,6 +327,8 @@ class ShadeSurfaces(Pass):
         samples = frame.read("light_samples")
         set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples).astype("f4"))
         bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
+        if frame.optional("environment_shadows") is not None:
+            bind_environment_shadows(program, frame.optional("environment_shadows"), ENVIRONMENT_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         elif frame.optional("caustic_tiles") is not None:

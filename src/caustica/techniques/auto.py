@@ -27,7 +27,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from ..errors import TechniqueError
-from ..passes.environment_lights import environment_sun
+from ..passes.environment_lights import LOBES, MAX_LOBES, environment_sun
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -48,6 +48,10 @@ class AutoParams(Params):
                               "any other parameter goes to the planned technique")
     budget_ms: float = param(0.0, range=(0.0, 1e6), special={0: "none: quality decides"}, unit="ms",
                              help="frame-time budget: the highest quality whose measured frame time fits")
+    environment_lobes: int = param(LOBES, range=(0, MAX_LOBES), special={0: "none: unoccluded SH ambient"},
+                                   help="the environment's strata of equal power whose light on diffuse surfaces is "
+                                        "shadowed (one directional shadow map each; docs/environment-light.md), "
+                                        "where the plan finds diffuse surfaces that other objects occlude")
 
 
 @dataclass
@@ -135,6 +139,7 @@ def plan(scene, quality: str = "balanced") -> Plan:
     params = dict(view_params)
     if caustics:
         params[f"{caustics_by}.map_size"] = map_size
+    occluded = _occluded_ambient(scene)
     entries = []
     for obj in objects:
         kind = obj.material.kind
@@ -147,9 +152,12 @@ def plan(scene, quality: str = "balanced") -> Plan:
                    else "caustic mapping (Shah et al.)")
             entries.append(PlanEntry(obj.name, kind, f"{view} + {caustics_by}",
                                      f"diffuse receiver: shadow maps, and caustics from {_lights(lit, sun)} through "
-                                     f"{len(casters)} specular object(s) by {how}"))
+                                     f"{len(casters)} specular object(s) by {how}"
+                                     + (OCCLUDED if occluded else "")))
         else:
             why = "diffuse: shadow maps and the environment's irradiance"
+            if occluded:
+                why += OCCLUDED
             if not lit:
                 why += " (no light, so no caustics)"
             elif not casters:
@@ -163,6 +171,18 @@ def plan(scene, quality: str = "balanced") -> Plan:
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
+
+
+OCCLUDED = (f"; the sky's light shadowed by the other objects: environment_lobes ({LOBES} by default) sky strata "
+            "of equal power, each a directional shadow map (docs/environment-light.md: diffuse +0.5 to +1.5 dB "
+            "against Mitsuba)")
+
+
+def _occluded_ambient(scene) -> bool:
+    """Whether the environment lobes' shadows pay: diffuse surfaces with another object to occlude their
+    environment light, and an environment that sheds some."""
+    diffuse = [o for o in scene.objects if o.material.kind == "diffuse"]
+    return bool(diffuse) and len(scene.objects) > 1 and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
 
 
 def _lights(lit: list, sun) -> str:
@@ -213,7 +233,7 @@ class Auto(Technique):
     def make_params(self, **values):
         """``quality``, ``budget_ms``, and any other parameter for the planned technique (checked once
         the plan is made)."""
-        own = {name: values.pop(name) for name in ("quality", "budget_ms") if name in values}
+        own = {name: values.pop(name) for name in ("quality", "budget_ms", "environment_lobes") if name in values}
         params = super().make_params(**own)
         params.overrides = values  # not a field: what the plan's technique takes depends on the scene
         return params
@@ -240,8 +260,12 @@ class Auto(Technique):
         technique = get_technique(chosen.technique)
         overrides = getattr(params, "overrides", {})
         try:
-            return technique, technique.make_params(**{**chosen.params, **overrides})
+            values = technique.make_params(**{**chosen.params, **overrides})
         except TechniqueError as exc:  # the list of parameters is the planned technique's: point to it
             reason = str(exc).split("; its parameters are:")[0]
             raise TechniqueError(f"auto planned '{chosen.technique}' for this scene: {reason}; "
                                  f"see 'caustica techniques {chosen.technique}'") from None
+        # Not a field of the planned technique's parameters: ShadowMaps reads it (environment_lights.lobe_settings).
+        view_values = values[0] if isinstance(values, tuple) else values  # a composite's: (view, caustics)
+        view_values.environment_lobes = params.environment_lobes if _occluded_ambient(scene) else 0
+        return technique, values

@@ -42,7 +42,8 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
     return vec2(dot(v, r), dot(v, up)) / depth * 0.5 + 0.5;
 }
 
-// Fraction of light i that reaches p (normal n, facing the light).
+// Fraction of light i that reaches p (normal n, facing the light): map_visibility of its map, which
+// also serves the environment's lobes (an atlas of directional maps, tile k from column k N).
 //
 // Each map is N x N texels (a cube face of the point atlas: N x N from column x0). Texel t's ray, s its
 // centre in ndc, is axis + s.x a + s.y b with axis, a, b orthogonal and axis unit: from the light for
@@ -54,13 +55,11 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 // orthographic: P = m_q dot(axis, n) + s_q.V', U = -V', V' = (a.n, b.n), W = V = 0.
 // The denominator is negative where the ray meets the plane from the light's side (the numerator too),
 // so the tap is lit when stored * den <= num * sqrt(..) there, and wherever stored >= m_q (q's metric).
-float light_visibility(int i, vec3 p, vec3 n) {
-    int N = textureSize(shadow_map[i], 0).y;
-    vec3 light = light_position[i];
+float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+    int N = textureSize(map, 0).y;
     float width;                 // a texel's width at the receiver
     vec3 axis, a, b;
-    bool point = light_type[i] == LIGHT_POINT, ortho = light_type[i] == LIGHT_DIRECTIONAL;
-    mat4 m = light_clip_from_world[i];
+    bool point = type == LIGHT_POINT, ortho = type == LIGHT_DIRECTIONAL;
     if (point) {
         // A face's texel spans 2 / N in tangent at unit depth: about 2 dist / N wide at the receiver.
         width = 2.0 * length(p - light) / float(N);
@@ -70,11 +69,11 @@ float light_visibility(int i, vec3 p, vec3 n) {
         vec3 row_x = vec3(m[0][0], m[1][0], m[2][0]), row_y = vec3(m[0][1], m[1][1], m[2][1]);
         a = row_x / dot(row_x, row_x);
         b = row_y / dot(row_y, row_y);
-        axis = ortho ? light_direction[i] : vec3(m[0][3], m[1][3], m[2][3]);
+        axis = ortho ? direction : vec3(m[0][3], m[1][3], m[2][3]);
         width = 2.0 * length(a) / float(N) * (ortho ? 1.0 : length(p - light));
     }
     vec3 q = p + n * (shadow_bias * width);
-    int x0 = 0;
+    int x0 = tile * N;  // a directional or spot map's tile in an atlas of N x N tiles
     vec2 s_q;
     if (point) {
         int face;
@@ -99,12 +98,17 @@ float light_visibility(int i, vec3 p, vec3 n) {
         for (int x = -1; x <= 1; ++x) {
             ivec2 t = clamp(c + ivec2(x, y), ivec2(0), ivec2(N - 1));
             vec2 s = (vec2(t) + 0.5) * (2.0 / float(N)) - 1.0;
-            float stored = texelFetch(shadow_map[i], ivec2(x0 + t.x, t.y), 0).r;
+            float stored = texelFetch(map, ivec2(x0 + t.x, t.y), 0).r;
             float den = an + dot(s, V);
             bool plane = den < 0.0 && stored * den <= (P + dot(s, U)) * sqrt(1.0 + dot(s * s, W));
             lit += (plane || stored >= m_q) ? 1.0 : 0.0;
         }
     return lit / 9.0;
+}
+
+float light_visibility(int i, vec3 p, vec3 n) {
+    return map_visibility(shadow_map[i], 0, light_type[i], light_position[i], light_direction[i],
+                          light_clip_from_world[i], p, n);
 }
 
 // Irradiance at p with normal n from every light, shadowed.
@@ -143,4 +147,39 @@ vec3 ambient_irradiance(vec3 n) {
            + irradiance_sh[6] * 0.315392 * (3.0 * z * z - 1.0) + irradiance_sh[7] * 1.092548 * x * z
            + irradiance_sh[8] * 0.546274 * (x * x - y * y);
     return max(e, vec3(0.0));
+}
+
+// The environment's lobes (passes/environment_lights.py, issue 23 part 2): the rest of the environment cut
+// into strata of equal power, each with a directional shadow map (tiles of env_shadow_atlas). Where a
+// stratum's map says its direction is blocked at p, its share max(0, n . -direction) * irradiance leaves
+// the SH ambient; unblocked, the ambient is the SH's exactly. Host define: ENVIRONMENT_SHADOWS (0 or 1,
+// ShadeSurfaces sets it where ShadowMaps drew the lobes).
+#ifndef ENVIRONMENT_SHADOWS
+#define ENVIRONMENT_SHADOWS 0
+#endif
+#if ENVIRONMENT_SHADOWS
+#define MAX_ENV_LOBES 32
+uniform int env_lobe_count;
+uniform vec3 env_lobe_origin[MAX_ENV_LOBES];
+uniform vec3 env_lobe_direction[MAX_ENV_LOBES];   // travel direction
+uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the stratum
+uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
+uniform sampler2D env_shadow_atlas;
+#endif
+
+// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked.
+vec3 ambient_irradiance(vec3 p, vec3 n) {
+    vec3 e = ambient_irradiance(n);
+#if ENVIRONMENT_SHADOWS
+    vec3 blocked = vec3(0.0);
+    for (int k = 0; k < env_lobe_count; ++k) {
+        float c = -dot(n, env_lobe_direction[k]);
+        if (c <= 0.0) continue;
+        float v = map_visibility(env_shadow_atlas, k, LIGHT_DIRECTIONAL, env_lobe_origin[k], env_lobe_direction[k],
+                                 env_lobe_clip_from_world[k], p, n);
+        blocked += (1.0 - v) * c * env_lobe_irradiance[k];
+    }
+    e = max(e - blocked, vec3(0.0));
+#endif
+    return e;
 }

@@ -39,7 +39,8 @@ void main() {
     int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
     if (kind == MATERIAL_DIFFUSE) {
-        vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(n) + caustic_irradiance(world_position, n);
+        vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(world_position, n)
+                 + caustic_irradiance(world_position, n);
         radiance = surface_albedo() / PI * e;
     }
 #endif

@@ -1,0 +1,82 @@
+"""Benchmark: the environment's light in real time (issue 23 parts 2, 3) against Mitsuba, per region.
+
+Scenes: bench_exact_environment's glass ball and red box on a floor in sky-checker, with and without a point
+light, from its camera and from a second, lower one. For each: the Mitsuba composite at ``--reference-spp``
+over ``--seeds`` seeds (averaged), then PSNR per region (bench_exact_environment.regions: glass, caustic,
+diffuse) and median ms of ``auto`` in three states: the sun left in the SH (before part 3), the sun as a
+directional light (part 3, ``environment_lobes=0``) and the sun plus ``--lobes`` environment lobes with
+shadow maps (part 2); ``plain`` gives the cost floor (with the sun and no lobes, as it renders now).
+
+    .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import sys
+from unittest import mock
+
+import numpy as np
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from bench_exact_environment import mixed_scene, regions  # noqa: E402
+
+from caustica.bench.timing import timed_render  # noqa: E402
+from caustica.metrics.images import psnr_linear  # noqa: E402
+from caustica.passes import environment_lights, lights  # noqa: E402
+from caustica.reference.render import render_reference  # noqa: E402
+from caustica.renderer import Renderer  # noqa: E402
+from caustica.scene import Camera  # noqa: E402
+
+
+def scenes(size):
+    for light in (False, True):
+        scene = mixed_scene(size, light)
+        yield scene
+        low = Camera(position=[-3.6, 1.6, 3.4], look_at=[-0.4, 0.5, -0.2], fov_y=45.0, size=size)
+        yield dataclasses.replace(scene, camera=low, name=scene.name + "-low")
+
+
+def states(lobes: int):
+    """(label, context manager, auto parameters) of each state measured."""
+    no_sun = mock.patch.object(lights, "environment_sun",
+                               lambda env: environment_lights.EnvironmentSun(None, env.irradiance_sh()))
+    return [("sun in SH (before)", no_sun, {"environment_lobes": 0}),
+            ("sun as a light", contextlib.nullcontext(), {"environment_lobes": 0}),
+            (f"sun + {lobes} lobes", contextlib.nullcontext(), {"environment_lobes": lobes})]
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", default="128x96")
+    parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--lobes", type=int, default=environment_lights.LOBES)
+    parser.add_argument("--frames", type=int, default=5)
+    args = parser.parse_args(argv)
+    size = tuple(int(v) for v in args.size.lower().split("x"))
+    rows = []
+    for scene in scenes(size):
+        refs = [render_reference(scene, spp=args.reference_spp, progress=False, seed=k) for k in range(args.seeds)]
+        reference = np.mean(refs, axis=0)
+        masks = regions(scene)
+        if len(refs) > 1:
+            spread = " ".join(f"{name} {psnr_linear(refs[0], refs[1], m):.1f}" for name, m in masks.items())
+            print(f"{scene.name}: reference seeds 0 and 1 differ by {spread} dB", file=sys.stderr, flush=True)
+        _, plain_ms = timed_render(Renderer(), scene, "plain", 1, args.frames)
+        for label, context, params in states(args.lobes):
+            with context:
+                image, ms = timed_render(Renderer(), scene, "auto", 1, args.frames, params)
+            scores = " | ".join(f"{psnr_linear(image, reference, m):.1f}" for m in masks.values())
+            rows.append(f"| {scene.name} | {label} | {scores} | {psnr_linear(image, reference):.1f} | {ms:.0f} | "
+                        f"{ms / plain_ms:.2f} |")
+            print(rows[-1], file=sys.stderr, flush=True)
+    print(f"{args.size}, auto 1 spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged\n")
+    print("| scene | auto | glass PSNR | caustic PSNR | diffuse PSNR | PSNR all | ms | x plain |")
+    print("|---|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+
+
+if __name__ == "__main__":
+    main()
