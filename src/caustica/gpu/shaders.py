@@ -24,6 +24,9 @@ from ..scene.codes import CODE_DEFINES
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "shaders"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
 _VERSION = re.compile(r"^\s*#version\b")
+# Right after #version in every program (GLSL allows it nowhere later): fine derivatives where the driver
+# has them (common/environment.glsl); "enable" only warns where it does not.
+EXTENSIONS = "#extension GL_ARB_derivative_control : enable\n"
 # Mesa: "0:12(3): error: ..."; NVIDIA: "0(12) : error C...".
 LINE_STRIDE = 100000
 _ERROR_LOCATION = re.compile(r"\b(\d+)[:(](\d+)\)?(?:\(\d+\))?\s*:")
@@ -56,7 +59,7 @@ class ShaderLibrary:
             raise ShaderError(f"{name}: define {', '.join(shared)} is set by the shader library in every program")
         define_lines = "".join(f"#define {k} {_glsl_value(v)}\n"
                                for k, v in [*sorted(self.defines.items()), *sorted((defines or {}).items())])
-        return header + define_lines + "\n".join(lines) + "\n", files
+        return header + EXTENSIONS + define_lines + "\n".join(lines) + "\n", files
 
     def _expand(self, name: str, files: list[str], stack: tuple) -> list[str]:
         path = self.root / name

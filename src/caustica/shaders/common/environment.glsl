@@ -9,16 +9,18 @@
 // (u, t) by the chain rule; the analytic gradient of u does not see the seam where u wraps, which
 // implicit derivatives of (u, t) would blur. "bilinear" (one level): one bilinear sample, as Mitsuba
 // takes per sample. Fragment stages only (derivatives).
+#ifdef GL_ARB_derivative_control  // enabled by the shader library (gpu/shaders.py)
+#define ENVIRONMENT_DFDX dFdxFine
+#define ENVIRONMENT_DFDY dFdyFine
+#else
+#define ENVIRONMENT_DFDX dFdx
+#define ENVIRONMENT_DFDY dFdy
+#endif
 const float PI = 3.14159265358979;
 const int ENVIRONMENT_TAPS = 8;            // most lookups along a footprint's longer side
 const float ENVIRONMENT_LOD_SCALE = 0.5;   // gradients as GL's level of detail takes them, against a box
 const float ENVIRONMENT_MAGNIFICATION_MAX = 13.0;  // most radians between neighbours' directions per pixel angle
 uniform float environment_pixel_angle;  // radians a pixel subtends at the image centre (0: no filtering)
-// Which surface this pixel shades, where a quad's pixels may show different ones: deferred shading's
-// resolve sets it from the G-buffer (common/surface_main.glsl). A neighbour on another surface
-// gives no footprint. Drawn per fragment, a quad's lanes that miss the triangle extrapolate its
-// own surface, so it stays 0.
-float environment_surface_id = 0.0;
 
 // The mean of the texture over the parallelogram (u, t) + a gradient_x + b gradient_y, |a|, |b| <= 1/2:
 // taps along its longer side, each a trilinear lookup as wide as the shorter side and its own share of
@@ -52,13 +54,18 @@ vec3 environment_radiance(sampler2D environment, vec3 d) {
     float horizontal = max(d.x * d.x + d.z * d.z, 1e-8);
     vec2 per_xz = vec2(d.z, -d.x) * (-1.0 / (2.0 * PI * horizontal));   // du = dot(per_xz, (dx, dz))
     float per_y = -(size.y - 1.0) / (size.y * PI * sqrt(horizontal));   // dt = per_y * dy
-    vec3 ddx = dFdx(d), ddy = dFdy(d);
+    // Fine derivatives: each pixel's own row and column of its quad (coarse ones share one for the quad,
+    // which makes a mirrored view filter differently from its mirror image).
+    vec3 ddx = ENVIRONMENT_DFDX(d), ddy = ENVIRONMENT_DFDY(d);
     // A neighbour whose direction differs by more than a curved surface magnifies (another bounce,
     // total internal reflection, a rim) is no footprint: that axis stays unfiltered rather than blurred
-    // across the discontinuity (and a NaN neighbour too).
+    // across the discontinuity (and a NaN neighbour too). A neighbour on another object within the cap
+    // (deferred shading's resolve reads it from the G-buffer) is kept: at an outline the wider
+    // footprint stands in for the pixel's mix of the two (glass-sphere against Mitsuba 40.7 dB with
+    // it, 39.2 dB when a quad across objects is left unfiltered; docs/antialiasing.md).
     float footprint_max = ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle;
-    if (!(dot(ddx, ddx) <= footprint_max * footprint_max) || dFdx(environment_surface_id) != 0.0) ddx = vec3(0.0);
-    if (!(dot(ddy, ddy) <= footprint_max * footprint_max) || dFdy(environment_surface_id) != 0.0) ddy = vec3(0.0);
+    if (!(dot(ddx, ddx) <= footprint_max * footprint_max)) ddx = vec3(0.0);
+    if (!(dot(ddy, ddy) <= footprint_max * footprint_max)) ddy = vec3(0.0);
     vec2 gradient_x = vec2(dot(per_xz, ddx.xz), per_y * ddx.y);
     vec2 gradient_y = vec2(dot(per_xz, ddy.xz), per_y * ddy.y);
     return environment_footprint(environment, vec2(u, t), gradient_x, gradient_y);

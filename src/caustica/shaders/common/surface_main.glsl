@@ -15,7 +15,6 @@ void main() {
     deferred_pixel_ray(ray_origin, ray_direction);
     world_position = ray_origin + surface.w * ray_direction;
     world_normal = surface.xyz;  // facing the eye
-    environment_surface_id = length(surface.xyz);  // the object id (the normal is a unit vector)
     vec3 v = normalize(world_position - camera_position);
     vec3 n = normalize(world_normal);
 #else
