@@ -393,6 +393,7 @@ def test_prism_flux_per_channel_impostor_caustics(keeper):
     starts on the edge) and none for this light, and a face's flux is the spot's irradiance at its centroid,
     outside the 1.5 degree beam (the paper tabulates finely tessellated objects)."""
     scene = PRESETS["caustics-prism"]()
+    scene.environment = procedural_environment("black")  # the spot's flux alone (no sun in the sky)
     floor = [o.name for o in scene.objects].index("floor")
     exact = trace_photons(scene, count=200_000, branches="transmit", seed=2).on(floor).flux.sum(axis=0)
     ratio = floor_caustic_flux(keeper, "impostor-caustics", scene, floor) / exact

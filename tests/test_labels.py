@@ -11,6 +11,7 @@ from caustica.labels import LABELS, material_table, read_labels, write_labels
 from caustica.raytrace.optics import dot, refract
 from caustica.scene import Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform
 from caustica.scene import procedural_environment
+from caustica.scene.environment import Environment, sky_checker
 from caustica.scene.shapes import box, plane, sphere
 
 SIZE = (64, 48)
@@ -213,12 +214,17 @@ def test_flow_under_a_water_surface_lands_on_the_floor_by_snell(renderer):
 
 
 def ball_over_floor(lights=True, caster=True) -> Scene:
+    """Without lights the sky has no sun either (the raster techniques light with the sun as a
+    directional light, passes/environment_lights.py)."""
     objects = [SceneObject("floor", plane((12.0, 12.0)), Diffuse(color=[0.5, 0.5, 0.5]))]
     if caster:
         objects.append(SceneObject("ball", sphere(0.6, 5), Glass(1.5), Transform(position=[0.0, 1.2, 0.0])))
     camera = Camera(position=[0.0, 2.2, 4.2], look_at=[0.0, 0.5, 0.0], fov_y=40.0, size=SIZE)
-    return scene_of(objects, camera, [PointLight(position=[0.0, 4.0, 0.0], intensity=[20.0, 20.0, 20.0])]
-                    if lights else [])
+    scene = scene_of(objects, camera, [PointLight(position=[0.0, 4.0, 0.0], intensity=[20.0, 20.0, 20.0])]
+                     if lights else [])
+    if not lights:
+        scene.environment = Environment(sky_checker(sun_direction=None), source="test:sky-checker without its sun")
+    return scene
 
 
 @pytest.mark.parametrize("lights, caster", [(False, True), (True, False)])

@@ -36,7 +36,11 @@ def flat_scene(radius: float, resolution: int = 8) -> Scene:
         objects.append(SceneObject("near-box", box((0.5, 0.3, 0.05)), Diffuse(color=[0.95, 0.95, 0.95]),
                                    Transform(position=[0.0, -0.3, 0.3])))
     camera = Camera(position=[0.2, 0.1, 2.0], look_at=[0, 0, 0], fov_y=35.0, size=(96, 96))
-    return Scene(camera=camera, objects=objects, environment=procedural_environment("sky-checker"))
+    # Ambient only: a sky without its sun, which the raster techniques would add as a directional light.
+    from caustica.scene.environment import Environment, sky_checker
+
+    sky = Environment(sky_checker(sun_direction=None), source="test:sky-checker without its sun")
+    return Scene(camera=camera, objects=objects, environment=sky)
 
 
 def reflector_maps(renderer, scene, index, params):

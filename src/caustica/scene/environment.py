@@ -204,7 +204,8 @@ def sky_checker(width: int = 1024, height: int = 512, sun_direction=(0.4, 0.6, -
 
     The ground checker has 24 squares around and 6 down to the nadir so that
     refraction bends visible straight lines; the sun (radiance 40, 2.5 degrees
-    radius, smooth rim) makes Fresnel highlights.
+    radius, smooth rim) makes Fresnel highlights, and the raster techniques light
+    diffuse surfaces with it as a directional light. ``sun_direction=None``: no sun.
     """
     v = (np.arange(height) + 0.5) / height
     u = (np.arange(width) + 0.5) / width
@@ -221,6 +222,8 @@ def sky_checker(width: int = 1024, height: int = 512, sun_direction=(0.4, 0.6, -
     # Blend over a thin band around the horizon so the image has no hard step there.
     blend = np.clip(elevation / 0.02 + 0.5, 0.0, 1.0)[..., None]
     img = sky * blend + ground * (1 - blend)
+    if sun_direction is None:
+        return img.astype(np.float32)
     # Sun: a bright disk.
     sun = np.asarray(sun_direction, dtype=np.float64)
     sun /= np.linalg.norm(sun)
