@@ -135,6 +135,26 @@ class ViewVolume:
         return uv, zoom, valid
 
 
+def hidden(volumes: list[ViewVolume], which: np.ndarray, lines: Lines, ray_scene) -> np.ndarray:
+    """(n,) bool: the forward map of ``volumes[which[i]]`` does not show line i's exact hit, another
+    surface lies before it as seen from the viewpoint (the occlusion inconsistency of section 6, fig. 16).
+    ``ray_scene``: the maps' scene (without the reflector). Misses and zooming-region hits: False."""
+    position = np.array([v.position for v in volumes])[which]
+    forward = -np.array([v.view_from_world[2, :3] for v in volumes])[which]
+    near = np.array([v.near for v in volumes])[which]
+    offset = lines.hit_points - position
+    distance = np.linalg.norm(offset, axis=1)
+    towards = offset / np.maximum(distance, 1e-300)[:, None]
+    cosine = np.einsum("ij,ij->i", towards, forward)
+    test = np.nonzero(lines.finite & (cosine > 1e-6))[0]
+    out = np.zeros(len(distance), bool)
+    if len(test):
+        start = near[test] / cosine[test]  # the map sees nothing before its near plane
+        hits = ray_scene.intersect(position[test] + start[:, None] * towards[test], towards[test])
+        out[test] = hits.hit & (start + hits.t < distance[test] * (1.0 - 1e-4) - 1e-6)
+    return out
+
+
 def _to_view(view_from_world, points, directions, finite) -> np.ndarray:
     """View-space coordinates of hit points, or of directions (w = 0) where ``finite`` is False."""
     rotated = directions @ view_from_world[:3, :3].T
@@ -175,18 +195,26 @@ def fit_view_volume(lines: Lines, reflector_points: np.ndarray, scene_bounds: np
     forward = normalize(chosen.directions.mean(axis=0))
     if np.linalg.norm(forward) < 1e-9:
         forward = chosen.directions[0]
-    scale = float(np.linalg.norm(np.ptp(np.vstack([scene_bounds, reflector_points, position[None]]), axis=0))) + 1e-9
     best = None
     for candidate in (up, *up_candidates):
-        volume = _frustum(lines, reflector_points, scene_bounds, position, forward, candidate, scale)
+        volume = _frustum(lines, reflector_points, scene_bounds, position, forward, candidate)
         area = (volume.bounds[1] - volume.bounds[0]) * (volume.bounds[3] - volume.bounds[2])
         if best is None or area < best[0]:
             best = (area, volume)
     return best[1]
 
 
-def _frustum(lines: Lines, reflector_points, scene_bounds, position, forward, up, scale) -> ViewVolume:
+def widen_view_volume(volume: ViewVolume, lines: Lines, reflector_points: np.ndarray,
+                      scene_bounds: np.ndarray) -> ViewVolume:
+    """``volume``'s viewpoint and axes with a frustum and planes that hold ``lines`` (3.3): for vertices
+    added to a patch whose viewpoint stays."""
+    view = volume.view_from_world
+    return _frustum(lines, reflector_points, scene_bounds, volume.position, -view[2, :3], view[1, :3])
+
+
+def _frustum(lines: Lines, reflector_points, scene_bounds, position, forward, up) -> ViewVolume:
     """The view volume from ``position`` along ``forward`` with ``up`` (projected off ``forward``)."""
+    scale = float(np.linalg.norm(np.ptp(np.vstack([scene_bounds, reflector_points, position[None]]), axis=0))) + 1e-9
     up = np.asarray(up, dtype=np.float64)
     up = up - np.dot(up, forward) * forward
     if np.linalg.norm(up) < 1e-6:

@@ -12,12 +12,19 @@ and lens in the scene, each frame:
    on a principal curvature direction for saddles and cylinders (4.3). A
    reflector whose frustum field of view exceeds ``fov_threshold`` is split
    into patches that share their boundary vertices, each with its own E (4.1).
+   Made adaptive (ours; 4.1 leaves it for future work): a mirror's patch is
+   also split while its map hides the exact hits of more than ``split_hidden``
+   of the mirror's vertices (an object seen from E in front of what the ray
+   meets, the inconsistency of section 6, fig. 16: a smaller patch has its E
+   nearer its lines). ``refine`` > 0 (ours) also splits mesh edges across
+   reflected edges and hit/escape borders (per_vertex/refine.py).
 4. The reflection map: the scene without the reflector, rendered from E with
    the off-axis frustum (ShadeSurfaces, the same shading as the eye view). The
    paper's map is square and fixed (``map_size``); by default (``map_size`` 0,
    our extension) it holds ``map_density`` texels per screen pixel the patch
    covers, shaped like the frustum, since on a CPU rasterizer this second
-   render is most of the frame's cost.
+   render is most of the frame's cost (1 texel: 0.5 blurred the box edges a
+   curved mirror reflects, up to 5 dB, for about 1 ms a frame at 256x192).
    Hits between a concave mirror (or a convex lens) and E, the zooming region,
    get a second map looking back at the reflector with the reversed depth test
    (4.2, fig. 8-9). Mirrors inside a map are themselves rendered per vertex
@@ -31,13 +38,19 @@ and lens in the scene, each frame:
    (``ior_rgb``, or the glass's Abbe number) gives each channel its own
    texture coordinates into one shared map (chromatic aberration, fig. 15).
 
+Steps 1-3 are kept while scene, camera and parameters stay the same (a still
+frame traces no ray). Mirrors inside a map (``depth`` 2 and more) keep the
+paper's method: their eye is E, so their rays are not the light's paths.
+
 With ``cache`` the refraction vectors (step 1 for lenses) are reused while the
 lens stays fixed relative to the eye (section 5); the scene hits, viewpoint and
 texture coordinates are still recomputed every frame.
 
 Limits (the paper's): accurate at vertices only, so coarse meshes blur and bend
 the reflection between them; occlusion seen from E can differ from occlusion
-along a reflected ray (section 6, fig. 16; exact only for planar mirrors);
+along a reflected ray (section 6, fig. 16; exact only for planar mirrors; the
+adaptive patches shrink it, the edges of an object seen from E near the mirror
+still move by up to a few pixels);
 objects between the reflector and the near plane are clipped; hits next to the
 converging point of a concave mirror or convex lens stretch the map; a lens
 shows only its twice-refracted ray (no internal reflections beyond TIR), and
@@ -46,20 +59,23 @@ nothing seen through glass in a map is refracted twice.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
-from ..cache import LruCache
+from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.base import Channel, Frame, Pass
 from ..passes.lights import ShadowMaps
 from ..passes.offscreen import OffscreenCamera, render_offscreen, scene_subset
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
-from ..per_vertex.patches import Patch, split_patches
+from ..per_vertex.patches import Patch, split_patches, unique_indices
+from ..per_vertex.refine import Traced, refine
 from ..per_vertex.rays import double_refraction, reflection_rays, trace_lines
-from ..per_vertex.viewpoint import UP_MODES, Lines, ViewVolume, fit_view_volume, principal_directions
+from ..per_vertex.viewpoint import (UP_MODES, Lines, ViewVolume, fit_view_volume, hidden, principal_directions,
+                                   widen_view_volume)
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.optics import normalize
 from ..scene.scene import Scene
@@ -68,8 +84,12 @@ from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
 
-LAST_STATS: dict = {}  # the last frame's figures: per-vertex ms, ray-issuing vertices, patches, maps
+LAST_STATS: dict = {}  # the last frame's figures: per-vertex ms, ray-issuing vertices (the mesh's, refined), patches, maps
 _LENS_CACHE = LruCache(32)  # refraction vectors in eye space while a lens is fixed to the eye
+_REFLECTORS = LruCache(16)  # steps 1-3 of a frame, kept while scene, camera and parameters stay the same
+REFINE_MIN_PIXELS = 1.0  # mirror edges this short on the screen are not split
+REFINE_TEST_PIXELS = 4.0  # shorter edges are split only where their ends' rays hit different surfaces
+REFINE_BUDGET = 8  # a refined mirror has at most this many times its mesh's vertices
 
 
 @dataclass
@@ -78,8 +98,9 @@ class PerVertexParams(ShadowedParams):
 
     map_size: int = param(0, range=(16, 8192), special={0: "sized to the reflector"}, unit="texels",
                           paper="Kakimoto et al. 3.4", help="reflection map texels a side (square, the paper's)")
-    map_density: float = param(0.5, range=(0.05, 64.0), unit="texels per pixel",
-                               help="map_size 0: map texels per screen pixel the reflector covers (ours)")
+    map_density: float = param(1.0, range=(0.05, 64.0), unit="texels per pixel",
+                               help="map_size 0: map texels per screen pixel the reflector covers (ours; 0.5 blurred "
+                                    "a curved mirror's reflection)")
     depth: int = param(1, range=(0, 8), unit="levels", paper="Kakimoto et al. 4.4",
                        help="reflector levels rendered per vertex: 2 shows a mirror in a mirror")
     fov_threshold: float = param(100.0, range=(1.0, 179.0), unit="degrees", paper="Kakimoto et al. 4.1",
@@ -97,6 +118,16 @@ class PerVertexParams(ShadowedParams):
     lenses: bool = param(True, paper="Kakimoto et al. 4.5", help="glass objects refract per vertex (False: env-map shading)")
     max_interfaces: int = param(4, range=(1, 32), paper="Kakimoto et al. 4.5",
                                 help="lens: interfaces followed inside (TIR reflects)")
+    split_hidden: float = param(0.003, range=(0.0, 1.0), special={1.0: "never: the field-of-view rule alone"},
+                                paper="Kakimoto et al. 4.1, fig. 6, 16",
+                                help="mirrors: also split a patch while its map hides the exact hits of more than "
+                                     "this fraction of the mirror's vertices (ours)")
+    refine: float = param(0.0, range=(0.0, 64.0), unit="pixels", special={0: "the mesh's own vertices, as the paper"},
+                          paper="Kakimoto et al. 4.1, fig. 6",
+                          help="mirrors: split mesh edges across reflected edges and where the interpolated "
+                               "reflection strays this far from the exact one (ours)")
+    refine_levels: int = param(4, range=(0, 8), unit="levels", paper="Kakimoto et al. 4.1, fig. 6",
+                               help="mirrors: most times refine halves an edge of the mesh")
 
 
 @dataclass
@@ -111,6 +142,8 @@ class Reflector:
     weight: np.ndarray  # (m, 3) mirror colour, or lens exit transmittance per channel
     valid: np.ndarray  # (m,) the vertex has a usable ray
     points: np.ndarray  # (m, 3) world positions of the ray-issuing vertices
+    local_points: np.ndarray  # (m, 3) their object-space positions and normals (drawn)
+    local_normals: np.ndarray
     patches: list[Patch] = field(default_factory=list)
     uv: list[np.ndarray] = field(default_factory=list)  # per patch: (3, k, 2)
     zoom: list[np.ndarray] = field(default_factory=list)  # per patch: (k,) bool
@@ -126,10 +159,15 @@ def reflector_kind(obj, params: PerVertexParams) -> str | None:
 
 
 def prepare_reflector(scene, index: int, eye, camera_up, ray_scene, params: PerVertexParams,
-                      eye_from_world: np.ndarray | None = None) -> Reflector:
+                      eye_from_world: np.ndarray | None = None, camera=None, nested: bool = False) -> Reflector:
     """Steps 1-3 for ``scene.objects[index]``: rays, exact hits, patches, texture coordinates (CPU).
 
-    ``eye_from_world`` (the eye camera's view matrix) keys the lens cache of ``params.cache``.
+    ``eye_from_world`` (the eye camera's view matrix) keys the lens cache of ``params.cache``. With
+    ``camera`` (the eye camera: its size and clip matrix), a mirror's mesh is refined on its screen
+    (``params.refine``); the vertices it adds follow the mesh's in ``points`` and ``channels``.
+    A mirror seen in another's map (``nested``, 4.4) keeps the paper's method: its eye is a virtual
+    viewpoint, so its rays are not the light's paths and the corrections that trust them (patches split
+    where the map hides a hit, refinement) stay off.
     """
     obj = scene.objects[index]
     lens = reflector_kind(obj, params) == "lens"
@@ -143,15 +181,86 @@ def prepare_reflector(scene, index: int, eye, camera_up, ray_scene, params: PerV
     vertex_ids, local = np.unique(faces, return_inverse=True)
     faces_local = local.reshape(-1, 3)
     p, n = points[vertex_ids], normals[vertex_ids]
+    local_points, local_normals = obj.mesh.vertices[vertex_ids], obj.mesh.normals[vertex_ids]
+    hits = None
     if not lens:
         origins, dirs = reflection_rays(eye, p, n)
-        lines, _ = trace_lines(ray_scene, origins, dirs)
+        lines, hits = trace_lines(ray_scene, origins, dirs)
         channels, weight, valid = [lines], np.tile(obj.material.color, (len(p), 1)), np.ones(len(p), bool)
     else:
         channels, weight, valid = _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world)
-    reflector = Reflector(index, lens, vertex_ids, faces_local, channels, weight, valid, p)
-    _fit_patches(reflector, scene, p, n, eye, camera_up, params)
+    reflector = Reflector(index, lens, vertex_ids, faces_local, channels, weight, valid, p, local_points, local_normals)
+    fit = _volume_fit(reflector, scene, p, n, eye, camera_up, params)
+    green = reflector.channels[min(1, len(reflector.channels) - 1)]
+    hides = None
+    map_scene = None if lens or nested else ray_scene_for(scene_without(scene, index))  # what its maps show
+    if params.split_hidden < 1.0 and map_scene is not None:
+
+        def hides(vertices, volume) -> bool:
+            count = hidden([volume], np.zeros(len(vertices), np.int64), lines.subset(vertices), map_scene).sum()
+            return bool(count > params.split_hidden * len(p))
+    reflector.patches = split_patches(reflector.faces, green.directions, fit, params.fov_threshold, params.max_patches,
+                                      hides)
+    if map_scene is not None and camera is not None and params.refine > 0 and params.refine_levels > 0:
+        _refine_mirror(reflector, n, Traced(lines, hits.object_index, hits.normal), eye, camera, ray_scene, map_scene,
+                       scene.bounds(), params)
+    _texture_coordinates(reflector)
     return reflector
+
+
+def _refine_mirror(reflector: Reflector, normals, traced: Traced, eye, camera, ray_scene, map_scene, bounds,
+                   params: PerVertexParams) -> None:
+    """Adaptive subdivision of a mirror's mesh (refine.py), judged in each patch's map; each patch keeps
+    the pieces of its faces and its viewpoint, its frustum widened to hold their lines."""
+
+    def trace(attributes) -> Traced:
+        lines, hits = trace_lines(ray_scene, *reflection_rays(eye, attributes["points"], normalize(attributes["normals"])))
+        return Traced(lines, hits.object_index, hits.normal)
+
+    patch_of = np.zeros(len(reflector.faces), np.int64)
+    for k, patch in enumerate(reflector.patches):
+        patch_of[patch.rows] = k
+    volumes = [patch.volume for patch in reflector.patches]
+
+    def per_patch(measure):
+        """``measure(volume, lines)`` of each line in the map of its face's patch."""
+        def apply(lines, faces):
+            groups, out = patch_of[faces], None
+            for k in unique_indices(groups):
+                mine = groups == k
+                part = measure(reflector.patches[k].volume, lines.subset(mine))
+                out = np.zeros((len(faces), *part.shape[1:]), part.dtype) if out is None else out
+                out[mine] = part
+            return out
+        return apply
+
+    attributes = {"points": reflector.points, "normals": normals, "local_points": reflector.local_points,
+                  "local_normals": reflector.local_normals}
+    refined = refine(reflector.faces, attributes, traced, trace, lambda a: screen_pixels(camera, a["points"]),
+                     per_patch(lambda volume, lines: volume.texture_coordinates(lines)[0]), params.refine,
+                     REFINE_MIN_PIXELS, REFINE_TEST_PIXELS, params.refine_levels, REFINE_BUDGET * len(reflector.points),
+                     lambda lines, faces: hidden(volumes, patch_of[faces], lines, map_scene))
+    if refined.levels == 0:
+        return
+    count = len(refined.traced.objects)
+    reflector.faces, reflector.channels = refined.faces, [refined.traced.lines]
+    reflector.points = refined.attributes["points"]
+    reflector.local_points, reflector.local_normals = refined.attributes["local_points"], refined.attributes["local_normals"]
+    reflector.weight = np.resize(reflector.weight, (count, 3))
+    reflector.valid = np.ones(count, bool)
+    patch_of = patch_of[refined.parents]
+    patches = []
+    for k, patch in enumerate(reflector.patches):
+        rows = np.nonzero(patch_of == k)[0]
+        vertices = unique_indices(refined.faces[rows])
+        lines, volume = reflector.channels[0].subset(vertices), patch.volume
+        uv, zoom, valid = volume.texture_coordinates(lines)
+        view = volume.view_from_world
+        depth = -(lines.hit_points[lines.finite & ~zoom] @ view[2, :3] + view[2, 3])
+        if not (valid.all() and np.all((uv > 0.0) & (uv < 1.0)) and np.all(depth > volume.near)):  # a new line
+            volume = widen_view_volume(volume, lines, reflector.points[vertices], bounds)  # leaves the frustum
+        patches.append(Patch(refined.faces[rows], vertices, volume, rows))
+    reflector.patches = patches
 
 
 def _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world):
@@ -185,26 +294,31 @@ def _lens_lines(scene, index, obj, eye, p, n, ray_scene, params, eye_from_world)
     return channels, np.where(valid[:, None], weight, 0.0), valid
 
 
-def _fit_patches(reflector: Reflector, scene, p, n, eye, camera_up, params) -> None:
-    """Viewpoints, view volumes and patches (3.2, 3.3, 4.1, 4.3), then texture coordinates (3.4)."""
-    green = reflector.channels[min(1, len(reflector.channels) - 1)]
+def _volume_fit(reflector: Reflector, scene, p, n, eye, camera_up, params) -> Callable[[np.ndarray], ViewVolume]:
+    """``fit(vertices)``: the view volume of those of the reflector's vertices (3.2, 3.3, 4.3), from
+    its lines at the time of the call (a refined mirror has more)."""
     bounds = scene.bounds()
     principal = principal_directions(p, n, eye - p.mean(axis=0))[0] if len(p) >= 3 else np.zeros((2, 3))
     camera_up = np.asarray(camera_up, dtype=np.float64)
     up, extra = {"principal": (principal[0], ()), "camera": (camera_up, ()),
                  "auto": (principal[0], (camera_up,))}[params.up]  # the other principal direction: the same box turned
-    distinct = [reflector.channels[0]] if len(reflector.channels) == 1 else reflector.channels
 
     def fit(vertices: np.ndarray) -> ViewVolume:
+        green = reflector.channels[min(1, len(reflector.channels) - 1)]
+        distinct = [reflector.channels[0]] if len(reflector.channels) == 1 else reflector.channels
         vertices = vertices[reflector.valid[vertices]]
         if len(vertices) == 0:
-            vertices = np.arange(len(p))
+            vertices = np.arange(len(reflector.points))
         lines = [ch.subset(vertices) for ch in distinct]
         merged = Lines(*(np.concatenate([getattr(x, name) for x in lines]) for name in ("origins", "directions", "distance")))
-        return fit_view_volume(merged, p[vertices], bounds, up, extra, viewpoint_lines=green.subset(vertices))
+        return fit_view_volume(merged, reflector.points[vertices], bounds, up, extra,
+                               viewpoint_lines=green.subset(vertices))
 
-    directions = green.directions
-    reflector.patches = split_patches(reflector.faces, directions, fit, params.fov_threshold, params.max_patches)
+    return fit
+
+
+def _texture_coordinates(reflector: Reflector) -> None:
+    """Each patch's texture coordinates of its vertices' exact hits (3.4), and its zooming-region flags (4.2)."""
     for patch in reflector.patches:
         coords = [patch.volume.texture_coordinates(ch.subset(patch.vertices)) for ch in reflector.channels]
         uv = np.stack([c[0] for c in coords])
@@ -227,12 +341,19 @@ class PerVertexReflectors(Pass):
         targets = [i for i, obj in enumerate(scene.objects) if reflector_kind(obj, params)]
         if self.depth <= 0 or not targets:
             return
-        eye = np.asarray(frame.camera.position, dtype=np.float64)
-        ray_scene = ray_scene_for(scene)
+        camera = frame.camera
+        eye = np.asarray(camera.position, dtype=np.float64)
         start = time.perf_counter()
-        eye_from_world = frame.camera.view_from_world()
-        reflectors = [prepare_reflector(scene, i, eye, frame.camera.up, ray_scene, params, eye_from_world)
-                      for i in targets]
+        eye_from_world = camera.view_from_world()
+        # Everything steps 1-3 read: a still frame (a paused viewer, a re-render) traces no ray again.
+        nested = self.depth < params.depth
+        key = (scene_state_key(scene), material_state_key(scene), state_key(params), nested, tuple(camera.size),
+               *(np.asarray(m, np.float64).tobytes() for m in (eye, camera.up, eye_from_world, camera.clip_from_world())))
+        reflectors = _REFLECTORS.get(key)
+        if reflectors is None:
+            ray_scene = ray_scene_for(scene)
+            reflectors = _REFLECTORS[key] = [prepare_reflector(scene, i, eye, camera.up, ray_scene, params,
+                                                               eye_from_world, camera, nested) for i in targets]
         cpu_ms = (time.perf_counter() - start) * 1000.0
         # First pass: one map (two with a zooming region) per patch, the reflector left out.
         start = time.perf_counter()
@@ -251,6 +372,7 @@ class PerVertexReflectors(Pass):
             LAST_STATS.clear()
             LAST_STATS.update(per_vertex_ms=cpu_ms, map_ms=map_ms, reflectors=reflectors,
                               ray_vertices=int(sum(len(r.vertex_ids) for r in reflectors)),
+                              refined_vertices=int(sum(len(r.points) for r in reflectors)),
                               patches=int(sum(len(r.patches) for r in reflectors)))
 
     def _maps(self, frame: Frame, subscene: Scene, volume: ViewVolume, zoom: bool, size: tuple[int, int]):
@@ -266,6 +388,16 @@ class PerVertexReflectors(Pass):
 _MAP_SIDES = (32, 48, 64, 96, 128, 192, 256, 384, 512, 768, 1024, 1536, 2048)
 
 
+def screen_pixels(camera, points: np.ndarray, clamp: bool = False) -> np.ndarray:
+    """(n, 2) pixel positions of world ``points`` on ``camera``'s image (``clamp``: to its borders); nan
+    for a point behind the eye."""
+    clip = np.c_[points, np.ones(len(points))] @ np.asarray(camera.clip_from_world(), np.float64).T
+    w = clip[:, 3:4]
+    ndc = clip[:, :2] / np.where(w > 1e-9, w, np.nan)
+    return (np.clip(ndc, -1.0, 1.0) if clamp else ndc) * 0.5 * np.asarray(camera.size, np.float64) + \
+        0.5 * np.asarray(camera.size, np.float64)
+
+
 def map_texels(camera, points: np.ndarray, patch: Patch, params: PerVertexParams) -> tuple[int, int]:
     """Reflection map size (width, height) for one patch.
 
@@ -276,12 +408,10 @@ def map_texels(camera, points: np.ndarray, patch: Patch, params: PerVertexParams
     """
     if params.map_size:
         return params.map_size, params.map_size
-    clip = np.c_[points, np.ones(len(points))] @ np.asarray(camera.clip_from_world(), np.float64).T
-    w = clip[:, 3]
-    if np.any(w <= 1e-9):  # the patch reaches behind the eye: no footprint to measure
+    pixels = screen_pixels(camera, points, clamp=True)
+    if np.isnan(pixels[patch.vertices]).any():  # the patch reaches behind the eye: no footprint to measure
         covered = float(camera.size[0] * camera.size[1])
     else:
-        pixels = (np.clip(clip[:, :2] / w[:, None], -1.0, 1.0) * 0.5 + 0.5) * np.asarray(camera.size, np.float64)
         a, b, c = (pixels[patch.faces[:, k]] for k in range(3))
         (ux, uy), (vx, vy) = (b - a).T, (c - a).T
         covered = 0.5 * float(np.abs(ux * vy - uy * vx).sum())
@@ -322,11 +452,10 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     gpu, ctx = frame.gpu, frame.gpu.ctx
     patch = reflector.patches[k]
     obj = frame.scene.objects[reflector.index]
-    ids = reflector.vertex_ids[patch.vertices]
     uv, zoom = reflector.uv[k], reflector.zoom[k]
-    data = np.hstack([obj.mesh.vertices[ids], obj.mesh.normals[ids], uv[0], uv[1], uv[2],
-                      zoom[:, None].astype(np.float64), reflector.weight[patch.vertices]]).astype("f4")
-    remap = np.full(len(reflector.vertex_ids), -1, np.int64)
+    data = np.hstack([reflector.local_points[patch.vertices], reflector.local_normals[patch.vertices], uv[0], uv[1],
+                      uv[2], zoom[:, None].astype(np.float64), reflector.weight[patch.vertices]]).astype("f4")
+    remap = np.full(len(reflector.points), -1, np.int64)
     remap[patch.vertices] = np.arange(len(patch.vertices))
     indices = remap[patch.faces].astype("i4")
     # One variant per case (the shader's LENS, ZOOM, DISPERSION): CPU rasterizers run every branch.
