@@ -180,9 +180,13 @@ OCCLUDED = (f"; the sky's light shadowed by the other objects: environment_lobes
 
 def _occluded_ambient(scene) -> bool:
     """Whether the environment lobes' shadows pay: diffuse surfaces with another object to occlude their
-    environment light, and an environment that sheds some."""
+    environment light, an environment that sheds some, and no lights of the scene's own. Where the scene
+    has lights, the sky's share of the diffuse light is small: on caustics-point and caustics-spot the
+    lobes changed no figure (35.25 and 36.73 dB against Mitsuba either way) for 1.8x the frame, and
+    mirror-concave lost 0.9 dB (docs/environment-light.md)."""
     diffuse = [o for o in scene.objects if o.material.kind == "diffuse"]
-    return bool(diffuse) and len(scene.objects) > 1 and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
+    return (bool(diffuse) and len(scene.objects) > 1 and not scene.lights
+            and bool(np.any(scene.environment.irradiance_sh()[0] > 0)))
 
 
 def _lights(lit: list, sun) -> str:
