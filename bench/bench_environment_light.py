@@ -17,15 +17,11 @@ import dataclasses
 import sys
 from unittest import mock
 
-import numpy as np
-
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from bench_exact_environment import mixed_scene, regions  # noqa: E402
+from bench_exact_environment import mixed_scene, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import timed_render  # noqa: E402
-from caustica.metrics.images import psnr_linear  # noqa: E402
 from caustica.passes import environment_lights, lights  # noqa: E402
-from caustica.reference.render import render_reference  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
 from caustica.scene import Camera  # noqa: E402
 
@@ -58,18 +54,15 @@ def main(argv=None) -> None:
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows = []
     for scene in scenes(size):
-        refs = [render_reference(scene, spp=args.reference_spp, progress=False, seed=k) for k in range(args.seeds)]
-        reference = np.mean(refs, axis=0)
-        masks = regions(scene)
-        if len(refs) > 1:
-            spread = " ".join(f"{name} {psnr_linear(refs[0], refs[1], m):.1f}" for name, m in masks.items())
-            print(f"{scene.name}: reference seeds 0 and 1 differ by {spread} dB", file=sys.stderr, flush=True)
-        _, plain_ms = timed_render(Renderer(), scene, "plain", 1, args.frames)
+        reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
+        with Renderer() as renderer:
+            _, plain_ms = timed_render(renderer, scene, "plain", 1, args.frames)
         for label, context, params in states(args.lobes):
-            with context:
-                image, ms = timed_render(Renderer(), scene, "auto", 1, args.frames, params)
-            scores = " | ".join(f"{psnr_linear(image, reference, m):.1f}" for m in masks.values())
-            rows.append(f"| {scene.name} | {label} | {scores} | {psnr_linear(image, reference):.1f} | {ms:.0f} | "
+            # A renderer (and device cache) per state: the states share the scene's cache key, and the
+            # shadow maps cached with the sun must not serve the state without it.
+            with context, Renderer() as renderer:
+                image, ms = timed_render(renderer, scene, "auto", 1, args.frames, params)
+            rows.append(f"| {scene.name} | {label} | {region_cells(image, reference, masks)} | {ms:.0f} | "
                         f"{ms / plain_ms:.2f} |")
             print(rows[-1], file=sys.stderr, flush=True)
     print(f"{args.size}, auto 1 spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged\n")

@@ -55,6 +55,24 @@ def regions(scene) -> dict[str, np.ndarray]:
     return {"glass": masks["refractor"], "caustic": masks["caustic"], "diffuse": diffuse & ~masks["caustic"]}
 
 
+def seeded_reference(scene, spp: int, seeds: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The mean of ``seeds`` Mitsuba references and the region masks; the spread of two seeds per region
+    (the noise of one seed, the mean's about 3 dB lower) on stderr."""
+    refs = [render_reference(scene, spp=spp, progress=False, seed=k) for k in range(seeds)]
+    masks = regions(scene)
+    if len(refs) > 1:
+        spread = " ".join(f"{name} {psnr_linear(refs[0], refs[1], m):.1f}" for name, m in masks.items())
+        print(f"{scene.name}: reference seeds 0 and 1 differ by: {spread} dB; "
+              f"pixels {' '.join(f'{n} {int(m.sum())}' for n, m in masks.items())}", file=sys.stderr, flush=True)
+    return np.mean(refs, axis=0), masks
+
+
+def region_cells(image, reference, masks) -> str:
+    """The table cells PSNR per region, then over the whole image."""
+    scores = " | ".join(f"{psnr_linear(image, reference, m):.1f}" for m in masks.values())
+    return f"{scores} | {psnr_linear(image, reference):.1f}"
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", default="128x96")
@@ -66,20 +84,13 @@ def main(argv=None) -> None:
     rows = []
     for light in (False, True):
         scene = mixed_scene(size, light)
-        refs = [render_reference(scene, spp=args.reference_spp, progress=False, seed=k) for k in range(args.seeds)]
-        reference = np.mean(refs, axis=0)
-        masks = regions(scene)
-        if len(refs) > 1:  # two seeds' spread per region: the noise of one seed (the mean's is about 3 dB lower)
-            spread = " ".join(f"{name} {psnr_linear(refs[0], refs[1], m):.1f}" for name, m in masks.items())
-            print(f"{scene.name}: reference seeds 0 and 1 differ by: {spread} dB; "
-                  f"pixels {' '.join(f'{n} {int(m.sum())}' for n, m in masks.items())}", file=sys.stderr, flush=True)
+        reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
         for label, params in (("before (environment_samples=0)", ExactParams(environment_samples=0)),
                               ("after (defaults)", ExactParams())):
             start = time.perf_counter()
             image = Exact().render(scene, scene.camera, params, args.spp)
             seconds = time.perf_counter() - start
-            scores = " | ".join(f"{psnr_linear(image, reference, m):.1f}" for m in masks.values())
-            rows.append(f"| {scene.name} | {label} | {scores} | {psnr_linear(image, reference):.1f} | {seconds:.1f} |")
+            rows.append(f"| {scene.name} | {label} | {region_cells(image, reference, masks)} | {seconds:.1f} |")
             print(rows[-1], file=sys.stderr, flush=True)
     print(f"{args.size}, exact {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged\n")
     print("| scene | exact | glass PSNR | caustic PSNR | diffuse PSNR | PSNR all | seconds |")
