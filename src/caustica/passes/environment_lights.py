@@ -153,15 +153,24 @@ def lobe_settings(params) -> tuple[int, int]:
 @dataclass
 class EnvironmentShadows:
     """ShadowMaps' ``environment_shadows``: the lobes, their directional samples (passes/lights.py's
-    LightSample, one tile each) and the atlas of their distance maps (r32f, K N x N)."""
+    LightSample, one tile each) and the atlas of their opaque objects' distance maps (r32f, K N x N); where
+    the scene has glass, the atlases of the glass's distance (r32f) and of its optical depth along each
+    lobe (rgba32f, rgb: -log transmittance; passes/glass_optical_depth.frag), else None."""
 
     atlas: object
     tiles: list
     lobes: EnvironmentLobes
+    glass_atlas: object = None
+    glass_optical_depth: object = None
+
+    def defines(self) -> dict[str, int]:
+        """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlases are bound."""
+        return {"ENVIRONMENT_GLASS": int(self.glass_atlas is not None)}
 
 
 def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
-    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit``."""
+    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's
+    two atlases, where there are, to ``unit`` + 1 and + 2)."""
     from ..gpu.meshes import set_uniform, write_uniform_array
 
     count = len(shadows.tiles)
@@ -178,3 +187,8 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
+    if shadows.glass_atlas is not None:
+        shadows.glass_atlas.use(unit + 1)
+        shadows.glass_optical_depth.use(unit + 2)
+        set_uniform(program, "env_glass_atlas", unit + 1)
+        set_uniform(program, "env_glass_optical_depth", unit + 2)

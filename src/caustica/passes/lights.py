@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..cache import scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
+from ..cache import material_state_key, scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
 from ..errors import TechniqueError
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
@@ -112,7 +112,9 @@ class ShadowMaps(Pass):
         self.size = size
 
     def cache_key(self, frame: Frame):
-        return self.size, lobe_settings(frame.params), scene_state_key(frame.scene)
+        lobes = lobe_settings(frame.params)
+        # The lobes' maps tell glass from opaque objects and hold the glass's IOR and absorption.
+        return self.size, lobes, scene_state_key(frame.scene), material_state_key(frame.scene) if lobes[0] else ()
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
@@ -129,10 +131,43 @@ class ShadowMaps(Pass):
         center = scene.bounds().mean(axis=0)
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
         tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
-        # Glass lets the environment through (its light reaches the floor refracted, not stopped): opaque casters only.
+        # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
+        # nearest distance and its optical depth along each lobe, in two more atlases.
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
+        glass = [o for o in scene.objects if o.material.kind == "glass"]
         atlas = self._render(frame, tiles, opaque, size)
-        return EnvironmentShadows(atlas, tiles, lobes)
+        if not glass:
+            return EnvironmentShadows(atlas, tiles, lobes)
+        return EnvironmentShadows(atlas, tiles, lobes, self._render(frame, tiles, glass, size),
+                                  self._optical_depth(frame, tiles, glass, size))
+
+    def _optical_depth(self, frame: Frame, tiles: list[LightSample], glass, size: int):
+        """The glass's optical depth along each directional tile (rgb per channel, glass_optical_depth.frag):
+        every face of every glass object summed with additive blending, no depth test."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target]))
+        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/glass_optical_depth.frag")
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        try:
+            for k, tile in enumerate(tiles):
+                fbo.viewport = (k * size, 0, size, size)
+                set_uniform(program, "origin", tile.position.astype("f4"))
+                set_uniform(program, "direction", tile.direction.astype("f4"))
+                for obj in glass:
+                    set_uniform(program, "sigma", obj.material.absorption_coefficient.astype("f4"))
+                    set_uniform(program, "ior", obj.material.ior_rgb.astype("f4"))
+                    set_uniform(program, "solid", float(obj.mesh.is_solid()))
+                    draw_objects(frame, program, [obj], tile.clip_from_world)
+        finally:
+            ctx.disable(moderngl.BLEND)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
 
     def _render(self, frame: Frame, samples: list[LightSample], objects, size: int | None = None):
         """One map: a point sample's six-face atlas, or the directional and spot ``samples`` as tiles side by side."""

@@ -22,7 +22,7 @@ from .lights import MAX_LIGHTS, bind_lights, draw_objects
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
-ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas (passes/environment_lights.py)
+ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27 and 28 their glass's (passes/environment_lights.py)
 
 
 class RefractorSurfaces(Pass):
@@ -245,6 +245,8 @@ class ShadeSurfaces(Pass):
         caustic_maps = frame.optional("caustic_maps")
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, **frame.optional_defines(self),
                    "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
+        if frame.optional("environment_shadows") is not None:
+            defines.update(frame.optional("environment_shadows").defines())
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()

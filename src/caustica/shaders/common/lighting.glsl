@@ -55,8 +55,15 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 // orthographic: P = m_q dot(axis, n) + s_q.V', U = -V', V' = (a.n, b.n), W = V = 0.
 // The denominator is negative where the ray meets the plane from the light's side (the numerator too),
 // so the tap is lit when stored * den <= num * sqrt(..) there, and wherever stored >= m_q (q's metric).
-float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
-    int N = textureSize(map, 0).y;
+// One receiver's lookup in a map: its 3x3 taps around texel c of tile x0, each lit (tap_lit) when the
+// stored metric passes the receiver-plane test above. outside >= 0: q falls outside a directional or spot
+// map, whose visibility is then outside (1 or 0) and no tap is read.
+struct MapLookup { int N, x0; ivec2 c; float P, an, m_q, outside; vec2 U, V, W; };
+
+MapLookup map_lookup(int N, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+    MapLookup l;
+    l.N = N;
+    l.outside = -1.0;
     float width;                 // a texel's width at the receiver
     vec3 axis, a, b;
     bool point = type == LIGHT_POINT, ortho = type == LIGHT_DIRECTIONAL;
@@ -73,7 +80,7 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
         width = 2.0 * length(a) / float(N) * (ortho ? 1.0 : length(p - light));
     }
     vec3 q = p + n * (shadow_bias * width);
-    int x0 = tile * N;  // a directional or spot map's tile in an atlas of N x N tiles
+    l.x0 = tile * N;  // a directional or spot map's tile in an atlas of N x N tiles
     vec2 s_q;
     if (point) {
         int face;
@@ -81,27 +88,45 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
         axis = cube_forward[face];
         b = cube_up[face];
         a = cross(axis, b);
-        x0 = face * N;
+        l.x0 = face * N;
     } else {
         vec4 clip = m * vec4(q, 1.0);
         s_q = clip.xy / clip.w;
-        if (any(greaterThan(abs(s_q), vec2(1.0)))) return ortho ? 1.0 : 0.0;
+        if (any(greaterThan(abs(s_q), vec2(1.0)))) l.outside = ortho ? 1.0 : 0.0;
     }
-    float m_q = ortho ? dot(q - light, axis) : length(q - light);
-    float an = dot(axis, n);
+    l.m_q = ortho ? dot(q - light, axis) : length(q - light);
+    l.an = dot(axis, n);
     vec2 v = vec2(dot(a, n), dot(b, n));
-    float P = ortho ? m_q * an + dot(s_q, v) : dot(q - light, n);
-    vec2 U = ortho ? -v : vec2(0.0), W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b)), V = ortho ? vec2(0.0) : v;
-    ivec2 c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
+    l.P = ortho ? l.m_q * l.an + dot(s_q, v) : dot(q - light, n);
+    l.U = ortho ? -v : vec2(0.0);
+    l.W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b));
+    l.V = ortho ? vec2(0.0) : v;
+    l.c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
+    return l;
+}
+
+// Tap (x, y) of the 3x3 around l.c: its texel in the map (the atlas's column x0 + t.x).
+ivec2 map_tap(MapLookup l, int x, int y) {
+    ivec2 t = clamp(l.c + ivec2(x, y), ivec2(0), ivec2(l.N - 1));
+    return ivec2(l.x0 + t.x, t.y);
+}
+
+// Whether the tap at texel ``texel`` (map_tap), storing ``stored``, leaves the receiver lit.
+bool tap_lit(MapLookup l, ivec2 texel, float stored) {
+    vec2 s = (vec2(texel.x - l.x0, texel.y) + 0.5) * (2.0 / float(l.N)) - 1.0;
+    float den = l.an + dot(s, l.V);
+    bool plane = den < 0.0 && stored * den <= (l.P + dot(s, l.U)) * sqrt(1.0 + dot(s * s, l.W));
+    return plane || stored >= l.m_q;
+}
+
+float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+    MapLookup l = map_lookup(textureSize(map, 0).y, tile, type, light, direction, m, p, n);
+    if (l.outside >= 0.0) return l.outside;
     float lit = 0.0;
     for (int y = -1; y <= 1; ++y)
         for (int x = -1; x <= 1; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), ivec2(N - 1));
-            vec2 s = (vec2(t) + 0.5) * (2.0 / float(N)) - 1.0;
-            float stored = texelFetch(map, ivec2(x0 + t.x, t.y), 0).r;
-            float den = an + dot(s, V);
-            bool plane = den < 0.0 && stored * den <= (P + dot(s, U)) * sqrt(1.0 + dot(s * s, W));
-            lit += (plane || stored >= m_q) ? 1.0 : 0.0;
+            ivec2 t = map_tap(l, x, y);
+            lit += tap_lit(l, t, texelFetch(map, t, 0).r) ? 1.0 : 0.0;
         }
     return lit / 9.0;
 }
@@ -166,6 +191,34 @@ uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the str
 uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
 #endif
+// Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas of
+// the glass's nearest distance (as env_shadow_atlas's) and a third of its optical depth along each lobe,
+// rgb = -log of the transmittance per channel (passes/glass_optical_depth.frag: two Fresnel interfaces and
+// Beer-Lambert absorption over the chord). A tap that the glass map shadows lets exp(-depth) through.
+#ifndef ENVIRONMENT_GLASS
+#define ENVIRONMENT_GLASS 0
+#endif
+#if ENVIRONMENT_SHADOWS && ENVIRONMENT_GLASS
+uniform sampler2D env_glass_atlas;
+uniform sampler2D env_glass_optical_depth;
+
+// Per channel, the fraction of lobe k's light that reaches p: the opaque map's visibility, each of its
+// lit taps dimmed by the glass's transmittance where the glass map shadows the same tap.
+vec3 lobe_transmittance(int k, vec3 p, vec3 n) {
+    MapLookup l = map_lookup(textureSize(env_shadow_atlas, 0).y, k, LIGHT_DIRECTIONAL, env_lobe_origin[k],
+                             env_lobe_direction[k], env_lobe_clip_from_world[k], p, n);
+    if (l.outside >= 0.0) return vec3(l.outside);
+    vec3 lit = vec3(0.0);
+    for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 t = map_tap(l, x, y);
+            if (!tap_lit(l, t, texelFetch(env_shadow_atlas, t, 0).r)) continue;
+            lit += tap_lit(l, t, texelFetch(env_glass_atlas, t, 0).r)
+                 ? vec3(1.0) : exp(-max(texelFetch(env_glass_optical_depth, t, 0).rgb, vec3(0.0)));
+        }
+    return lit / 9.0;
+}
+#endif
 
 // Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked.
 vec3 ambient_irradiance(vec3 p, vec3 n) {
@@ -175,8 +228,12 @@ vec3 ambient_irradiance(vec3 p, vec3 n) {
     for (int k = 0; k < env_lobe_count; ++k) {
         float c = -dot(n, env_lobe_direction[k]);
         if (c <= 0.0) continue;
+#if ENVIRONMENT_GLASS
+        vec3 v = lobe_transmittance(k, p, n);
+#else
         float v = map_visibility(env_shadow_atlas, k, LIGHT_DIRECTIONAL, env_lobe_origin[k], env_lobe_direction[k],
                                  env_lobe_clip_from_world[k], p, n);
+#endif
         blocked += (1.0 - v) * c * env_lobe_irradiance[k];
     }
     e = max(e - blocked, vec3(0.0));
