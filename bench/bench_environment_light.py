@@ -4,8 +4,10 @@ Scenes: bench_exact_environment's glass ball and red box on a floor in sky-check
 light, from its camera and from a second, lower one. For each: the Mitsuba composite at ``--reference-spp``
 over ``--seeds`` seeds (averaged), then PSNR per region (bench_exact_environment.regions: glass, caustic,
 diffuse) and median ms of ``auto`` in three states: the sun left in the SH (before part 3), the sun as a
-directional light (part 3, ``environment_lobes=0``) and the sun plus ``--lobes`` environment lobes with
-shadow maps (part 2); ``plain`` gives the cost floor (with the sun and no lobes, as it renders now).
+directional light (part 3, ``environment_lobes=0``), the sun plus ``--lobes`` environment lobes with
+shadow maps of the opaque objects only (part 2 as first built) and with the glass's transmittance in them
+(tinted glass shadows); ``plain`` gives the cost floor (with the sun and no lobes, as it renders now).
+``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
 """
@@ -70,9 +72,14 @@ def states(lobes: int):
     """(label, context manager, auto parameters) of each state measured."""
     no_sun = mock.patch.object(lights, "environment_sun",
                                lambda env: environment_lights.EnvironmentSun(None, env.irradiance_sh()))
+    draw = lights.ShadowMaps._environment_shadows
+    no_glass = mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda self, frame, samples: (
+        None if (shadows := draw(self, frame, samples)) is None
+        else dataclasses.replace(shadows, glass=None)))
     return [("sun in SH (before)", no_sun, {"environment_lobes": 0}),
             ("sun as a light", contextlib.nullcontext(), {"environment_lobes": 0}),
-            (f"sun + {lobes} lobes", contextlib.nullcontext(), {"environment_lobes": lobes})]
+            (f"sun + {lobes} lobes, glass left out", no_glass, {"environment_lobes": lobes}),
+            (f"sun + {lobes} lobes, glass transmits", contextlib.nullcontext(), {"environment_lobes": lobes})]
 
 
 def main(argv=None) -> None:
@@ -82,10 +89,11 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--lobes", type=int, default=environment_lights.LOBES)
     parser.add_argument("--frames", type=int, default=5)
+    parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows = []
-    for scene in scenes(size):
+    for scene in scenes(size, not args.no_tinted):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
         with Renderer() as renderer:
             _, plain_ms = timed_render(renderer, scene, "plain", 1, args.frames)

@@ -154,23 +154,22 @@ def lobe_settings(params) -> tuple[int, int]:
 class EnvironmentShadows:
     """ShadowMaps' ``environment_shadows``: the lobes, their directional samples (passes/lights.py's
     LightSample, one tile each) and the atlas of their opaque objects' distance maps (r32f, K N x N); where
-    the scene has glass, the atlases of the glass's distance (r32f) and of its optical depth along each
-    lobe (rgba32f, rgb: -log transmittance; passes/glass_optical_depth.frag), else None."""
+    the scene has glass, the atlas of the glass along each lobe (rgba32f: rgb its optical depth, -log of its
+    transmittance per channel, a its nearest distance; passes/glass_optical_depth.frag), else None."""
 
     atlas: object
     tiles: list
     lobes: EnvironmentLobes
-    glass_atlas: object = None
-    glass_optical_depth: object = None
+    glass: object = None
 
     def defines(self) -> dict[str, int]:
-        """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlases are bound."""
-        return {"ENVIRONMENT_GLASS": int(self.glass_atlas is not None)}
+        """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlas is bound."""
+        return {"ENVIRONMENT_GLASS": int(self.glass is not None)}
 
 
 def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
-    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's
-    two atlases, where there are, to ``unit`` + 1 and + 2)."""
+    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's,
+    where there is one, to ``unit`` + 1)."""
     from ..gpu.meshes import set_uniform, write_uniform_array
 
     count = len(shadows.tiles)
@@ -187,8 +186,6 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
-    if shadows.glass_atlas is not None:
-        shadows.glass_atlas.use(unit + 1)
-        shadows.glass_optical_depth.use(unit + 2)
+    if shadows.glass is not None:
+        shadows.glass.use(unit + 1)
         set_uniform(program, "env_glass_atlas", unit + 1)
-        set_uniform(program, "env_glass_optical_depth", unit + 2)

@@ -132,38 +132,42 @@ class ShadowMaps(Pass):
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
         tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
         # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
-        # nearest distance and its optical depth along each lobe, in two more atlases.
+        # nearest distance and its optical depth along each lobe, in one more atlas.
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
         glass = [o for o in scene.objects if o.material.kind == "glass"]
         atlas = self._render(frame, tiles, opaque, size)
         if not glass:
             return EnvironmentShadows(atlas, tiles, lobes)
-        return EnvironmentShadows(atlas, tiles, lobes, self._render(frame, tiles, glass, size),
-                                  self._optical_depth(frame, tiles, glass, size))
+        return EnvironmentShadows(atlas, tiles, lobes, self._glass(frame, tiles, glass, size))
 
-    def _optical_depth(self, frame: Frame, tiles: list[LightSample], glass, size: int):
-        """The glass's optical depth along each directional tile (rgb per channel, glass_optical_depth.frag):
-        every face of every glass object summed with additive blending, no depth test."""
+    def _glass(self, frame: Frame, tiles: list[LightSample], glass, size: int):
+        """The glass along each directional tile (glass_optical_depth.frag), rgba32f: rgb its optical depth
+        per channel (every face of every glass object summed with additive blending), a its nearest distance
+        (MIN blending); no depth test."""
         ctx = frame.gpu.ctx
         target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
         fbo = frame.own(ctx.framebuffer([target]))
-        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/glass_optical_depth.frag")
         fbo.use()
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        fbo.clear(0.0, 0.0, 0.0, 1e30)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         try:
-            for k, tile in enumerate(tiles):
-                fbo.viewport = (k * size, 0, size, size)
-                set_uniform(program, "origin", tile.position.astype("f4"))
-                set_uniform(program, "direction", tile.direction.astype("f4"))
-                for obj in glass:
-                    set_uniform(program, "sigma", obj.material.absorption_coefficient.astype("f4"))
-                    set_uniform(program, "ior", obj.material.ior_rgb.astype("f4"))
-                    set_uniform(program, "solid", float(obj.mesh.is_solid()))
-                    draw_objects(frame, program, [obj], tile.clip_from_world)
+            for nearest, equation in ((0, moderngl.FUNC_ADD), (1, moderngl.MIN)):
+                ctx.blend_equation = equation
+                program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/glass_optical_depth.frag",
+                                                    {"NEAREST_DISTANCE": nearest})
+                for k, tile in enumerate(tiles):
+                    fbo.viewport = (k * size, 0, size, size)
+                    set_uniform(program, "origin", tile.position.astype("f4"))
+                    set_uniform(program, "direction", tile.direction.astype("f4"))
+                    for obj in glass:
+                        set_uniform(program, "sigma", obj.material.absorption_coefficient.astype("f4"))
+                        set_uniform(program, "ior", obj.material.ior_rgb.astype("f4"))
+                        set_uniform(program, "solid", float(obj.mesh.is_solid()))
+                        draw_objects(frame, program, [obj], tile.clip_from_world)
         finally:
+            ctx.blend_equation = moderngl.FUNC_ADD
             ctx.disable(moderngl.BLEND)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
         target.filter = (moderngl.NEAREST, moderngl.NEAREST)

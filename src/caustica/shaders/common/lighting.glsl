@@ -111,12 +111,16 @@ ivec2 map_tap(MapLookup l, int x, int y) {
     return ivec2(l.x0 + t.x, t.y);
 }
 
-// Whether the tap at texel ``texel`` (map_tap), storing ``stored``, leaves the receiver lit.
-bool tap_lit(MapLookup l, ivec2 texel, float stored) {
+// The tap at texel ``texel`` (map_tap): where its ray meets the receiver plane, as (den, num) of the
+// comparison above (num: (P + s.U) sqrt(1 + s^2.W)).
+vec2 tap_plane(MapLookup l, ivec2 texel) {
     vec2 s = (vec2(texel.x - l.x0, texel.y) + 0.5) * (2.0 / float(l.N)) - 1.0;
-    float den = l.an + dot(s, l.V);
-    bool plane = den < 0.0 && stored * den <= (l.P + dot(s, l.U)) * sqrt(1.0 + dot(s * s, l.W));
-    return plane || stored >= l.m_q;
+    return vec2(l.an + dot(s, l.V), (l.P + dot(s, l.U)) * sqrt(1.0 + dot(s * s, l.W)));
+}
+
+// Whether a tap (its tap_plane) storing ``stored`` leaves the receiver lit.
+bool tap_lit(MapLookup l, vec2 plane, float stored) {
+    return (plane.x < 0.0 && stored * plane.x <= plane.y) || stored >= l.m_q;
 }
 
 float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
@@ -126,7 +130,7 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
     for (int y = -1; y <= 1; ++y)
         for (int x = -1; x <= 1; ++x) {
             ivec2 t = map_tap(l, x, y);
-            lit += tap_lit(l, t, texelFetch(map, t, 0).r) ? 1.0 : 0.0;
+            lit += tap_lit(l, tap_plane(l, t), texelFetch(map, t, 0).r) ? 1.0 : 0.0;
         }
     return lit / 9.0;
 }
@@ -191,16 +195,15 @@ uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the str
 uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
 #endif
-// Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas of
-// the glass's nearest distance (as env_shadow_atlas's) and a third of its optical depth along each lobe,
-// rgb = -log of the transmittance per channel (passes/glass_optical_depth.frag: two Fresnel interfaces and
-// Beer-Lambert absorption over the chord). A tap that the glass map shadows lets exp(-depth) through.
+// Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas, rgb
+// the glass's optical depth along each lobe (-log of its transmittance per channel: two Fresnel interfaces
+// and Beer-Lambert absorption over the chord; passes/glass_optical_depth.frag), a its nearest distance (as
+// env_shadow_atlas's). A tap that the glass's distance shadows lets exp(-depth) through.
 #ifndef ENVIRONMENT_GLASS
 #define ENVIRONMENT_GLASS 0
 #endif
 #if ENVIRONMENT_SHADOWS && ENVIRONMENT_GLASS
 uniform sampler2D env_glass_atlas;
-uniform sampler2D env_glass_optical_depth;
 
 // Per channel, the fraction of lobe k's light that reaches p: the opaque map's visibility, each of its
 // lit taps dimmed by the glass's transmittance where the glass map shadows the same tap.
@@ -212,9 +215,11 @@ vec3 lobe_transmittance(int k, vec3 p, vec3 n) {
     for (int y = -1; y <= 1; ++y)
         for (int x = -1; x <= 1; ++x) {
             ivec2 t = map_tap(l, x, y);
-            if (!tap_lit(l, t, texelFetch(env_shadow_atlas, t, 0).r)) continue;
-            lit += tap_lit(l, t, texelFetch(env_glass_atlas, t, 0).r)
-                 ? vec3(1.0) : exp(-max(texelFetch(env_glass_optical_depth, t, 0).rgb, vec3(0.0)));
+            vec2 plane = tap_plane(l, t);
+            if (!tap_lit(l, plane, texelFetch(env_shadow_atlas, t, 0).r)) continue;
+            vec4 glass = texelFetch(env_glass_atlas, t, 0);
+            if (tap_lit(l, plane, glass.a)) lit += vec3(1.0);  // a branch: most taps see no glass
+            else lit += exp(-max(glass.rgb, vec3(0.0)));
         }
     return lit / 9.0;
 }
