@@ -247,3 +247,33 @@ def test_glass_that_transmits_everything_leaves_opaque_shadows_bit_identical(ren
     floor = (np.abs(hit).max(axis=-1) < 3.0) & ~np.all(np.abs(hit[..., [0, 2]]) < 0.35, axis=-1)
     assert (a[floor] < 0.95 * ALBEDO).sum() > 20  # the box's sky shadow is in the region
     np.testing.assert_array_equal(a[floor], b[floor])
+
+
+def test_floor_bounce_lights_the_box_sides_from_below(renderer):
+    """With the lobes, what a diffuse surface sees below the horizon is the floor lit by the sky: under a
+    constant sky of radiance 1 a box side facing +z sees half sky (1) and half floor (radiance ALBEDO), so
+    its radiance is its albedo times (1 + ALBEDO) / 2 (the SH of a step in y is exact to band 2), where the
+    environment's own ground gave the albedo (test_lobes_leave_the_open_floor_at_albedo: the floor's stays)."""
+    grey = SceneObject("box", box((0.6, 2.0, 0.6)), Diffuse([0.5] * 3), Transform(position=[0.0, 1.0, 0.0]))
+    scene = floor_scene([grey], Environment(np.ones((128, 256, 3), np.float32)))
+    scene.camera = Camera(position=[0.0, 1.6, 4.0], look_at=[0.0, 1.2, 0.0], fov_y=40.0, size=SIZE)
+    image = renderer.render(scene, "auto", environment_lobes=16)
+    origin, direction = (a[:, :, 0] for a in scene.camera.primary_rays())
+    hit = origin + ((0.3 - origin[..., 2]) / direction[..., 2])[..., None] * direction  # the plane z = 0.3
+    upper = (np.abs(hit[..., 0]) < 0.25) & (hit[..., 1] > 1.3) & (hit[..., 1] < 1.9)  # far above the floor's shadow
+    assert upper.sum() > 30
+    assert image[upper].mean(axis=0) == pytest.approx([0.5 * (1.0 + ALBEDO) / 2.0] * 3, rel=0.02)
+    before = renderer.render(scene, "auto", environment_lobes=0)  # unoccluded SH of the environment's ground
+    assert before[upper].mean(axis=0) == pytest.approx([0.5] * 3, rel=0.02)
+
+
+def test_scene_floor_is_the_flat_diffuse_object_under_the_rest():
+    from caustica.passes.environment_lights import scene_floor
+
+    scene = floor_scene([red_box()])
+    assert scene_floor(scene) is scene.objects[0]
+    shelf = SceneObject("shelf", plane((8.0, 8.0)), Diffuse([0.5] * 3), Transform(position=[0.0, 0.5, 0.0]))
+    assert scene_floor(Scene(camera=scene.camera, objects=[shelf, red_box()])) is None  # the box reaches below it
+    small = SceneObject("mat", plane((0.3, 0.3)), Diffuse([0.5] * 3))
+    assert scene_floor(Scene(camera=scene.camera, objects=[small, red_box()])) is None  # covers less than the box
+    assert scene_floor(Scene(camera=scene.camera, objects=[red_box()])) is None

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..cache import array_digest
 from ..raytrace.environment_light import environment_light, hammersley
-from ..scene.environment import Environment, uv_to_direction
+from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
 
 SUN_SAMPLES = 16384  # stratified samples of the bright part (its integral to about 1e-4 on sky-checker's sun)
@@ -63,9 +63,12 @@ def _extract_sun(environment: Environment) -> EnvironmentSun:
     return EnvironmentSun(light, split.rest.irradiance_sh())
 
 
-def ambient_sh(environment: Environment, samples) -> np.ndarray:
-    """(9, 3) SH irradiance diffuse surfaces take as ambient: the environment's without its sun where the
-    ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+def ambient_sh(environment: Environment, samples, shadows=None) -> np.ndarray:
+    """(9, 3) SH irradiance diffuse surfaces take as ambient: the floor's bounce below the horizon where the
+    frame's ``environment_shadows`` hold it (floor_bounce_sh); else the environment's without its sun where
+    the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+    if shadows is not None and shadows.ambient_sh is not None:
+        return shadows.ambient_sh
     if any(getattr(s, "environment", False) for s in samples):
         return environment_sun(environment).rest_sh
     return environment.irradiance_sh()
@@ -139,6 +142,55 @@ def _equal_cuts(weights: np.ndarray, parts: int) -> list[int]:
     return edges + [len(weights)]
 
 
+# The floor's bounce: the ground's light for diffuse surfaces --------------------------------------------
+
+FLOOR_FLATNESS = 0.01  # a floor's height over its width, at most
+
+
+def scene_floor(scene):
+    """The scene's floor, or None: a diffuse object at most FLOOR_FLATNESS as high as it is wide whose top is
+    at or below every other object's bottom and whose x and z extents cover theirs."""
+    boxes = [o.world_mesh().bounds for o in scene.objects]
+    for i, obj in enumerate(scene.objects):
+        low, high = boxes[i]
+        width = max(high[0] - low[0], high[2] - low[2])
+        others = np.array([b for j, b in enumerate(boxes) if j != i])
+        if obj.material.kind != "diffuse" or not len(others) or high[1] - low[1] > FLOOR_FLATNESS * width:
+            continue
+        below = others[:, 0].min(axis=0)[1] >= high[1] - FLOOR_FLATNESS * width
+        if below and np.all(low[[0, 2]] <= others[:, 0].min(axis=0)[[0, 2]]) and np.all(
+                high[[0, 2]] >= others[:, 1].max(axis=0)[[0, 2]]):
+            return obj
+    return None
+
+
+def floor_bounce_sh(environment: Environment, sun_taken: bool, albedo: np.ndarray) -> np.ndarray:
+    """(9, 3) SH irradiance for diffuse surfaces where a floor of ``albedo`` lies under the scene: the
+    environment (its rest when ``sun_taken``) with the light from below the horizon replaced by the open
+    floor's radiance, albedo / pi times the whole environment's irradiance on an upward normal (sun included).
+    A one-bounce interreflection from an unshadowed, infinite floor: what a box's side sees below the horizon is
+    the floor lit by the sky, not the environment's ground. Cached on the environment."""
+    key = (array_digest(environment.image), bool(sun_taken), tuple(np.round(albedo, 9)))
+    cache = getattr(environment, "_floor_cache", None)
+    if cache is None or cache[0] != key:
+        directions, solid_angle = texel_grid(*environment.image.shape[:2])
+        up = np.maximum(directions[..., 1], 0.0) * solid_angle
+        radiance = albedo / np.pi * np.einsum("hwc,hw->c", environment.image.astype(np.float64), up)
+        image = (environment_light(environment).rest.image if sun_taken else environment.image).astype(np.float64)
+        image = np.where((directions[..., 1] < 0.0)[..., None], radiance, image)
+        cache = (key, irradiance_sh_of(image))
+        environment._floor_cache = cache
+    return cache[1]
+
+
+def floor_albedo(obj) -> np.ndarray:
+    """A diffuse floor's mean albedo per channel: its texture's mean where it shows one, else its colour."""
+    from ..scene.textures import texture_of
+
+    texture = texture_of(obj)
+    return np.asarray(texture, np.float64).reshape(-1, 3).mean(axis=0) if texture is not None else obj.material.color
+
+
 def lobe_settings(params) -> tuple[int, int]:
     """(lobes, texels a side of each map) a frame's parameters ask for: the ``environment_lobes`` and
     ``environment_lobe_size`` attributes auto sets on the planned technique's parameters (on the view's of a
@@ -161,6 +213,7 @@ class EnvironmentShadows:
     tiles: list
     lobes: EnvironmentLobes
     glass: object = None
+    ambient_sh: np.ndarray | None = None  # (9, 3): floor_bounce_sh where the scene has a floor, else None
 
     def defines(self) -> dict[str, int]:
         """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlas is bound."""

@@ -29,7 +29,8 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import EnvironmentShadows, environment_lobes, environment_sun, lobe_settings
+from .environment_lights import (EnvironmentShadows, environment_lobes, environment_sun, floor_albedo,
+                                 floor_bounce_sh, lobe_settings, scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -127,7 +128,10 @@ class ShadowMaps(Pass):
         if not count:
             return None
         scene = frame.scene
-        lobes = environment_lobes(scene.environment, any(s.environment for s in samples), count)
+        sun_taken = any(s.environment for s in samples)
+        lobes = environment_lobes(scene.environment, sun_taken, count)
+        floor = scene_floor(scene)
+        bounce = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, floor_albedo(floor))
         center = scene.bounds().mean(axis=0)
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
         tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
@@ -136,9 +140,8 @@ class ShadowMaps(Pass):
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
         glass = [o for o in scene.objects if o.material.kind == "glass"]
         atlas = self._render(frame, tiles, opaque, size)
-        if not glass:
-            return EnvironmentShadows(atlas, tiles, lobes)
-        return EnvironmentShadows(atlas, tiles, lobes, self._glass(frame, tiles, glass, size))
+        return EnvironmentShadows(atlas, tiles, lobes, self._glass(frame, tiles, glass, size) if glass else None,
+                                  bounce)
 
     def _glass(self, frame: Frame, tiles: list[LightSample], glass, size: int):
         """The glass along each directional tile (glass_optical_depth.frag), rgba32f: rgb its optical depth

@@ -327,10 +327,11 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
         samples = frame.read("light_samples")
-        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples).astype("f4"))
+        shadows = frame.optional("environment_shadows")
+        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples, shadows).astype("f4"))
         bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
-        if frame.optional("environment_shadows") is not None:
-            bind_environment_shadows(program, frame.optional("environment_shadows"), ENVIRONMENT_SHADOW_UNIT)
+        if shadows is not None:
+            bind_environment_shadows(program, shadows, ENVIRONMENT_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         elif frame.optional("caustic_tiles") is not None:
