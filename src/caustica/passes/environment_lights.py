@@ -89,6 +89,7 @@ class EnvironmentLobes:
 
     directions: np.ndarray  # (K, 3) unit directions of travel (minus each stratum's mean direction)
     irradiance: np.ndarray  # (K, 3) per channel: |sum of radiance * solid angle * direction| over the stratum
+    span: np.ndarray  # (K,) |sum of solid angle * direction| over the stratum: irradiance per unit radiance
 
 
 def environment_lobes(environment: Environment, sun_taken: bool, count: int = LOBES) -> EnvironmentLobes:
@@ -111,14 +112,14 @@ def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
     h, w = image.shape[:2]
     uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, np.arange(h) / (h - 1))
     direction = uv_to_direction(np.stack([uu, vv], axis=-1))
-    weighted = image * (np.sin(np.pi * vv) * (np.pi / (h - 1)) * (2.0 * np.pi / w))[..., None]
     sky = (direction[..., 1] > 0.0)[..., None]
-    weighted = weighted * sky  # above the horizon only
+    solid_angle = np.sin(np.pi * vv) * (np.pi / (h - 1)) * (2.0 * np.pi / w) * sky[..., 0]
+    weighted = image * solid_angle[..., None]  # above the horizon only
     power = weighted.mean(axis=2) + 1e-30 * sky[..., 0]  # a black sky still cuts into strata
     bands = max(int(round(np.sqrt(count))), 1)
     per_band = [count // bands + (1 if b < count % bands else 0) for b in range(bands)]
     row_edges = _equal_cuts(power.sum(axis=1), bands)
-    directions, irradiance = [], []
+    directions, irradiance, spans = [], [], []
     for (top, bottom), columns in zip(zip(row_edges[:-1], row_edges[1:]), per_band):
         column_edges = _equal_cuts(power[top:bottom].sum(axis=0), columns)
         for left, right in zip(column_edges[:-1], column_edges[1:]):
@@ -128,7 +129,8 @@ def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
             norm = np.linalg.norm(mean)
             directions.append(-mean / norm if norm > 0 else np.array([0.0, -1.0, 0.0]))
             irradiance.append(np.linalg.norm(vectors, axis=1))
-    return EnvironmentLobes(np.array(directions), np.array(irradiance))
+            spans.append(np.linalg.norm(np.einsum("hw,hwk->k", solid_angle[cell], direction[cell])))
+    return EnvironmentLobes(np.array(directions), np.array(irradiance), np.array(spans))
 
 
 def _equal_cuts(weights: np.ndarray, parts: int) -> list[int]:
@@ -183,10 +185,13 @@ def floor_bounce_sh(environment: Environment, sun_taken: bool, albedo: np.ndarra
     return cache[1]
 
 
-def floor_albedo(obj) -> np.ndarray:
-    """A diffuse floor's mean albedo per channel: its texture's mean where it shows one, else its colour."""
+def mean_albedo(obj) -> np.ndarray:
+    """An object's mean diffuse albedo per channel: its texture's mean where it shows one, else its colour;
+    0 for mirrors and glass."""
     from ..scene.textures import texture_of
 
+    if obj.material.kind != "diffuse":
+        return np.zeros(3)
     texture = texture_of(obj)
     return np.asarray(texture, np.float64).reshape(-1, 3).mean(axis=0) if texture is not None else obj.material.color
 
@@ -214,6 +219,7 @@ class EnvironmentShadows:
     lobes: EnvironmentLobes
     glass: object = None
     ambient_sh: np.ndarray | None = None  # (9, 3): floor_bounce_sh where the scene has a floor, else None
+    bounce: object = None  # rgba32f atlas: per lobe texel, the radiance a receiver behind the occluder sees
 
     def defines(self) -> dict[str, int]:
         """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlas is bound."""
@@ -222,13 +228,14 @@ class EnvironmentShadows:
 
 def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
     """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's,
-    where there is one, to ``unit`` + 1)."""
+    where there is one, to ``unit`` + 1, the bounce atlas to ``unit`` + 2)."""
     from ..gpu.meshes import set_uniform, write_uniform_array
 
     count = len(shadows.tiles)
     rows = {"env_lobe_origin": [t.position for t in shadows.tiles],
             "env_lobe_direction": [t.direction for t in shadows.tiles],
-            "env_lobe_irradiance": shadows.lobes.irradiance}
+            "env_lobe_irradiance": shadows.lobes.irradiance,
+            "env_lobe_span": np.repeat(shadows.lobes.span[:, None], 3, axis=1)}
     for name, values in rows.items():
         padded = np.zeros((MAX_LOBES, 3), "f4")
         padded[:count] = values
@@ -239,6 +246,8 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
+    shadows.bounce.use(unit + 2)
+    set_uniform(program, "env_bounce_atlas", unit + 2)
     if shadows.glass is not None:
         shadows.glass.use(unit + 1)
         set_uniform(program, "env_glass_atlas", unit + 1)

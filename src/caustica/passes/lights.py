@@ -29,8 +29,8 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import (EnvironmentShadows, environment_lobes, environment_sun, floor_albedo,
-                                 floor_bounce_sh, lobe_settings, scene_floor)
+from .environment_lights import (EnvironmentShadows, environment_lobes, environment_sun, floor_bounce_sh,
+                                 lobe_settings, mean_albedo, scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -119,11 +119,12 @@ class ShadowMaps(Pass):
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
+        maps = [self._render(frame, [s], frame.scene.objects) for s in samples]
         frame.write("light_samples", samples)
-        frame.write("shadow_maps", [self._render(frame, [s], frame.scene.objects) for s in samples])
-        frame.write("environment_shadows", self._environment_shadows(frame, samples))
+        frame.write("shadow_maps", maps)
+        frame.write("environment_shadows", self._environment_shadows(frame, samples, maps))
 
-    def _environment_shadows(self, frame: Frame, samples: list[LightSample]):
+    def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)
         if not count:
             return None
@@ -131,7 +132,7 @@ class ShadowMaps(Pass):
         sun_taken = any(s.environment for s in samples)
         lobes = environment_lobes(scene.environment, sun_taken, count)
         floor = scene_floor(scene)
-        bounce = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, floor_albedo(floor))
+        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
         center = scene.bounds().mean(axis=0)
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
         tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
@@ -140,8 +141,35 @@ class ShadowMaps(Pass):
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
         glass = [o for o in scene.objects if o.material.kind == "glass"]
         atlas = self._render(frame, tiles, opaque, size)
+        sky_only = floor_bounce_sh(scene.environment, sun_taken, np.zeros(3))
+        bounce = self._bounce(frame, tiles, opaque, size, samples, maps, sky_only)
         return EnvironmentShadows(atlas, tiles, lobes, self._glass(frame, tiles, glass, size) if glass else None,
-                                  bounce)
+                                  ground, bounce)
+
+    def _bounce(self, frame: Frame, tiles: list[LightSample], opaque, size: int, samples, maps, sky_sh):
+        """Per lobe texel (rgba32f atlas), the radiance of the nearest opaque surface facing along the lobe
+        (lobe_bounce.frag), lit by ``samples`` through their shadow ``maps`` and by ``sky_sh``; 0 where none."""
+        from .surfaces import FIRST_SHADOW_UNIT
+
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target], frame.own(ctx.depth_renderbuffer((size * len(tiles), size)))))
+        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/lobe_bounce.frag",
+                                            {"MAX_LIGHTS": MAX_LIGHTS})
+        bind_lights(program, samples, maps, first_unit=FIRST_SHADOW_UNIT)
+        set_uniform(program, "irradiance_sh", sky_sh.astype("f4"))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        for k, tile in enumerate(tiles):
+            fbo.viewport = (k * size, 0, size, size)
+            set_uniform(program, "direction", tile.direction.astype("f4"))
+            for obj in opaque:
+                set_uniform(program, "albedo", mean_albedo(obj).astype("f4"))
+                draw_objects(frame, program, [obj], tile.clip_from_world)
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
 
     def _glass(self, frame: Frame, tiles: list[LightSample], glass, size: int):
         """The glass along each directional tile (glass_optical_depth.frag), rgba32f: rgb its optical depth

@@ -192,8 +192,12 @@ uniform int env_lobe_count;
 uniform vec3 env_lobe_origin[MAX_ENV_LOBES];
 uniform vec3 env_lobe_direction[MAX_ENV_LOBES];   // travel direction
 uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the stratum
+uniform vec3 env_lobe_span[MAX_ENV_LOBES];        // |sum of solid angle * direction| over the stratum (each component)
 uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
+// One bounce (passes/lobe_bounce.frag): per texel, the radiance of the nearest opaque surface facing along
+// the lobe, which a receiver whose tap the opaque map shadows sees instead of the sky.
+uniform sampler2D env_bounce_atlas;
 #endif
 // Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas, rgb
 // the glass's optical depth along each lobe (-log of its transmittance per channel: two Fresnel interfaces
@@ -204,10 +208,14 @@ uniform sampler2D env_shadow_atlas;
 #endif
 #if ENVIRONMENT_SHADOWS && ENVIRONMENT_GLASS
 uniform sampler2D env_glass_atlas;
+#endif
 
-// Per channel, the fraction of lobe k's light that reaches p: the opaque map's visibility, each of its
-// lit taps dimmed by the glass's transmittance where the glass map shadows the same tap.
-vec3 lobe_transmittance(int k, vec3 p, vec3 n) {
+#if ENVIRONMENT_SHADOWS
+// Per channel, the fraction of lobe k's light that reaches p: the opaque map's 3x3 filter, each lit tap
+// dimmed by the glass's transmittance where the glass's distance shadows it (ENVIRONMENT_GLASS); ``seen``,
+// the mean over the taps of the bounce radiance where the opaque map shadows them (0 where lit).
+vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
+    seen = vec3(0.0);
     MapLookup l = map_lookup(textureSize(env_shadow_atlas, 0).y, k, LIGHT_DIRECTIONAL, env_lobe_origin[k],
                              env_lobe_direction[k], env_lobe_clip_from_world[k], p, n);
     if (l.outside >= 0.0) return vec3(l.outside);
@@ -216,32 +224,38 @@ vec3 lobe_transmittance(int k, vec3 p, vec3 n) {
         for (int x = -1; x <= 1; ++x) {
             ivec2 t = map_tap(l, x, y);
             vec2 plane = tap_plane(l, t);
-            if (!tap_lit(l, plane, texelFetch(env_shadow_atlas, t, 0).r)) continue;
+            if (!tap_lit(l, plane, texelFetch(env_shadow_atlas, t, 0).r)) {
+                seen += texelFetch(env_bounce_atlas, t, 0).rgb;
+                continue;
+            }
+#if ENVIRONMENT_GLASS
             vec4 glass = texelFetch(env_glass_atlas, t, 0);
             if (tap_lit(l, plane, glass.a)) lit += vec3(1.0);  // a branch: most taps see no glass
             else lit += exp(-max(glass.rgb, vec3(0.0)));
+#else
+            lit += vec3(1.0);
+#endif
         }
+    seen /= 9.0;
     return lit / 9.0;
 }
 #endif
 
-// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked.
+// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked, plus what
+// the blocked directions show instead (the occluders' bounce, over each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
     vec3 e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
-    vec3 blocked = vec3(0.0);
+    vec3 blocked = vec3(0.0), bounce = vec3(0.0);
     for (int k = 0; k < env_lobe_count; ++k) {
         float c = -dot(n, env_lobe_direction[k]);
         if (c <= 0.0) continue;
-#if ENVIRONMENT_GLASS
-        vec3 v = lobe_transmittance(k, p, n);
-#else
-        float v = map_visibility(env_shadow_atlas, k, LIGHT_DIRECTIONAL, env_lobe_origin[k], env_lobe_direction[k],
-                                 env_lobe_clip_from_world[k], p, n);
-#endif
+        vec3 seen;
+        vec3 v = lobe_light(k, p, n, seen);
         blocked += (1.0 - v) * c * env_lobe_irradiance[k];
+        bounce += seen * c * env_lobe_span[k];
     }
-    e = max(e - blocked, vec3(0.0));
+    e = max(e - blocked, vec3(0.0)) + bounce;
 #endif
     return e;
 }
