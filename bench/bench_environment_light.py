@@ -6,8 +6,9 @@ over ``--seeds`` seeds (averaged), then PSNR per region (bench_exact_environment
 diffuse) and median ms of ``auto`` in three states: the sun left in the SH (before part 3), the sun as a
 directional light (part 3, ``environment_lobes=0``), the sun plus ``--lobes`` environment lobes with
 shadow maps of the opaque objects only (part 2 as first built), with the glass's transmittance in them
-(tinted glass shadows), and with the floor's bounce for the light from below (auto now); ``plain`` gives
-the cost floor (with the sun and no lobes, as it renders now).
+(tinted glass shadows), with the floor's bounce for the light from below, and with the occluders' bounce
+where a lobe is blocked (auto now); ``plain`` gives the cost floor (with the sun and no lobes, as it
+renders now).
 ``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
@@ -75,14 +76,16 @@ def states(lobes: int):
                                lambda env: environment_lights.EnvironmentSun(None, env.irradiance_sh()))
     def without(**fields):  # the lobes' EnvironmentShadows with ``fields`` taken out (set to None)
         draw = lights.ShadowMaps._environment_shadows
-        return mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda self, frame, samples: (
-            None if (shadows := draw(self, frame, samples)) is None else dataclasses.replace(shadows, **fields)))
+        return mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda *args: (
+            None if (shadows := draw(*args)) is None else dataclasses.replace(shadows, **fields)))
 
     return [("sun in SH (before)", no_sun, {"environment_lobes": 0}),
             ("sun as a light", contextlib.nullcontext(), {"environment_lobes": 0}),
-            (f"+ {lobes} lobes, glass left out", without(glass=None, ambient_sh=None), {"environment_lobes": lobes}),
-            ("+ glass transmits", without(ambient_sh=None), {"environment_lobes": lobes}),
-            ("+ floor bounce (now)", contextlib.nullcontext(), {"environment_lobes": lobes})]
+            (f"+ {lobes} lobes, glass left out", without(glass=None, ambient_sh=None, bounce=None),
+             {"environment_lobes": lobes}),
+            ("+ glass transmits", without(ambient_sh=None, bounce=None), {"environment_lobes": lobes}),
+            ("+ floor bounce", without(bounce=None), {"environment_lobes": lobes}),
+            ("+ occluders' bounce (now)", contextlib.nullcontext(), {"environment_lobes": lobes})]
 
 
 def main(argv=None) -> None:

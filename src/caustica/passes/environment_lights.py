@@ -220,15 +220,17 @@ class EnvironmentShadows:
     glass: object = None
     ambient_sh: np.ndarray | None = None  # (9, 3): floor_bounce_sh where the scene has a floor, else None
     bounce: object = None  # rgba32f atlas: per lobe texel, the radiance a receiver behind the occluder sees
+    nearest: object = None  # rg32f atlas: per lobe texel, the nearest opaque and glass distance over its taps
 
     def defines(self) -> dict[str, int]:
-        """lighting.glsl's ENVIRONMENT_GLASS: 1 where the glass atlas is bound."""
-        return {"ENVIRONMENT_GLASS": int(self.glass is not None)}
+        """lighting.glsl's ENVIRONMENT_GLASS and ENVIRONMENT_BOUNCE: 1 where the glass's, the bounce's atlas is
+        bound (ShadowMaps always draws the bounce; bench_environment_light measures without it)."""
+        return {"ENVIRONMENT_GLASS": int(self.glass is not None), "ENVIRONMENT_BOUNCE": int(self.bounce is not None)}
 
 
 def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
     """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's,
-    where there is one, to ``unit`` + 1, the bounce atlas to ``unit`` + 2)."""
+    where there is one, to ``unit`` + 1, the bounce atlas to ``unit`` + 2, the nearest distances' to + 3)."""
     from ..gpu.meshes import set_uniform, write_uniform_array
 
     count = len(shadows.tiles)
@@ -246,8 +248,11 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
-    shadows.bounce.use(unit + 2)
-    set_uniform(program, "env_bounce_atlas", unit + 2)
+    if shadows.bounce is not None:
+        shadows.bounce.use(unit + 2)
+        set_uniform(program, "env_bounce_atlas", unit + 2)
+    shadows.nearest.use(unit + 3)
+    set_uniform(program, "env_nearest_atlas", unit + 3)
     if shadows.glass is not None:
         shadows.glass.use(unit + 1)
         set_uniform(program, "env_glass_atlas", unit + 1)

@@ -20,6 +20,7 @@ import numpy as np
 from ..cache import material_state_key, scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
 from ..errors import TechniqueError
 from ..gpu.meshes import set_object_transform, set_uniform
+from ..gpu.shaders import run_compute
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.transform import (
@@ -143,8 +144,26 @@ class ShadowMaps(Pass):
         atlas = self._render(frame, tiles, opaque, size)
         sky_only = floor_bounce_sh(scene.environment, sun_taken, np.zeros(3))
         bounce = self._bounce(frame, tiles, opaque, size, samples, maps, sky_only)
-        return EnvironmentShadows(atlas, tiles, lobes, self._glass(frame, tiles, glass, size) if glass else None,
-                                  ground, bounce)
+        glass_atlas = self._glass(frame, tiles, glass, size) if glass else None
+        return EnvironmentShadows(atlas, tiles, lobes, glass_atlas, ground, bounce,
+                                  self._nearest(frame, atlas, glass_atlas, size))
+
+    def _nearest(self, frame: Frame, atlas, glass_atlas, size: int):
+        """rg32f: per lobe texel the nearest opaque and glass distance over its 3x3 taps (lobe_nearest.comp)."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture(atlas.size, 2, dtype="f4"))
+        program = frame.gpu.shaders.compute("passes/lobe_nearest.comp")
+        atlas.use(0)
+        (glass_atlas or atlas).use(1)
+        set_uniform(program, "opaque", 0)
+        set_uniform(program, "glass", 1)
+        set_uniform(program, "has_glass", int(glass_atlas is not None))
+        set_uniform(program, "tile_size", size)
+        target.bind_to_image(0, read=False, write=True)
+        run_compute(program, (atlas.size[0] + 7) // 8, (atlas.size[1] + 7) // 8)
+        ctx.memory_barrier()
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
 
     def _bounce(self, frame: Frame, tiles: list[LightSample], opaque, size: int, samples, maps, sky_sh):
         """Per lobe texel (rgba32f atlas), the radiance of the nearest opaque surface facing along the lobe

@@ -22,7 +22,7 @@ from .lights import MAX_LIGHTS, bind_lights, draw_objects
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
-ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27 their glass's (passes/environment_lights.py)
+ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27-29 their glass's, bounce's, nearest distances' (passes/environment_lights.py)
 
 
 class RefractorSurfaces(Pass):

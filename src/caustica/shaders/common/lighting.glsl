@@ -195,8 +195,15 @@ uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the str
 uniform vec3 env_lobe_span[MAX_ENV_LOBES];        // |sum of solid angle * direction| over the stratum (each component)
 uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
-// One bounce (passes/lobe_bounce.frag): per texel, the radiance of the nearest opaque surface facing along
-// the lobe, which a receiver whose tap the opaque map shadows sees instead of the sky.
+uniform sampler2D env_nearest_atlas;  // rg32f: the nearest opaque, glass distance over each texel's 3x3 taps
+#endif
+// One bounce (host define ENVIRONMENT_BOUNCE; passes/lobe_bounce.frag): per texel, the radiance of the
+// nearest opaque surface facing along the lobe, which a receiver whose tap the opaque map shadows sees
+// instead of the sky.
+#ifndef ENVIRONMENT_BOUNCE
+#define ENVIRONMENT_BOUNCE 0
+#endif
+#if ENVIRONMENT_SHADOWS && ENVIRONMENT_BOUNCE
 uniform sampler2D env_bounce_atlas;
 #endif
 // Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas, rgb
@@ -219,13 +226,17 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
     MapLookup l = map_lookup(textureSize(env_shadow_atlas, 0).y, k, LIGHT_DIRECTIONAL, env_lobe_origin[k],
                              env_lobe_direction[k], env_lobe_clip_from_world[k], p, n);
     if (l.outside >= 0.0) return vec3(l.outside);
+    vec2 nearest = texelFetch(env_nearest_atlas, ivec2(l.x0 + l.c.x, l.c.y), 0).rg;
+    if (nearest.x >= l.m_q && nearest.y >= l.m_q) return vec3(1.0);  // every tap lit (lobe_nearest.comp)
     vec3 lit = vec3(0.0);
     for (int y = -1; y <= 1; ++y)
         for (int x = -1; x <= 1; ++x) {
             ivec2 t = map_tap(l, x, y);
             vec2 plane = tap_plane(l, t);
             if (!tap_lit(l, plane, texelFetch(env_shadow_atlas, t, 0).r)) {
+#if ENVIRONMENT_BOUNCE
                 seen += texelFetch(env_bounce_atlas, t, 0).rgb;
+#endif
                 continue;
             }
 #if ENVIRONMENT_GLASS
