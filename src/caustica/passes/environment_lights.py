@@ -14,6 +14,10 @@ The light's irradiance is the bright part's radiance integrated over solid angle
 direction of travel minus the power-weighted mean direction, both estimated from SUN_SAMPLES stratified
 samples of ``EnvironmentLight.sample_bright`` (which samples by power, so the estimate is near exact). A
 bright part spread wider than SUN_SPREAD degrees (several suns, a window) is no sun: it stays in the SH.
+
+Part 2 (where auto asks for ``environment_lobes``): the rest of the sky as strata of equal power with
+shadow maps (passes/lights.py ShadowMaps draws them), glass passing its transmittance, the blocked sky
+showing the occluders' bounce, and a floor's bounce for the light from below (docs/environment-light.md).
 """
 from __future__ import annotations
 
