@@ -174,8 +174,9 @@ def plan(scene, quality: str = "balanced") -> Plan:
 
 
 OCCLUDED = (f"; the sky's light shadowed by the other objects: environment_lobes ({LOBES} by default) sky strata "
-            "of equal power, each a directional shadow map (docs/environment-light.md: diffuse +0.5 to +1.5 dB "
-            "against Mitsuba)")
+            "of equal power, each a directional shadow map, glass passing its transmittance, the blocked sky showing "
+            "the occluders' bounce and the light from below a floor's (docs/environment-light.md: diffuse +1.1 to "
+            "+5.1 dB against Mitsuba)")
 
 
 def _occluded_ambient(scene) -> bool:
