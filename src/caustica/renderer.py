@@ -15,7 +15,7 @@ from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import ANTIALIAS_MODES, resolved
 from .scene import Scene, rules
-from .scene.scene import check_scene
+from .scene.scene import check_scene, recentred
 from .techniques.base import check_spp, get_technique
 
 
@@ -109,6 +109,7 @@ class Renderer:
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
+        scene, shift = recentred(scene)  # float32 on the GPU and in Embree: far scenes render moved to the origin
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
         check_spp(tech, spp)
@@ -128,6 +129,9 @@ class Renderer:
             layers = raster_layers(buffers, names, scene, camera, supersampling_factor(spp))
         else:
             layers = traced_layers(scene, camera, int(spp), names, tech, parameters)
+        if "flow_point" in layers and shift.any():  # world points of the moved scene, back in the caller's
+            layers["flow_point"] = np.where(layers["flow_object"][..., None] >= 0, layers["flow_point"] - shift, 0.0).astype(
+                layers["flow_point"].dtype)
         return (image, layers), (time.perf_counter() - start) * 1000.0
 
     def resolve(self, tech, scene: Scene, camera, parameters, spp: int = 1):
