@@ -26,6 +26,7 @@ class SceneObject:
     material: Material
     transform: Transform = field(default_factory=Transform)
     _world: tuple | None = field(default=None, repr=False, compare=False)
+    _translated: tuple | None = field(default=None, repr=False, compare=False)
 
     def world_from_object(self) -> np.ndarray:
         """The transform's 4x4 matrix."""
@@ -58,6 +59,19 @@ class SceneObject:
         if reach > rules.MAX_COORDINATE:
             raise SceneError(f"{where} reaches {reach:.3g} scene units from the origin once scaled and placed, beyond "
                              f"+-{rules.MAX_COORDINATE:g}; lower its scale or move it closer")
+
+    def translated(self, offset) -> "SceneObject":
+        """The object moved by ``offset``, sharing mesh and material; the same object again while neither
+        the offset, the mesh nor the transform changes (the GPU and ray caches then keep what they hold)."""
+        offset = np.asarray(offset, dtype=np.float64)
+        t = self.transform
+        parts = (self.mesh, self.material)
+        values = (self.name, tuple(offset), tuple(t.position), tuple(t.rotation), tuple(t.scale))
+        cached = self._translated
+        if cached is None or any(a is not b for a, b in zip(cached[0], parts)) or cached[1] != values:
+            moved = self.moved(dataclasses.replace(t, position=t.position + offset))
+            cached = self._translated = (parts, values, moved)
+        return cached[2]
 
     def moved(self, transform: Transform) -> "SceneObject":
         """The same mesh and material placed by ``transform``."""
@@ -138,8 +152,7 @@ class Scene:
         """A new Scene moved by ``offset`` (three numbers): objects, lights and camera alike, so every image
         is the same; meshes, materials and the environment (directions only) are shared."""
         offset = np.asarray(offset, dtype=np.float64)
-        objects = [obj.moved(dataclasses.replace(obj.transform, position=obj.transform.position + offset))
-                   for obj in self.objects]
+        objects = [obj.translated(offset) for obj in self.objects]
         lights = [_light_moved(light, offset) for light in self.lights]
         return dataclasses.replace(self, objects=objects, lights=lights, camera=self.camera.translated(offset))
 
