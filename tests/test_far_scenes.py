@@ -79,3 +79,20 @@ def test_moved_objects_are_kept_across_frames_while_nothing_changes():
     third, _ = recentred(far)
     assert third.objects[0] is not first.objects[0] and third.objects[1] is first.objects[1]
     assert np.allclose(third.objects[0].transform.position - first.objects[0].transform.position, 1.0)
+
+
+def test_viewer_frames_of_a_far_scene_are_moved_too(renderer):
+    """Renderer.render_frame (the viewer's path) moves a far scene as render does."""
+    from caustica.gpu.readback import read_rgb
+    from caustica.techniques.base import get_technique
+
+    near, far = _pair()
+    tech = get_technique("depth-search")
+    images = []
+    for scene in (near, far):
+        frame = renderer.render_frame(tech, scene, scene.camera, tech.make_params())
+        try:
+            images.append(read_rgb(frame.read("color")))
+        finally:
+            frame.give_back()
+    assert caustica.metrics.psnr_linear(images[1], images[0]) > 60.0

@@ -150,7 +150,10 @@ class Renderer:
         """Run a rasterized technique's graph (a planner's resolved first) at the supersampled size
         (``supersampling_factor(spp)`` times ``camera``'s) and return its frame, whose channels stay lent
         until ``frame.give_back()`` (``keep``: the channels wanted afterwards; None keeps all).
-        ``pass_ms`` holds the per-pass milliseconds when ``profile_passes``."""
+        ``pass_ms`` holds the per-pass milliseconds when ``profile_passes``. A far scene runs moved to the
+        origin as in :meth:`render_timed` (the frame's scene and camera are the moved ones)."""
+        scene, shift = recentred(scene)
+        camera = camera.translated(shift) if shift.any() else camera
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         return self._run_frame(tech, scene, camera, parameters, spp, keep)
 
