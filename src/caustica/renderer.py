@@ -130,8 +130,8 @@ class Renderer:
         else:
             layers = traced_layers(scene, camera, int(spp), names, tech, parameters)
         if "flow_point" in layers and shift.any():  # world points of the moved scene, back in the caller's
-            layers["flow_point"] = np.where(layers["flow_object"][..., None] >= 0, layers["flow_point"] - shift, 0.0).astype(
-                layers["flow_point"].dtype)
+            landed = layers["flow_object"][..., None] >= 0
+            layers["flow_point"] = np.where(landed, layers["flow_point"] - shift, 0.0).astype(layers["flow_point"].dtype)
         return (image, layers), (time.perf_counter() - start) * 1000.0
 
     def resolve(self, tech, scene: Scene, camera, parameters, spp: int = 1):

@@ -182,7 +182,7 @@ def recentred(scene: Scene) -> tuple[Scene, np.ndarray]:
     if not scene.objects or float(np.abs(center).max()) <= FAR_FROM_ORIGIN * max(size, 1e-30):
         return scene, np.zeros(3)
     shift = -np.round(center)
-    return scene.translated(shift), shift
+    return (scene.translated(shift), shift) if shift.any() else (scene, shift)
 
 
 def _light_moved(light, offset: np.ndarray):
