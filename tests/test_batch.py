@@ -348,6 +348,8 @@ BAD_SWEEPS = [
     ("[objects.spere]\nior = 1.4\n", "no object 'spere'", "did you mean 'sphere'"),
     ("[objects.sphere]\nior = { uniform = [1.2, 20] }\n", "objects.sphere.ior = 20", "ior"),
     ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
+    # An exporter's dotted name (Blender's Sphere.001) unquoted: TOML reads a table '001' in object 'Sphere'.
+    ("[objects.sphere.001]\nior = 1.4\n", "read as object 'sphere' with a table '001'", '[objects."sphere.001"]'),
 ]
 
 
