@@ -350,6 +350,8 @@ BAD_SWEEPS = [
     ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
     # An exporter's dotted name (Blender's Sphere.001) unquoted: TOML reads a table '001' in object 'Sphere'.
     ("[objects.sphere.001]\nior = 1.4\n", "read as object 'sphere' with a table '001'", '[objects."sphere.001"]'),
+    # A relative image path is resolved against the sweep file's folder, and the error says so.
+    ("[environment]\nimage = 'studio.exr'\n", "studio.exr': environment file not found", "relative to the sweep file"),
 ]
 
 
