@@ -38,6 +38,7 @@ compute shader that writes one (``photon_land.comp``).
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 import moderngl
@@ -72,6 +73,11 @@ class Photons:
     # (then SplatPhotons cannot size splats by footprint).
     grid: tuple[int, int] | None = None
     channels: int = 1
+
+    def live(self) -> int:
+        """How many photons landed and are splatted (adaptive levels: live cells, adaptive_states.glsl)."""
+        data = np.frombuffer(self.buffer.read(size=self.count * PHOTON_BYTES), dtype="f4").reshape(-1, 8)
+        return int(np.count_nonzero((data[:, 3] > 0.5) & (data[:, 7] == 0.0) & (np.abs(data[:, 4:7]).sum(axis=1) > 0)))
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (n, 3), flux (n, 3)) of the photons that landed."""
@@ -283,15 +289,16 @@ class SplatPhotons(Pass):
             if view is None or photons is None:
                 out.append(None)
                 continue
-            if photons.grid is None:
-                out.append(self._splat(frame, mode, view, photons, None))
-                continue
-            with frame.scoped(self._footprints(frame, view, photons)) as footprints:
-                out.append(self._splat(frame, mode, view, photons, footprints))
+            # One Photons, or the levels of an adaptive map (each level's footprints from its own grid).
+            levels = list(photons) if isinstance(photons, (list, tuple)) else [photons]
+            with ExitStack() as stack:
+                footprints = [None if level.grid is None else stack.enter_context(
+                    frame.scoped(self._footprints(frame, view, level))) for level in levels]
+                out.append(self._splat(frame, mode, view, levels, footprints))
         frame.write("caustic_flux", out)
 
-    def _splat(self, frame: Frame, mode: str, view: LightView, photons: Photons, footprints) -> list:
-        return (self._compute if mode == "compute" else self._points)(frame, view, photons, footprints)
+    def _splat(self, frame: Frame, mode: str, view: LightView, levels: list, footprints: list) -> list:
+        return (self._compute if mode == "compute" else self._points)(frame, view, levels, footprints)
 
     def _footprints(self, frame: Frame, view: LightView, photons: Photons):
         """A buffer of vec4 per photon: its kernel's shape (A = Sigma^-1: xx, xy, yy) and flux scale."""
@@ -310,40 +317,42 @@ class SplatPhotons(Pass):
         frame.gpu.ctx.memory_barrier()
         return buffer
 
-    def _compute(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
+    def _compute(self, frame: Frame, view: LightView, levels: list, footprints: list) -> list:
         def dispatch(bind, bound: int) -> None:
-            defines = {"FLUX_BOUND": bound, "FOOTPRINT": int(footprints is not None)}
-            program = frame.gpu.shaders.compute("passes/caustic_splat.comp", defines)
-            bind(program)
-            view.bind(program)
-            set_uniform(program, "photon_count", int(photons.count))
-            set_uniform(program, "splat_radius", self.radius)
-            photons.buffer.bind_to_storage_buffer(0)
-            if footprints is not None:
-                footprints.bind_to_storage_buffer(1)
-            run_compute(program, (photons.count + 63) // 64)
+            for photons, footprint in zip(levels, footprints):
+                defines = {"FLUX_BOUND": bound, "FOOTPRINT": int(footprint is not None)}
+                program = frame.gpu.shaders.compute("passes/caustic_splat.comp", defines)
+                bind(program)
+                view.bind(program)
+                set_uniform(program, "photon_count", int(photons.count))
+                set_uniform(program, "splat_radius", self.radius)
+                photons.buffer.bind_to_storage_buffer(0)
+                if footprint is not None:
+                    footprint.bind_to_storage_buffer(1)
+                run_compute(program, (photons.count + 63) // 64)
 
         return splat_fixed_point(frame, view.atlas_size, dispatch)
 
-    def _points(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
+    def _points(self, frame: Frame, view: LightView, levels: list, footprints: list) -> list:
         ctx = frame.gpu.ctx
         targets = [frame.zeroed(view.atlas_size, "r32f") for _ in range(3)]
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
         fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
-        defines = {"FOOTPRINT": int(footprints is not None)}
-        program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag", defines)
-        view.bind(program)
-        set_uniform(program, "splat_radius", self.radius)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         ctx.blend_equation = moderngl.FUNC_ADD
-        content = [(photons.buffer, "4f 4f", "in_position", "in_flux")]
-        if footprints is not None:
-            content.append((footprints, "4f", "in_shape"))
-        with frame.scoped(ctx.vertex_array(program, content)) as vao:
-            vao.render(moderngl.POINTS, vertices=photons.count)
+        for photons, footprint in zip(levels, footprints):
+            defines = {"FOOTPRINT": int(footprint is not None)}
+            program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag", defines)
+            view.bind(program)
+            set_uniform(program, "splat_radius", self.radius)
+            content = [(photons.buffer, "4f 4f", "in_position", "in_flux")]
+            if footprint is not None:
+                content.append((footprint, "4f", "in_shape"))
+            with frame.scoped(ctx.vertex_array(program, content)) as vao:
+                vao.render(moderngl.POINTS, vertices=photons.count)
         ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.DEFAULT_BLENDING
         return targets
@@ -385,7 +394,8 @@ class ResolveCausticMaps(Pass):
 
 
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
-                  splat: str, splat_radius: float, point_map: str = "frustum") -> CachedPasses:
+                  splat: str, splat_radius: float, point_map: str = "frustum",
+                  keep: tuple[str, ...] = ("caustic_maps",)) -> CachedPasses:
     """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
 
     1. III-B: the photon grid's view around the casters (:class:`FitCasterViews`, ``caster_size`` texels
@@ -402,9 +412,10 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
     ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
     channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
-    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``).
+    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``), which
+    keeps the channels ``keep``.
     """
-    return CachedPasses(tag, tuple(sorted(vars(params).items())), [
+    return CachedPasses(tag, tuple(sorted(vars(params).items())), keep=keep, passes=[
         FitCasterViews(caster_size, point_map=point_map),
         LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
         *makers,

@@ -74,9 +74,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
+from ..errors import TechniqueError
 from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters
-from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain
+from ..gpu.shaders import run_compute
+from ..passes.light_space import COARSE_NEWTON_STEPS, PHOTON_BYTES, LightSurfaces, Photons, dispatch_photons, landing_chain
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -104,14 +106,26 @@ class CausticMappingParams(ShadowedParams):
                                 help="Gaussian splat radius in caustic-map texels (sigma = radius / 2)")
     point_map: str = param("frustum", choices=POINT_MAPS, paper="Shah et al. III-F",
                            help="point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)")
+    adaptive_levels: int = param(0, range=(0, 5), paper="Wyman and Nichols 2009",
+                                 help="photon refinement levels below a grid of photon_grid / 2^levels (0: one photon per texel)")
+    adaptive_threshold: float = param(0.5, range=(0.01, 64.0), unit="texels", paper="Wyman and Nichols 2009",
+                                      help="refine a photon whose landing bends by more than this across its cell")
 
     def __post_init__(self):
         super().__post_init__()
         self.photon_grid = self.photon_grid or self.map_size
+        coarsest = self.photon_grid >> self.adaptive_levels
+        if self.adaptive_levels and (coarsest << self.adaptive_levels != self.photon_grid or coarsest < 8):
+            raise TechniqueError(f"adaptive_levels {self.adaptive_levels} needs photon_grid ({self.photon_grid}) "
+                                 f"divisible by 2^{self.adaptive_levels} into at least 8 photons a side: give "
+                                 f"photon_grid = 8 x 2^levels or more, a multiple of 2^levels, or fewer levels")
 
 
 class TracePhotons(Pass):
-    """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D)."""
+    """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D).
+
+    With ``adaptive_levels`` > 0 it traces the coarsest level's cells (:class:`AdaptivePhotons`: one
+    photon per block of 2^levels caster texels a side)."""
 
     def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
                  initial: str | None = None, estimator: tuple[str, int] | None = None):
@@ -124,7 +138,8 @@ class TracePhotons(Pass):
         self.reads += (initial,) if initial else ()
         self.writes = (Channel(channel, "buffer[light]", "per light: Photons (landing point, flux) or None"),)
 
-    def run(self, frame: Frame) -> None:
+    def program(self, frame: Frame, estimator: tuple[str, int]):
+        """The photon compute program with the casters' materials and ``estimator`` set; its channel count."""
         scene, p = frame.scene, self.params
         types, iors, sigmas, colors = (np.zeros(MAX_CASTERS, "i4"), np.ones((MAX_CASTERS, 3), "f4"),
                                        np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
@@ -138,17 +153,47 @@ class TracePhotons(Pass):
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
         channels = 3 if dispersive else 1
-        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS}
+        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, "ADAPTIVE": int(p.adaptive_levels > 0)}
         program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
         set_uniform(program, "caster_type", types)
         set_uniform(program, "caster_ior", iors)
         set_uniform(program, "caster_sigma", sigmas)
         set_uniform(program, "caster_color", colors)
         set_uniform(program, "channel_count", channels)
-        set_uniform(program, "iterations", self.estimator[1])
+        set_uniform(program, "iterations", estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
-        set_uniform(program, "estimator", ESTIMATORS[self.estimator[0]])
+        set_uniform(program, "estimator", ESTIMATORS[estimator[0]])
         set_uniform(program, "fallback_distance", float(0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0))))
+        return program, channels
+
+    def trace(self, frame: Frame, program, channels: int, caster_view, front, back, receivers, receiver_view,
+              initial, level: int = 0, parent=None) -> Photons:
+        """Photons of one light: one per caster texel, or per cell of adaptive ``level`` (``parent``: the
+        level above's photons, whose states say which cells to trace)."""
+        levels = self.params.adaptive_levels
+        bind_views(program, [caster_view, receiver_view])
+        textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
+        bind_samplers(program, ("front_position", "front_normal", "back_position", "back_normal",
+                                "receiver_position"), textures)
+        width, height = caster_view.atlas_size
+        if levels:
+            block = 1 << (levels - level)
+            width, height = width // block, height // block
+            set_uniform(program, "level", level)
+            set_uniform(program, "last_level", levels)
+            set_uniform(program, "block", block)
+            (parent.buffer if parent is not None else initial.buffer if initial is not None else
+             self._placeholder(frame)).bind_to_storage_buffer(2)
+        return dispatch_photons(frame, program, (width, height), width * height * channels, initial,
+                                {"channels": channels, "level": level})
+
+    @staticmethod
+    def _placeholder(frame: Frame):
+        """A buffer for the adaptive parent binding where no level lies above (unread there)."""
+        return frame.own(frame.gpu.ctx.buffer(reserve=PHOTON_BYTES))
+
+    def run(self, frame: Frame) -> None:
+        program, channels = self.program(frame, self.estimator)
         out = []
         initials = frame.read(self.initial) if self.initial else [None] * len(frame.read("caster_views"))
         for caster_view, front, back, receivers, receiver_view, initial in zip(
@@ -157,14 +202,75 @@ class TracePhotons(Pass):
             if caster_view is None or receivers is None or receiver_view is None:
                 out.append(None)
                 continue
-            width, height = caster_view.atlas_size
-            bind_views(program, [caster_view, receiver_view])
-            textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
-            bind_samplers(program, ("front_position", "front_normal", "back_position", "back_normal",
-                                    "receiver_position"), textures)
-            out.append(dispatch_photons(frame, program, (width, height), width * height * channels, initial,
-                                        {"channels": channels}))
+            out.append(self.trace(frame, program, channels, caster_view, front, back, receivers, receiver_view,
+                                  initial))
         frame.write(self.channel, out)
+
+
+class AdaptivePhotons(TracePhotons):
+    """Adaptive caustic maps (Wyman and Nichols 2009, "Adaptive Caustic Maps Using Deferred Shading").
+
+    Written from the idea of the paper (not in shared/papers) and our own reading: photons start on a
+    coarse light-space grid, one per block of 2^L caster texels a side (L = ``adaptive_levels``; the caster
+    textures are drawn once, at ``photon_grid``, so every level looks up the same deferred buffers); level
+    by level, a photon splits into four at half the spacing, each carrying the flux of its quarter (a
+    cell's photon carries the summed flux of its block's texels that see its caster, so the children's
+    flux sums to the parent's), where its cell lies on a caster's rim, its photon was lost, or its
+    landing departs from the linear model of its footprint splat by more than ``adaptive_threshold``
+    caustic-map texels (``caustic_refine.comp``). Cells that miss every caster are culled. Each level is
+    traced twice as the regular grid is (the footprint pass's Newton-Raphson on the coarse receivers, then
+    the parameters' estimator on the caustic map's), and the level's cells next to refined ones are
+    traced as helpers: the footprints and the refinement test read their landing points. Writes per light
+    the list of levels' Photons; SplatPhotons splats the live photons of every level with footprint
+    kernels sized at their own level. The caustic view is fitted around the coarsest level's landings.
+    """
+
+    def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
+                 initial: str, estimator: tuple[str, int], coarse: tuple[str, str, tuple[str, int]]):
+        """``coarse``: (receivers, views, estimator) of the first landing of every level below the first
+        (``initial`` holds the first level's)."""
+        super().__init__(receivers, receiver_views, channel, params, initial=initial, estimator=estimator)
+        self.coarse = coarse
+        self.reads += coarse[:2]
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons of each refinement level, or None"),
+                       Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"))
+
+    def run(self, frame: Frame) -> None:
+        coarse_receivers, coarse_views, coarse_estimator = self.coarse
+        program, channels = self.program(frame, self.estimator)
+        first, _ = self.program(frame, coarse_estimator)
+        refine = frame.gpu.shaders.compute("passes/caustic_refine.comp")
+        levels = self.params.adaptive_levels
+        out = []
+        for caster_view, front, back, receivers, receiver_view, coarse, coarse_view, initial in zip(
+                frame.read("caster_views"), frame.read("caster_front"), frame.read("caster_back"),
+                frame.read(self.receivers), frame.read(self.receiver_views), frame.read(coarse_receivers),
+                frame.read(coarse_views), frame.read(self.initial)):
+            if caster_view is None or receivers is None or receiver_view is None or initial is None:
+                out.append(None)
+                continue
+            photons = []
+            for level in range(levels + 1):
+                parent = photons[-1] if photons else None
+                # Land the level's photons on the coarse receivers, then from there on the caustic map's.
+                if level:
+                    initial = self.trace(frame, first, channels, caster_view, front, back, coarse, coarse_view,
+                                         None, level, parent)
+                photons.append(self.trace(frame, program, channels, caster_view, front, back, receivers,
+                                          receiver_view, initial, level, parent))
+                # Mark the live cells whose landing bends within the cell for refinement.
+                if level < levels:
+                    width, height = photons[-1].grid
+                    receiver_view.bind(refine)
+                    set_uniform(refine, "grid", (width, height))
+                    set_uniform(refine, "channels", channels)
+                    set_uniform(refine, "threshold", float(self.params.adaptive_threshold))
+                    photons[-1].buffer.bind_to_storage_buffer(0)
+                    run_compute(refine, (width + 7) // 8, (height + 7) // 8)
+                    frame.gpu.ctx.memory_barrier()
+            out.append(photons)
+        frame.write(self.channel, out)
+        frame.write("photon_counts", [None if levels is None else [level.live() for level in levels] for levels in out])
 
 
 class CausticMapping(CausticTechnique):
@@ -176,10 +282,16 @@ class CausticMapping(CausticTechnique):
         p = params
 
         def trace(receivers: str, views: str, channel: str, steps: int, initial: str | None = None) -> TracePhotons:
-            """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator."""
+            """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator
+            (with adaptive levels, every level's two landings: AdaptivePhotons)."""
             estimator = (p.estimator if initial else "newton", steps)
+            if initial and p.adaptive_levels:
+                coarse = ("coarse_receivers", "coarse_views", ("newton", max(COARSE_NEWTON_STEPS, p.iterations)))
+                return AdaptivePhotons(receivers, views, channel, p, initial, estimator, coarse)
             return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
 
         front = LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front")
+        keep = ("caustic_maps", "photon_counts") if p.adaptive_levels else ("caustic_maps",)
         return [landing_chain("caustic-mapping", p, [front], trace, caster_size=p.photon_grid, map_size=p.map_size,
-                              steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map)]
+                              steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map,
+                              keep=keep)]
