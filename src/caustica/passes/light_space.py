@@ -394,8 +394,7 @@ class ResolveCausticMaps(Pass):
 
 
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
-                  splat: str, splat_radius: float, point_map: str = "frustum",
-                  keep: tuple[str, ...] = ("caustic_maps",)) -> CachedPasses:
+                  splat: str, splat_radius: float, point_map: str = "frustum", extra: tuple = ()) -> CachedPasses:
     """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
 
     1. III-B: the photon grid's view around the casters (:class:`FitCasterViews`, ``caster_size`` texels
@@ -412,10 +411,11 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
     ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
     channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
-    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``), which
-    keeps the channels ``keep``.
+    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``). ``extra``
+    passes run last; the chain keeps what they write with the caustic maps.
     """
-    return CachedPasses(tag, tuple(sorted(vars(params).items())), keep=keep, passes=[
+    kept = ("caustic_maps", *(c.name for stage in extra for c in stage.writes))
+    return CachedPasses(tag, tuple(sorted(vars(params).items())), keep=kept, passes=[
         FitCasterViews(caster_size, point_map=point_map),
         LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
         *makers,
@@ -427,4 +427,5 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
         land("receivers", "caustic_views", "photons", steps, initial="coarse_photons"),
         SplatPhotons("photons", mode=splat, radius=splat_radius),
         ResolveCausticMaps("receivers"),
+        *extra,
     ])

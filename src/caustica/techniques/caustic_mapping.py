@@ -52,6 +52,17 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    photons spread apart (moire rings, issue 19). Irradiance = flux / receiver area
    of the texel; alpha = receiver distance to the light.
    The maps are rebuilt only when lights, objects or materials change.
+6. Adaptive caustic maps (Wyman and Nichols, "Adaptive Caustic Maps Using Deferred Shading", EG 2009;
+   the paper is not in shared/papers: built from its idea, :class:`AdaptivePhotons`): with
+   ``adaptive_levels`` L > 0 the photons start one per 2^L x 2^L block of caster texels (the caster
+   textures stay at ``photon_grid``: each level looks up the same deferred buffers) and, level by level,
+   split into four children at half the spacing, a quarter of the flux each (a photon carries the summed
+   flux of its block's texels that see its caster, so the children sum to the parent), where the cell lies
+   on a caster's rim, its photon was lost, or its landing bends by more than ``adaptive_threshold``
+   caustic-map texels across the cell (the second difference of the neighbours' landings: where the
+   footprint splat's linear model fails, i.e. where the caustic has detail). Cells that miss the casters
+   are culled. Every level's live photons are splatted with footprints of their own level. 0 keeps the
+   regular grid (bit-identical maps).
 
 Approximate: the exit point through the back buffer (one layer: concave or
 overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
@@ -62,7 +73,9 @@ reflections), the first caster layer only (light through two glass objects in
 a row, or glass then mirror, is not followed), one photon per grid texel
 (the footprint splats blur the caustic to the photons' spacing where they
 spread apart, and clamp a grazing photon's footprint, dropping the flux
-beyond), Fresnel-reflected light
+beyond; adaptive levels: a coarse photon's flux lands where its block's centre
+texel sends it, and the caustic view is fitted around the coarsest level's
+landings), Fresnel-reflected light
 off glass is not splatted. Limits: receivers must be seen from the light
 (the receiver texture holds one layer: a caustic on a surface hidden from the
 light behind another diffuse object is lost); at most 32 casters.
@@ -232,8 +245,7 @@ class AdaptivePhotons(TracePhotons):
         super().__init__(receivers, receiver_views, channel, params, initial=initial, estimator=estimator)
         self.coarse = coarse
         self.reads += coarse[:2]
-        self.writes = (Channel(channel, "buffer[light]", "per light: Photons of each refinement level, or None"),
-                       Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"))
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons of each refinement level, or None"),)
 
     def run(self, frame: Frame) -> None:
         coarse_receivers, coarse_views, coarse_estimator = self.coarse
@@ -270,7 +282,19 @@ class AdaptivePhotons(TracePhotons):
                     frame.gpu.ctx.memory_barrier()
             out.append(photons)
         frame.write(self.channel, out)
-        frame.write("photon_counts", [None if levels is None else [level.live() for level in levels] for levels in out])
+
+
+class CountPhotons(Pass):
+    """How many photons each light splats, per adaptive level (one entry on the regular grid): a readback
+    as small as FitCausticViews' own, for the benchmarks and the tests of adaptive refinement."""
+
+    reads = ("photons",)
+    writes = (Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"),)
+
+    def run(self, frame: Frame) -> None:
+        frame.write("photon_counts", [None if photons is None else
+                                      [level.live() for level in (photons if isinstance(photons, list) else [photons])]
+                                      for photons in frame.read("photons")])
 
 
 class CausticMapping(CausticTechnique):
@@ -291,7 +315,6 @@ class CausticMapping(CausticTechnique):
             return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
 
         front = LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front")
-        keep = ("caustic_maps", "photon_counts") if p.adaptive_levels else ("caustic_maps",)
         return [landing_chain("caustic-mapping", p, [front], trace, caster_size=p.photon_grid, map_size=p.map_size,
                               steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map,
-                              keep=keep)]
+                              extra=[CountPhotons()])]
