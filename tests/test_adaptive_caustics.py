@@ -154,3 +154,11 @@ def test_adaptive_parameters_are_validated():
         with pytest.raises(TechniqueError) as error:
             technique.make_params(**bad)
         assert "\n" not in str(error.value)
+
+
+def test_cli_rejects_levels_the_photon_grid_cannot_hold(tmp_path, capsys):
+    from test_cli import assert_one_line_error, run_cli
+
+    code, _, err = run_cli(["render", "caustics-point", "-t", "caustic-mapping", "-p", "adaptive_levels=3",
+                            "-p", "photon_grid=100", "-o", tmp_path / "out.png"], capsys)
+    assert_one_line_error(code, err, "adaptive_levels 3", "photon_grid")

@@ -120,7 +120,8 @@ class CausticMappingParams(ShadowedParams):
     point_map: str = param("frustum", choices=POINT_MAPS, paper="Shah et al. III-F",
                            help="point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)")
     adaptive_levels: int = param(0, range=(0, 5), paper="Wyman and Nichols 2009",
-                                 help="photon refinement levels below a grid of photon_grid / 2^levels (0: one photon per texel)")
+                                 help="refinement levels: photons start on a photon_grid / 2^levels grid and split "
+                                      "in four where the caustic has detail (0: the regular grid)")
     adaptive_threshold: float = param(0.5, range=(0.01, 64.0), unit="texels", paper="Wyman and Nichols 2009",
                                       help="refine a photon whose landing bends by more than this across its cell")
 
