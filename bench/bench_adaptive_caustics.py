@@ -81,7 +81,7 @@ def main(argv=None) -> None:
         reference = np.mean([render_reference(scene, spp=args.reference_spp, progress=False, seed=k)
                              for k in range(args.seeds)], axis=0)
         caustic = region_masks(scene)["caustic"]
-        with Renderer(size, keep_channels=True) as renderer:
+        with Renderer(scene.camera.size, keep_channels=True) as renderer:
             gl = renderer.info()["renderer"]
             plain = {rebuild: frame_ms(renderer, scene, "plain", args.spp, rebuild)[0] for rebuild in (True, False)}
             for label, params in CONFIGS:

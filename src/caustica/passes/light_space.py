@@ -74,10 +74,17 @@ class Photons:
     grid: tuple[int, int] | None = None
     channels: int = 1
 
-    def live(self) -> int:
-        """How many photons landed and are splatted (adaptive levels: live cells, adaptive_states.glsl)."""
-        data = np.frombuffer(self.buffer.read(size=self.count * PHOTON_BYTES), dtype="f4").reshape(-1, 8)
-        return int(np.count_nonzero((data[:, 3] > 0.5) & (data[:, 7] == 0.0) & (np.abs(data[:, 4:7]).sum(axis=1) > 0)))
+    def live(self, frame: Frame) -> int:
+        """How many photons landed and are splatted (adaptive levels: live cells, adaptive_states.glsl),
+        counted on the GPU (``photon_count.comp``)."""
+        program = frame.gpu.shaders.compute("passes/photon_count.comp")
+        with frame.scoped(frame.gpu.ctx.buffer(np.zeros(1, "u4").tobytes())) as counter:
+            set_uniform(program, "photon_count", int(self.count))
+            self.buffer.bind_to_storage_buffer(0)
+            counter.bind_to_storage_buffer(1)
+            run_compute(program, (self.count + 63) // 64)
+            frame.gpu.ctx.memory_barrier()
+            return int(np.frombuffer(counter.read(), "u4")[0])
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """(positions (n, 3), flux (n, 3)) of the photons that landed."""

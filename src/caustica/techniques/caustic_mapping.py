@@ -286,15 +286,15 @@ class AdaptivePhotons(TracePhotons):
 
 
 class CountPhotons(Pass):
-    """How many photons each light splats, per adaptive level (one entry on the regular grid): a readback
-    as small as FitCausticViews' own, for the benchmarks and the tests of adaptive refinement."""
+    """How many photons each light splats, per adaptive level (one entry on the regular grid), counted on
+    the GPU (a 4-byte readback per level), for the benchmarks and the tests of adaptive refinement."""
 
     reads = ("photons",)
     writes = (Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"),)
 
     def run(self, frame: Frame) -> None:
         frame.write("photon_counts", [None if photons is None else
-                                      [level.live() for level in (photons if isinstance(photons, list) else [photons])]
+                                      [level.live(frame) for level in (photons if isinstance(photons, list) else [photons])]
                                       for photons in frame.read("photons")])
 
 
