@@ -86,10 +86,11 @@ class Photons:
             frame.gpu.ctx.memory_barrier()
             return int(np.frombuffer(counter.read(), "u4")[0])
 
-    def read(self) -> tuple[np.ndarray, np.ndarray]:
-        """(positions (n, 3), flux (n, 3)) of the photons that landed."""
+    def read(self, live: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (n, 3), flux (n, 3)) of the photons that landed (``live``: and are splatted,
+        adaptive_states.glsl)."""
         data = np.frombuffer(self.buffer.read(size=self.count * PHOTON_BYTES), dtype="f4").reshape(-1, 8)
-        landed = data[:, 3] > 0.5
+        landed = (data[:, 3] > 0.5) & ((data[:, 7] == 0.0) if live else True)
         return data[landed, :3].astype(np.float64), data[landed, 4:7].astype(np.float64)
 
 
@@ -225,11 +226,12 @@ class FitCausticViews(Pass):
     cube atlas when the landing points spread wider than one frustum.
     """
 
-    def __init__(self, photons: str, size: int, margin_texels: float = 3.0, trim: float = 1e-3, point_map: str = "frustum"):
+    def __init__(self, photons: str, size: int, margin_texels: float = 3.0, trim: float = 1e-3, point_map: str = "frustum",
+                 channel: str = "caustic_views"):
         self.photons, self.size, self.margin, self.trim = photons, int(size), margin_texels, trim
         self.point_map = point_map
         self.reads = ("light_samples", photons)
-        self.writes = (Channel("caustic_views", "host[light]", "per light: LightView of the caustic map, or None"),)
+        self.writes = (Channel(channel, "host[light]", "per light: LightView of the caustic map, or None"),)
 
     def run(self, frame: Frame) -> None:
         views = []
@@ -238,7 +240,9 @@ class FitCausticViews(Pass):
             if photons is not None and sample.type == LIGHT_POINT and self.point_map == "cube":
                 view = cube_view(sample, self.size, frame.scene)
             elif photons is not None:
-                points, flux = photons.read()
+                # Adaptive levels (a list): the live photons of every level.
+                levels = [level.read(live=True) for level in photons] if isinstance(photons, list) else [photons.read()]
+                points, flux = np.concatenate([p for p, _ in levels]), np.concatenate([f for _, f in levels])
                 weights = flux.sum(axis=1)
                 keep = weights > 0
                 if keep.any():
@@ -247,7 +251,7 @@ class FitCausticViews(Pass):
                         view = cube_view(sample, self.size, frame.scene) if sample.type == LIGHT_POINT else \
                             coarse_view(sample, self.size, frame.scene)
             views.append(view)
-        frame.write("caustic_views", views)
+        frame.write(self.writes[0].name, views)
 
 
 def float_atomics(frame: Frame) -> bool:
@@ -400,6 +404,11 @@ class ResolveCausticMaps(Pass):
 
 
 
+def listed(passes) -> list:
+    """A pass or a list of passes, as a list."""
+    return list(passes) if isinstance(passes, (list, tuple)) else [passes]
+
+
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
                   splat: str, splat_radius: float, point_map: str = "frustum", extra: tuple = ()) -> CachedPasses:
     """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
@@ -415,7 +424,7 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
        ``steps`` steps from the first hits, into ``photons``.
     5. III-F: :class:`SplatPhotons` (``splat``, ``splat_radius`` texels) and :class:`ResolveCausticMaps`.
 
-    ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
+    ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass or passes (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
     channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
     materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``). ``extra``
@@ -428,10 +437,10 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
         *makers,
         FitCoarseViews(min(map_size, COARSE_MAP_SIZE)),
         LightSurfaces("coarse_views", "coarse_receivers"),
-        land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps)),
+        *listed(land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps))),
         FitCausticViews("coarse_photons", map_size, margin_texels=splat_radius + 2.0, point_map=point_map),
         LightSurfaces("caustic_views", "receivers"),
-        land("receivers", "caustic_views", "photons", steps, initial="coarse_photons"),
+        *listed(land("receivers", "caustic_views", "photons", steps, initial="coarse_photons")),
         SplatPhotons("photons", mode=splat, radius=splat_radius),
         ResolveCausticMaps("receivers"),
         *extra,

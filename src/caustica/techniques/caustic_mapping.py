@@ -61,8 +61,11 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    on a caster's rim, its photon was lost, or its landing bends by more than ``adaptive_threshold``
    caustic-map texels across the cell (the second difference of the neighbours' landings: where the
    footprint splat's linear model fails, i.e. where the caustic has detail). Cells that miss the casters
-   are culled. Every level's live photons are splatted with footprints of their own level. 0 keeps the
-   regular grid (bit-identical maps).
+   are culled. Each level lands twice as the grid does; the caustic view is fitted around every level's
+   live photons. For the splat, each live photon is split into the finest cells of its block along the
+   first-order model of its landing (a ray differential, ``ExpandPhotons``): Gaussians of two sizes
+   meeting at a level's edge do not sum flat (bands of about 20 percent), one grid's do. So tracing is
+   adaptive, the splat is the finest grid's. 0 keeps the regular grid (bit-identical maps).
 
 Approximate: the exit point through the back buffer (one layer: concave or
 overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
@@ -73,9 +76,9 @@ reflections), the first caster layer only (light through two glass objects in
 a row, or glass then mirror, is not followed), one photon per grid texel
 (the footprint splats blur the caustic to the photons' spacing where they
 spread apart, and clamp a grazing photon's footprint, dropping the flux
-beyond; adaptive levels: a coarse photon's flux lands where its block's centre
-texel sends it, and the caustic view is fitted around the coarsest level's
-landings), Fresnel-reflected light
+beyond; adaptive levels: a photon left coarse lands its block along its
+landing's first-order model, and the refinement test measures bends in a view
+fitted around the coarsest level's landings), Fresnel-reflected light
 off glass is not splatted. Limits: receivers must be seen from the light
 (the receiver texture holds one layer: a caustic on a surface hidden from the
 light behind another diffuse object is lost); at most 32 casters.
@@ -91,7 +94,8 @@ from ..errors import TechniqueError
 from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters
 from ..gpu.shaders import run_compute
-from ..passes.light_space import COARSE_NEWTON_STEPS, PHOTON_BYTES, LightSurfaces, Photons, dispatch_photons, landing_chain
+from ..passes.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
+                                  landing_chain)
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -226,62 +230,104 @@ class AdaptivePhotons(TracePhotons):
 
     Written from the idea of the paper (not in shared/papers) and our own reading: photons start on a
     coarse light-space grid, one per block of 2^L caster texels a side (L = ``adaptive_levels``; the caster
-    textures are drawn once, at ``photon_grid``, so every level looks up the same deferred buffers); level
-    by level, a photon splits into four at half the spacing, each carrying the flux of its quarter (a
-    cell's photon carries the summed flux of its block's texels that see its caster, so the children's
-    flux sums to the parent's), where its cell lies on a caster's rim, its photon was lost, or its
-    landing departs from the linear model of its footprint splat by more than ``adaptive_threshold``
-    caustic-map texels (``caustic_refine.comp``). Cells that miss every caster are culled. Each level is
-    traced twice as the regular grid is (the footprint pass's Newton-Raphson on the coarse receivers, then
-    the parameters' estimator on the caustic map's), and the level's cells next to refined ones are
-    traced as helpers: the footprints and the refinement test read their landing points. Writes per light
-    the list of levels' Photons; SplatPhotons splats the live photons of every level with footprint
-    kernels sized at their own level. The caustic view is fitted around the coarsest level's landings.
+    textures are drawn once, at ``photon_grid``, so every level looks up the same deferred buffers) and
+    leave from the block's centre; level by level, a photon splits into four at half the spacing, each
+    carrying the flux of its quarter (a cell's photon carries the summed flux of its block's texels that
+    see its caster, so the children's flux sums to the parent's), where its cell lies on a caster's rim,
+    its photon was lost, or its landing departs from the linear model of its footprint splat by more
+    than ``adaptive_threshold`` caustic-map texels (``caustic_refine.comp``). Cells that miss every caster
+    are culled. The cells next to refined ones are traced as helpers: the footprints and the refinement
+    test read their landing points.
+
+    As the regular grid, every level lands twice: first (``first``: the coarsest level, landed already)
+    on the coarse receivers with Newton-Raphson, refining against ``refine_views`` (a caustic view fitted
+    around the coarsest landings), so that the caustic map's view is then fitted around the live photons
+    of every level; then (``initial``: the first landing's levels) on the caustic map's receivers, keeping
+    the first landing's states. Writes per light the list of levels' Photons (ExpandPhotons puts their
+    live photons on the finest grid for the splat).
     """
 
     def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
-                 initial: str, estimator: tuple[str, int], coarse: tuple[str, str, tuple[str, int]]):
-        """``coarse``: (receivers, views, estimator) of the first landing of every level below the first
-        (``initial`` holds the first level's)."""
+                 estimator: tuple[str, int], *, first: str | None = None, refine_views: str | None = None,
+                 initial: str | None = None):
         super().__init__(receivers, receiver_views, channel, params, initial=initial, estimator=estimator)
-        self.coarse = coarse
-        self.reads += coarse[:2]
+        self.first, self.refine_views = first, refine_views
+        self.reads += tuple(name for name in (first, refine_views) if name)
         self.writes = (Channel(channel, "buffer[light]", "per light: Photons of each refinement level, or None"),)
 
     def run(self, frame: Frame) -> None:
-        coarse_receivers, coarse_views, coarse_estimator = self.coarse
         program, channels = self.program(frame, self.estimator)
-        first, _ = self.program(frame, coarse_estimator)
-        refine = frame.gpu.shaders.compute("passes/caustic_refine.comp")
         levels = self.params.adaptive_levels
+        lights = len(frame.read("caster_views"))
+        firsts = frame.read(self.first) if self.first else [None] * lights
+        refine_views = frame.read(self.refine_views) if self.refine_views else [None] * lights
+        initials = frame.read(self.initial) if self.initial else [None] * lights
         out = []
-        for caster_view, front, back, receivers, receiver_view, coarse, coarse_view, initial in zip(
+        for caster_view, front, back, receivers, receiver_view, first, refine_view, initial in zip(
                 frame.read("caster_views"), frame.read("caster_front"), frame.read("caster_back"),
-                frame.read(self.receivers), frame.read(self.receiver_views), frame.read(coarse_receivers),
-                frame.read(coarse_views), frame.read(self.initial)):
-            if caster_view is None or receivers is None or receiver_view is None or initial is None:
+                frame.read(self.receivers), frame.read(self.receiver_views), firsts, refine_views, initials):
+            if caster_view is None or receivers is None or receiver_view is None or (first is None and initial is None):
                 out.append(None)
                 continue
+            textures = (caster_view, front, back, receivers, receiver_view)
             photons = []
             for level in range(levels + 1):
-                parent = photons[-1] if photons else None
-                # Land the level's photons on the coarse receivers, then from there on the caustic map's.
-                if level:
-                    initial = self.trace(frame, first, channels, caster_view, front, back, coarse, coarse_view,
-                                         None, level, parent)
-                photons.append(self.trace(frame, program, channels, caster_view, front, back, receivers,
-                                          receiver_view, initial, level, parent))
-                # Mark the live cells whose landing bends within the cell for refinement.
-                if level < levels:
-                    width, height = photons[-1].grid
-                    receiver_view.bind(refine)
-                    set_uniform(refine, "grid", (width, height))
-                    set_uniform(refine, "channels", channels)
-                    set_uniform(refine, "threshold", float(self.params.adaptive_threshold))
-                    photons[-1].buffer.bind_to_storage_buffer(0)
-                    run_compute(refine, (width + 7) // 8, (height + 7) // 8)
-                    frame.gpu.ctx.memory_barrier()
+                # The second landing: from the first's landing points, with its states.
+                if initial is not None:
+                    photons.append(self.trace(frame, program, channels, *textures, initial[level], level,
+                                              initial[level - 1] if level else None))
+                    continue
+                # The first: cells whose parents were refined, then mark the live ones that bend.
+                photons.append(first if level == 0 else
+                               self.trace(frame, program, channels, *textures, None, level, photons[-1]))
+                if level < levels and refine_view is not None:
+                    self._refine(frame, photons[-1], refine_view, channels)
             out.append(photons)
+        frame.write(self.channel, out)
+
+    def _refine(self, frame: Frame, photons: Photons, view, channels: int) -> None:
+        """caustic_refine.comp over one level's cells, bends measured in ``view``'s texels."""
+        program = frame.gpu.shaders.compute("passes/caustic_refine.comp")
+        width, height = photons.grid
+        view.bind(program)
+        set_uniform(program, "grid", (width, height))
+        set_uniform(program, "channels", channels)
+        set_uniform(program, "threshold", float(self.params.adaptive_threshold))
+        photons.buffer.bind_to_storage_buffer(0)
+        run_compute(program, (width + 7) // 8, (height + 7) // 8)
+        frame.gpu.ctx.memory_barrier()
+
+
+class ExpandPhotons(Pass):
+    """The adaptive levels' live photons spread over the finest grid (``caustic_expand.comp``): each splits
+    into the finest cells of its block along the first-order model of its landing, so every photon the
+    splat sees lies on one grid and the footprint splats sum flat across the levels' edges."""
+
+    def __init__(self, levels: str, channel: str):
+        self.levels, self.channel = levels, channel
+        self.reads = (levels,)
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons on the finest grid, or None"),)
+
+    def run(self, frame: Frame) -> None:
+        program = frame.gpu.shaders.compute("passes/caustic_expand.comp")
+        out = []
+        for levels in frame.read(self.levels):
+            if levels is None:
+                out.append(None)
+                continue
+            finest = levels[-1]
+            buffer = frame.own(frame.gpu.ctx.buffer(reserve=finest.count * PHOTON_BYTES))
+            buffer.clear()
+            buffer.bind_to_storage_buffer(1)
+            for photons in levels:
+                width, height = photons.grid
+                photons.buffer.bind_to_storage_buffer(0)
+                set_uniform(program, "grid", (width, height))
+                set_uniform(program, "block", finest.grid[1] // height)
+                set_uniform(program, "channels", photons.channels)
+                run_compute(program, (width + 7) // 8, (height + 7) // 8)
+                frame.gpu.ctx.memory_barrier()
+            out.append(Photons(buffer, finest.count, dict(finest.stats), finest.grid, finest.channels))
         frame.write(self.channel, out)
 
 
@@ -289,13 +335,16 @@ class CountPhotons(Pass):
     """How many photons each light splats, per adaptive level (one entry on the regular grid), counted on
     the GPU (a 4-byte readback per level), for the benchmarks and the tests of adaptive refinement."""
 
-    reads = ("photons",)
     writes = (Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"),)
+
+    def __init__(self, photons: str = "photons"):
+        self.photons = photons
+        self.reads = (photons,)
 
     def run(self, frame: Frame) -> None:
         frame.write("photon_counts", [None if photons is None else
                                       [level.live(frame) for level in (photons if isinstance(photons, list) else [photons])]
-                                      for photons in frame.read("photons")])
+                                      for photons in frame.read(self.photons)])
 
 
 class CausticMapping(CausticTechnique):
@@ -310,12 +359,19 @@ class CausticMapping(CausticTechnique):
             """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator
             (with adaptive levels, every level's two landings: AdaptivePhotons)."""
             estimator = (p.estimator if initial else "newton", steps)
-            if initial and p.adaptive_levels:
-                coarse = ("coarse_receivers", "coarse_views", ("newton", max(COARSE_NEWTON_STEPS, p.iterations)))
-                return AdaptivePhotons(receivers, views, channel, p, initial, estimator, coarse)
-            return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
+            if not p.adaptive_levels:
+                return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
+            if initial:
+                return [AdaptivePhotons(receivers, views, "photon_levels", p, estimator, initial=initial),
+                        ExpandPhotons("photon_levels", channel)]
+            # The coarsest level, a caustic view around it to measure bends in, then the finer levels.
+            return [TracePhotons(receivers, views, "coarsest_photons", p, estimator=estimator),
+                    FitCausticViews("coarsest_photons", p.map_size, margin_texels=p.splat_radius + 2.0,
+                                    point_map=p.point_map, channel="refine_views"),
+                    AdaptivePhotons(receivers, views, channel, p, estimator, first="coarsest_photons",
+                                    refine_views="refine_views")]
 
         front = LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front")
         return [landing_chain("caustic-mapping", p, [front], trace, caster_size=p.photon_grid, map_size=p.map_size,
                               steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map,
-                              extra=[CountPhotons()])]
+                              extra=[CountPhotons("photon_levels" if p.adaptive_levels else "photons")])]

@@ -11,7 +11,8 @@
 // starts at the block's centre texel and carries the flux of every texel of the block that sees the same
 // caster (so four children carry their parent's flux). Cells are traced where their parent (binding 2,
 // level - 1) was refined, or where a 4-neighbour's was (helpers: landing points for the footprints and the
-// refinement test, not splatted). flux.w holds the cell's state: STATE_LIVE (splatted), STATE_HELPER,
+// refinement test, not splatted); a second landing of a level (has_initial) copies the first's states.
+// flux.w holds the cell's state: STATE_LIVE (splatted), STATE_HELPER,
 // STATE_REFINED (children traced next level) or STATE_UNTRACED; a cell on a caster's rim (some texels of
 // its block see no caster or another) or whose photon was lost is refined below last_level.
 // Host defines: VIEW_COUNT (2), MAX_CASTERS (32), ADAPTIVE (0), CASTER_NONE, _MIRROR, _SOLID, _SURFACE
@@ -216,7 +217,7 @@ void main() {
                     parent_refined(t + ivec2(0, 1), face, n) || parent_refined(t - ivec2(0, 1), face, n);
         state = ring ? STATE_HELPER : STATE_UNTRACED;
     }
-    ivec2 s = t * block + block / 2;  // the block's centre texel
+    ivec2 s = t * block + max(block / 2 - 1, 0);  // the first of the block's four central texels
 #else
     int n = view_size[0];
     if (t.x >= faces * n || t.y >= n) return;
@@ -224,13 +225,33 @@ void main() {
     ivec2 s = t;
 #endif
     int first = (t.y * faces * n + t.x) * channel_count;
+#if ADAPTIVE
+    // A second landing of the level keeps the states the first landing's refinement gave.
+    if (has_initial != 0) state = initial[first].flux.w;
+#endif
     for (int c = 0; c < channel_count; ++c) photons[first + c] = Photon(vec4(0.0), vec4(0.0));
 
     // The caster surface this texel sees, and the flux through the texel (the block's caster texels).
     vec4 front, fn;
     int id = caster_at(s, front, fn);
 #if ADAPTIVE
-    bool refinable = state == STATE_LIVE && level < last_level;
+    // The photon leaves the block's centre (a texel corner from two texels a side): the mean of the four
+    // central texels' surface points and normals where they see one caster.
+    if (block > 1 && id >= 0) {
+        vec4 sum = front, nsum = vec4(fn.xyz, 0.0);
+        bool same = true;
+        for (int k = 1; k < 4; ++k) {
+            vec4 f, n;
+            same = same && caster_at(s + ivec2(k & 1, k >> 1), f, n) == id;
+            sum += f;
+            nsum.xyz += n.xyz;
+        }
+        if (same) {
+            front = 0.25 * sum;
+            fn.xyz = nsum.xyz;
+        }
+    }
+    bool refinable = state == STATE_LIVE && level < last_level && has_initial == 0;
     bool whole = false, covered = false;
     vec3 flux = vec3(0.0);
     if (state != STATE_UNTRACED) flux = block_flux(t * block, face, id, whole, covered);
