@@ -53,13 +53,26 @@ def scenes(size):
         yield over_floor("bunny-over-floor", bunny, [0.0, 0.3, 0.0], [-0.6, 5.0, 0.8], size)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def reference_arguments(description: str, seeds: int) -> argparse.ArgumentParser:
+    """The options every Mitsuba-referenced benchmark takes: --size, --spp, --reference-spp, --seeds."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--size", default="128x96")
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--reference-spp", type=int, default=1024)
-    parser.add_argument("--seeds", type=int, default=4)
-    args = parser.parse_args(argv)
+    parser.add_argument("--seeds", type=int, default=seeds)
+    return parser
+
+
+def print_table(caption: str, columns: list[str], rows: list[str]) -> None:
+    """A caption line, then a markdown table of ``columns`` over the prepared ``rows``."""
+    print(f"{caption}\n")
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
+    print("\n".join(rows))
+
+
+def main(argv=None) -> None:
+    args = reference_arguments(__doc__.splitlines()[0], seeds=4).parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows, gl = [], ""
     for scene in scenes(size):
@@ -83,11 +96,9 @@ def main(argv=None) -> None:
                             f"{psnr_linear(image, reference, caustic):.1f} | {psnr_linear(image, reference):.1f} | "
                             f"{ms:.0f} |")
                 print(rows[-1], file=sys.stderr, flush=True)
-    print(f"{args.size}, {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds, black environment; "
-          f"GL: {gl}\n")
-    print("| scene | technique | caustic relMSE | caustic PSNR | PSNR all | ms per frame |")
-    print("|---|---|---|---|---|---|")
-    print("\n".join(rows))
+    print_table(f"{args.size}, {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds, black "
+                f"environment; GL: {gl}", ["scene", "technique", "caustic relMSE", "caustic PSNR", "PSNR all",
+                                           "ms per frame"], rows)
 
 
 if __name__ == "__main__":

@@ -38,6 +38,7 @@ compute shader that writes one (``photon_land.comp``).
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 import moderngl
@@ -73,10 +74,23 @@ class Photons:
     grid: tuple[int, int] | None = None
     channels: int = 1
 
-    def read(self) -> tuple[np.ndarray, np.ndarray]:
-        """(positions (n, 3), flux (n, 3)) of the photons that landed."""
+    def live(self, frame: Frame) -> int:
+        """How many photons landed and are splatted (adaptive levels: live cells, adaptive_states.glsl),
+        counted on the GPU (``photon_count.comp``)."""
+        program = frame.gpu.shaders.compute("passes/photon_count.comp")
+        with frame.scoped(frame.gpu.ctx.buffer(np.zeros(1, "u4").tobytes())) as counter:
+            set_uniform(program, "photon_count", int(self.count))
+            self.buffer.bind_to_storage_buffer(0)
+            counter.bind_to_storage_buffer(1)
+            run_compute(program, (self.count + 63) // 64)
+            frame.gpu.ctx.memory_barrier()
+            return int(np.frombuffer(counter.read(), "u4")[0])
+
+    def read(self, live: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (n, 3), flux (n, 3)) of the photons that landed (``live``: and are splatted,
+        adaptive_states.glsl)."""
         data = np.frombuffer(self.buffer.read(size=self.count * PHOTON_BYTES), dtype="f4").reshape(-1, 8)
-        landed = data[:, 3] > 0.5
+        landed = (data[:, 3] > 0.5) & ((data[:, 7] == 0.0) if live else True)
         return data[landed, :3].astype(np.float64), data[landed, 4:7].astype(np.float64)
 
 
@@ -212,11 +226,12 @@ class FitCausticViews(Pass):
     cube atlas when the landing points spread wider than one frustum.
     """
 
-    def __init__(self, photons: str, size: int, margin_texels: float = 3.0, trim: float = 1e-3, point_map: str = "frustum"):
+    def __init__(self, photons: str, size: int, margin_texels: float = 3.0, trim: float = 1e-3, point_map: str = "frustum",
+                 channel: str = "caustic_views"):
         self.photons, self.size, self.margin, self.trim = photons, int(size), margin_texels, trim
         self.point_map = point_map
         self.reads = ("light_samples", photons)
-        self.writes = (Channel("caustic_views", "host[light]", "per light: LightView of the caustic map, or None"),)
+        self.writes = (Channel(channel, "host[light]", "per light: LightView of the caustic map, or None"),)
 
     def run(self, frame: Frame) -> None:
         views = []
@@ -225,7 +240,9 @@ class FitCausticViews(Pass):
             if photons is not None and sample.type == LIGHT_POINT and self.point_map == "cube":
                 view = cube_view(sample, self.size, frame.scene)
             elif photons is not None:
-                points, flux = photons.read()
+                # Adaptive levels (a list): the live photons of every level.
+                levels = [level.read(live=True) for level in photons] if isinstance(photons, list) else [photons.read()]
+                points, flux = np.concatenate([p for p, _ in levels]), np.concatenate([f for _, f in levels])
                 weights = flux.sum(axis=1)
                 keep = weights > 0
                 if keep.any():
@@ -234,7 +251,7 @@ class FitCausticViews(Pass):
                         view = cube_view(sample, self.size, frame.scene) if sample.type == LIGHT_POINT else \
                             coarse_view(sample, self.size, frame.scene)
             views.append(view)
-        frame.write("caustic_views", views)
+        frame.write(self.writes[0].name, views)
 
 
 def float_atomics(frame: Frame) -> bool:
@@ -283,15 +300,16 @@ class SplatPhotons(Pass):
             if view is None or photons is None:
                 out.append(None)
                 continue
-            if photons.grid is None:
-                out.append(self._splat(frame, mode, view, photons, None))
-                continue
-            with frame.scoped(self._footprints(frame, view, photons)) as footprints:
-                out.append(self._splat(frame, mode, view, photons, footprints))
+            # One Photons, or the levels of an adaptive map (each level's footprints from its own grid).
+            levels = list(photons) if isinstance(photons, (list, tuple)) else [photons]
+            with ExitStack() as stack:
+                footprints = [None if level.grid is None else stack.enter_context(
+                    frame.scoped(self._footprints(frame, view, level))) for level in levels]
+                out.append(self._splat(frame, mode, view, levels, footprints))
         frame.write("caustic_flux", out)
 
-    def _splat(self, frame: Frame, mode: str, view: LightView, photons: Photons, footprints) -> list:
-        return (self._compute if mode == "compute" else self._points)(frame, view, photons, footprints)
+    def _splat(self, frame: Frame, mode: str, view: LightView, levels: list, footprints: list) -> list:
+        return (self._compute if mode == "compute" else self._points)(frame, view, levels, footprints)
 
     def _footprints(self, frame: Frame, view: LightView, photons: Photons):
         """A buffer of vec4 per photon: its kernel's shape (A = Sigma^-1: xx, xy, yy) and flux scale."""
@@ -310,40 +328,42 @@ class SplatPhotons(Pass):
         frame.gpu.ctx.memory_barrier()
         return buffer
 
-    def _compute(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
+    def _compute(self, frame: Frame, view: LightView, levels: list, footprints: list) -> list:
         def dispatch(bind, bound: int) -> None:
-            defines = {"FLUX_BOUND": bound, "FOOTPRINT": int(footprints is not None)}
-            program = frame.gpu.shaders.compute("passes/caustic_splat.comp", defines)
-            bind(program)
-            view.bind(program)
-            set_uniform(program, "photon_count", int(photons.count))
-            set_uniform(program, "splat_radius", self.radius)
-            photons.buffer.bind_to_storage_buffer(0)
-            if footprints is not None:
-                footprints.bind_to_storage_buffer(1)
-            run_compute(program, (photons.count + 63) // 64)
+            for photons, footprint in zip(levels, footprints):
+                defines = {"FLUX_BOUND": bound, "FOOTPRINT": int(footprint is not None)}
+                program = frame.gpu.shaders.compute("passes/caustic_splat.comp", defines)
+                bind(program)
+                view.bind(program)
+                set_uniform(program, "photon_count", int(photons.count))
+                set_uniform(program, "splat_radius", self.radius)
+                photons.buffer.bind_to_storage_buffer(0)
+                if footprint is not None:
+                    footprint.bind_to_storage_buffer(1)
+                run_compute(program, (photons.count + 63) // 64)
 
         return splat_fixed_point(frame, view.atlas_size, dispatch)
 
-    def _points(self, frame: Frame, view: LightView, photons: Photons, footprints) -> list:
+    def _points(self, frame: Frame, view: LightView, levels: list, footprints: list) -> list:
         ctx = frame.gpu.ctx
         targets = [frame.zeroed(view.atlas_size, "r32f") for _ in range(3)]
         fbo = frame.gpu.targets.framebuffer(targets)
         fbo.use()
         fbo.viewport = (0, 0, *view.atlas_size)  # the targets came zeroed from the pool
-        defines = {"FOOTPRINT": int(footprints is not None)}
-        program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag", defines)
-        view.bind(program)
-        set_uniform(program, "splat_radius", self.radius)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         ctx.blend_equation = moderngl.FUNC_ADD
-        content = [(photons.buffer, "4f 4f", "in_position", "in_flux")]
-        if footprints is not None:
-            content.append((footprints, "4f", "in_shape"))
-        with frame.scoped(ctx.vertex_array(program, content)) as vao:
-            vao.render(moderngl.POINTS, vertices=photons.count)
+        for photons, footprint in zip(levels, footprints):
+            defines = {"FOOTPRINT": int(footprint is not None)}
+            program = frame.gpu.shaders.program("passes/caustic_splat.vert", "passes/caustic_splat.frag", defines)
+            view.bind(program)
+            set_uniform(program, "splat_radius", self.radius)
+            content = [(photons.buffer, "4f 4f", "in_position", "in_flux")]
+            if footprint is not None:
+                content.append((footprint, "4f", "in_shape"))
+            with frame.scoped(ctx.vertex_array(program, content)) as vao:
+                vao.render(moderngl.POINTS, vertices=photons.count)
         ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         ctx.blend_func = moderngl.DEFAULT_BLENDING
         return targets
@@ -384,8 +404,13 @@ class ResolveCausticMaps(Pass):
 
 
 
+def listed(passes) -> list:
+    """A pass or a list of passes, as a list."""
+    return list(passes) if isinstance(passes, (list, tuple)) else [passes]
+
+
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
-                  splat: str, splat_radius: float, point_map: str = "frustum") -> CachedPasses:
+                  splat: str, splat_radius: float, point_map: str = "frustum", extra: tuple = ()) -> CachedPasses:
     """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
 
     1. III-B: the photon grid's view around the casters (:class:`FitCasterViews`, ``caster_size`` texels
@@ -399,21 +424,24 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
        ``steps`` steps from the first hits, into ``photons``.
     5. III-F: :class:`SplatPhotons` (``splat``, ``splat_radius`` texels) and :class:`ResolveCausticMaps`.
 
-    ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass (photons onto the
+    ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass or passes (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
     channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
-    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``).
+    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``). ``extra``
+    passes run last; the chain keeps what they write with the caustic maps.
     """
-    return CachedPasses(tag, tuple(sorted(vars(params).items())), [
+    kept = ("caustic_maps", *(c.name for stage in extra for c in stage.writes))
+    return CachedPasses(tag, tuple(sorted(vars(params).items())), keep=kept, passes=[
         FitCasterViews(caster_size, point_map=point_map),
         LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
         *makers,
         FitCoarseViews(min(map_size, COARSE_MAP_SIZE)),
         LightSurfaces("coarse_views", "coarse_receivers"),
-        land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps)),
+        *listed(land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps))),
         FitCausticViews("coarse_photons", map_size, margin_texels=splat_radius + 2.0, point_map=point_map),
         LightSurfaces("caustic_views", "receivers"),
-        land("receivers", "caustic_views", "photons", steps, initial="coarse_photons"),
+        *listed(land("receivers", "caustic_views", "photons", steps, initial="coarse_photons")),
         SplatPhotons("photons", mode=splat, radius=splat_radius),
         ResolveCausticMaps("receivers"),
+        *extra,
     ])

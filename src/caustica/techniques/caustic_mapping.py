@@ -52,6 +52,20 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    photons spread apart (moire rings, issue 19). Irradiance = flux / receiver area
    of the texel; alpha = receiver distance to the light.
    The maps are rebuilt only when lights, objects or materials change.
+6. Adaptive caustic maps (Wyman and Nichols, "Adaptive Caustic Maps Using Deferred Shading", EG 2009;
+   the paper is not in shared/papers: built from its idea, :class:`AdaptivePhotons`): with
+   ``adaptive_levels`` L > 0 the photons start one per 2^L x 2^L block of caster texels (the caster
+   textures stay at ``photon_grid``: each level looks up the same deferred buffers) and, level by level,
+   split into four children at half the spacing, a quarter of the flux each (a photon carries the summed
+   flux of its block's texels that see its caster, so the children sum to the parent), where the cell lies
+   on a caster's rim, its photon was lost, or its landing bends by more than ``adaptive_threshold``
+   caustic-map texels across the cell (the second difference of the neighbours' landings: where the
+   footprint splat's linear model fails, i.e. where the caustic has detail). Cells that miss the casters
+   are culled. Each level lands twice as the grid does; the caustic view is fitted around every level's
+   live photons. For the splat, each live photon is split into the finest cells of its block along the
+   first-order model of its landing (a ray differential, ``ExpandPhotons``): Gaussians of two sizes
+   meeting at a level's edge do not sum flat (bands of about 20 percent), one grid's do. So tracing is
+   adaptive, the splat is the finest grid's. 0 keeps the regular grid (bit-identical maps).
 
 Approximate: the exit point through the back buffer (one layer: concave or
 overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
@@ -62,7 +76,9 @@ reflections), the first caster layer only (light through two glass objects in
 a row, or glass then mirror, is not followed), one photon per grid texel
 (the footprint splats blur the caustic to the photons' spacing where they
 spread apart, and clamp a grazing photon's footprint, dropping the flux
-beyond), Fresnel-reflected light
+beyond; adaptive levels: a photon left coarse lands its block along its
+landing's first-order model, and the refinement test measures bends in a view
+fitted around the coarsest level's landings), Fresnel-reflected light
 off glass is not splatted. Limits: receivers must be seen from the light
 (the receiver texture holds one layer: a caustic on a surface hidden from the
 light behind another diffuse object is lost); at most 32 casters.
@@ -74,9 +90,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
+from ..errors import TechniqueError
 from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
-from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain
+from ..gpu.shaders import run_compute
+from ..passes.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
+                                  landing_chain)
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -104,14 +123,27 @@ class CausticMappingParams(ShadowedParams):
                                 help="Gaussian splat radius in caustic-map texels (sigma = radius / 2)")
     point_map: str = param("frustum", choices=POINT_MAPS, paper="Shah et al. III-F",
                            help="point lights: 'frustum' (fitted, cube when too wide) or 'cube' (always)")
+    adaptive_levels: int = param(0, range=(0, 5), paper="Wyman and Nichols 2009",
+                                 help="refinement levels: photons start on a photon_grid / 2^levels grid and split "
+                                      "in four where the caustic has detail (0: the regular grid)")
+    adaptive_threshold: float = param(0.5, range=(0.01, 64.0), unit="texels", paper="Wyman and Nichols 2009",
+                                      help="refine a photon whose landing bends by more than this across its cell")
 
     def __post_init__(self):
         super().__post_init__()
         self.photon_grid = self.photon_grid or self.map_size
+        coarsest = self.photon_grid >> self.adaptive_levels
+        if self.adaptive_levels and (coarsest << self.adaptive_levels != self.photon_grid or coarsest < 8):
+            raise TechniqueError(f"adaptive_levels {self.adaptive_levels} needs photon_grid ({self.photon_grid}) "
+                                 f"divisible by 2^{self.adaptive_levels} into at least 8 photons a side: give "
+                                 f"photon_grid = 8 x 2^levels or more, a multiple of 2^levels, or fewer levels")
 
 
 class TracePhotons(Pass):
-    """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D)."""
+    """One photon per caster texel: refract or reflect, estimate where it lands (Shah et al. III-C/D).
+
+    With ``adaptive_levels`` > 0 it traces the coarsest level's cells (:class:`AdaptivePhotons`: one
+    photon per block of 2^levels caster texels a side)."""
 
     def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
                  initial: str | None = None, estimator: tuple[str, int] | None = None):
@@ -124,7 +156,8 @@ class TracePhotons(Pass):
         self.reads += (initial,) if initial else ()
         self.writes = (Channel(channel, "buffer[light]", "per light: Photons (landing point, flux) or None"),)
 
-    def run(self, frame: Frame) -> None:
+    def program(self, frame: Frame, estimator: tuple[str, int]):
+        """The photon compute program with the casters' materials and ``estimator`` set; its channel count."""
         scene, p = frame.scene, self.params
         types, iors, sigmas, colors = (np.zeros(MAX_CASTERS, "i4"), np.ones((MAX_CASTERS, 3), "f4"),
                                        np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
@@ -138,18 +171,48 @@ class TracePhotons(Pass):
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
         channels = 3 if dispersive else 1
-        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS}
+        defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, "ADAPTIVE": int(p.adaptive_levels > 0)}
         program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
         set_uniform(program, "caster_type", types)
         set_uniform(program, "caster_ior", iors)
         set_uniform(program, "caster_sigma", sigmas)
         set_uniform(program, "caster_color", colors)
         set_uniform(program, "channel_count", channels)
-        set_uniform(program, "iterations", self.estimator[1])
+        set_uniform(program, "iterations", estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
-        set_uniform(program, "estimator", ESTIMATORS[self.estimator[0]])
+        set_uniform(program, "estimator", ESTIMATORS[estimator[0]])
         set_uniform(program, "fallback_distance", half_diagonal(scene.objects))
         set_uniform(program, "length_unit", length_unit(scene))
+        return program, channels
+
+    def trace(self, frame: Frame, program, channels: int, caster_view, front, back, receivers, receiver_view,
+              initial, level: int = 0, parent=None) -> Photons:
+        """Photons of one light: one per caster texel, or per cell of adaptive ``level`` (``parent``: the
+        level above's photons, whose states say which cells to trace)."""
+        levels = self.params.adaptive_levels
+        bind_views(program, [caster_view, receiver_view])
+        textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
+        bind_samplers(program, ("front_position", "front_normal", "back_position", "back_normal",
+                                "receiver_position"), textures)
+        width, height = caster_view.atlas_size
+        if levels:
+            block = 1 << (levels - level)
+            width, height = width // block, height // block
+            set_uniform(program, "level", level)
+            set_uniform(program, "last_level", levels)
+            set_uniform(program, "block", block)
+            (parent.buffer if parent is not None else initial.buffer if initial is not None else
+             self._placeholder(frame)).bind_to_storage_buffer(2)
+        return dispatch_photons(frame, program, (width, height), width * height * channels, initial,
+                                {"channels": channels, "level": level})
+
+    @staticmethod
+    def _placeholder(frame: Frame):
+        """A buffer for the adaptive parent binding where no level lies above (unread there)."""
+        return frame.own(frame.gpu.ctx.buffer(reserve=PHOTON_BYTES))
+
+    def run(self, frame: Frame) -> None:
+        program, channels = self.program(frame, self.estimator)
         out = []
         initials = frame.read(self.initial) if self.initial else [None] * len(frame.read("caster_views"))
         for caster_view, front, back, receivers, receiver_view, initial in zip(
@@ -158,14 +221,131 @@ class TracePhotons(Pass):
             if caster_view is None or receivers is None or receiver_view is None:
                 out.append(None)
                 continue
-            width, height = caster_view.atlas_size
-            bind_views(program, [caster_view, receiver_view])
-            textures = (*front, *back, receivers[0]) if back is not None else (*front, *front, receivers[0])
-            bind_samplers(program, ("front_position", "front_normal", "back_position", "back_normal",
-                                    "receiver_position"), textures)
-            out.append(dispatch_photons(frame, program, (width, height), width * height * channels, initial,
-                                        {"channels": channels}))
+            out.append(self.trace(frame, program, channels, caster_view, front, back, receivers, receiver_view,
+                                  initial))
         frame.write(self.channel, out)
+
+
+class AdaptivePhotons(TracePhotons):
+    """Adaptive caustic maps (Wyman and Nichols 2009, "Adaptive Caustic Maps Using Deferred Shading").
+
+    Written from the idea of the paper (not in shared/papers) and our own reading: photons start on a
+    coarse light-space grid, one per block of 2^L caster texels a side (L = ``adaptive_levels``; the caster
+    textures are drawn once, at ``photon_grid``, so every level looks up the same deferred buffers) and
+    leave from the block's centre; level by level, a photon splits into four at half the spacing, each
+    carrying the flux of its quarter (a cell's photon carries the summed flux of its block's texels that
+    see its caster, so the children's flux sums to the parent's), where its cell lies on a caster's rim,
+    its photon was lost, or its landing departs from the linear model of its footprint splat by more
+    than ``adaptive_threshold`` caustic-map texels (``caustic_refine.comp``). Cells that miss every caster
+    are culled. The cells next to refined ones are traced as helpers: the footprints and the refinement
+    test read their landing points.
+
+    As the regular grid, every level lands twice: first (``first``: the coarsest level, landed already)
+    on the coarse receivers with Newton-Raphson, refining against ``refine_views`` (a caustic view fitted
+    around the coarsest landings), so that the caustic map's view is then fitted around the live photons
+    of every level; then (``initial``: the first landing's levels) on the caustic map's receivers, keeping
+    the first landing's states. Writes per light the list of levels' Photons (ExpandPhotons puts their
+    live photons on the finest grid for the splat).
+    """
+
+    def __init__(self, receivers: str, receiver_views: str, channel: str, params: CausticMappingParams,
+                 estimator: tuple[str, int], *, first: str | None = None, refine_views: str | None = None,
+                 initial: str | None = None):
+        super().__init__(receivers, receiver_views, channel, params, initial=initial, estimator=estimator)
+        self.first, self.refine_views = first, refine_views
+        self.reads += tuple(name for name in (first, refine_views) if name)
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons of each refinement level, or None"),)
+
+    def run(self, frame: Frame) -> None:
+        program, channels = self.program(frame, self.estimator)
+        levels = self.params.adaptive_levels
+        lights = len(frame.read("caster_views"))
+        firsts = frame.read(self.first) if self.first else [None] * lights
+        refine_views = frame.read(self.refine_views) if self.refine_views else [None] * lights
+        initials = frame.read(self.initial) if self.initial else [None] * lights
+        out = []
+        for caster_view, front, back, receivers, receiver_view, first, refine_view, initial in zip(
+                frame.read("caster_views"), frame.read("caster_front"), frame.read("caster_back"),
+                frame.read(self.receivers), frame.read(self.receiver_views), firsts, refine_views, initials):
+            if caster_view is None or receivers is None or receiver_view is None or (first is None and initial is None):
+                out.append(None)
+                continue
+            textures = (caster_view, front, back, receivers, receiver_view)
+            photons = []
+            for level in range(levels + 1):
+                # The second landing: from the first's landing points, with its states.
+                if initial is not None:
+                    photons.append(self.trace(frame, program, channels, *textures, initial[level], level,
+                                              initial[level - 1] if level else None))
+                    continue
+                # The first: cells whose parents were refined, then mark the live ones that bend.
+                photons.append(first if level == 0 else
+                               self.trace(frame, program, channels, *textures, None, level, photons[-1]))
+                if level < levels and refine_view is not None:
+                    self._refine(frame, photons[-1], refine_view, channels)
+            out.append(photons)
+        frame.write(self.channel, out)
+
+    def _refine(self, frame: Frame, photons: Photons, view, channels: int) -> None:
+        """caustic_refine.comp over one level's cells, bends measured in ``view``'s texels."""
+        program = frame.gpu.shaders.compute("passes/caustic_refine.comp")
+        width, height = photons.grid
+        view.bind(program)
+        set_uniform(program, "grid", (width, height))
+        set_uniform(program, "channels", channels)
+        set_uniform(program, "threshold", float(self.params.adaptive_threshold))
+        photons.buffer.bind_to_storage_buffer(0)
+        run_compute(program, (width + 7) // 8, (height + 7) // 8)
+        frame.gpu.ctx.memory_barrier()
+
+
+class ExpandPhotons(Pass):
+    """The adaptive levels' live photons spread over the finest grid (``caustic_expand.comp``): each splits
+    into the finest cells of its block along the first-order model of its landing, so every photon the
+    splat sees lies on one grid and the footprint splats sum flat across the levels' edges."""
+
+    def __init__(self, levels: str, channel: str):
+        self.levels, self.channel = levels, channel
+        self.reads = (levels,)
+        self.writes = (Channel(channel, "buffer[light]", "per light: Photons on the finest grid, or None"),)
+
+    def run(self, frame: Frame) -> None:
+        program = frame.gpu.shaders.compute("passes/caustic_expand.comp")
+        out = []
+        for levels in frame.read(self.levels):
+            if levels is None:
+                out.append(None)
+                continue
+            finest = levels[-1]
+            buffer = frame.own(frame.gpu.ctx.buffer(reserve=finest.count * PHOTON_BYTES))
+            buffer.clear()
+            buffer.bind_to_storage_buffer(1)
+            for photons in levels:
+                width, height = photons.grid
+                photons.buffer.bind_to_storage_buffer(0)
+                set_uniform(program, "grid", (width, height))
+                set_uniform(program, "block", finest.grid[1] // height)
+                set_uniform(program, "channels", photons.channels)
+                run_compute(program, (width + 7) // 8, (height + 7) // 8)
+                frame.gpu.ctx.memory_barrier()
+            out.append(Photons(buffer, finest.count, dict(finest.stats), finest.grid, finest.channels))
+        frame.write(self.channel, out)
+
+
+class CountPhotons(Pass):
+    """How many photons each light splats, per adaptive level (one entry on the regular grid), counted on
+    the GPU (a 4-byte readback per level), for the benchmarks and the tests of adaptive refinement."""
+
+    writes = (Channel("photon_counts", "host[light]", "per light: live photons of each level, or None"),)
+
+    def __init__(self, photons: str = "photons"):
+        self.photons = photons
+        self.reads = (photons,)
+
+    def run(self, frame: Frame) -> None:
+        frame.write("photon_counts", [None if photons is None else
+                                      [level.live(frame) for level in (photons if isinstance(photons, list) else [photons])]
+                                      for photons in frame.read(self.photons)])
 
 
 class CausticMapping(CausticTechnique):
@@ -177,10 +357,22 @@ class CausticMapping(CausticTechnique):
         p = params
 
         def trace(receivers: str, views: str, channel: str, steps: int, initial: str | None = None) -> TracePhotons:
-            """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator."""
+            """The footprint pass (no ``initial``) is Newton-Raphson; the second landing the parameters' estimator
+            (with adaptive levels, every level's two landings: AdaptivePhotons)."""
             estimator = (p.estimator if initial else "newton", steps)
-            return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
+            if not p.adaptive_levels:
+                return TracePhotons(receivers, views, channel, p, initial=initial, estimator=estimator)
+            if initial:
+                return [AdaptivePhotons(receivers, views, "photon_levels", p, estimator, initial=initial),
+                        ExpandPhotons("photon_levels", channel)]
+            # The coarsest level, a caustic view around it to measure bends in, then the finer levels.
+            return [TracePhotons(receivers, views, "coarsest_photons", p, estimator=estimator),
+                    FitCausticViews("coarsest_photons", p.map_size, margin_texels=p.splat_radius + 2.0,
+                                    point_map=p.point_map, channel="refine_views"),
+                    AdaptivePhotons(receivers, views, channel, p, estimator, first="coarsest_photons",
+                                    refine_views="refine_views")]
 
         front = LightSurfaces("caster_views", "caster_front", kinds=("diffuse", "glass", "mirror"), faces="front")
         return [landing_chain("caustic-mapping", p, [front], trace, caster_size=p.photon_grid, map_size=p.map_size,
-                              steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map)]
+                              steps=p.iterations, splat=p.splat, splat_radius=p.splat_radius, point_map=p.point_map,
+                              extra=[CountPhotons("photon_levels" if p.adaptive_levels else "photons")])]

@@ -15,10 +15,12 @@
 // splat cannot place, goes.
 // Writes per photon vec4(A_xx, A_xy, A_yy, flux scale) with A = Sigma^-1 (caustic_footprint.glsl) and
 // the flux scale = weight / (the kernel's sum over texel centres): a splat deposits weight x its flux.
+// Photons of an adaptive level (flux.w not STATE_LIVE) other than live ones get no splat (footprint 0).
 // Host defines: VIEW_COUNT (1: view 0 is the caustic map's view).
 #version 430 core
 #include "passes/caustic_light_space.glsl"
 #include "passes/caustic_footprint.glsl"
+#include "passes/adaptive_states.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 #define FOOTPRINT_SEARCH 4
 #define FOOTPRINT_JUMP 2.0
@@ -83,7 +85,8 @@ void main() {
         int i = (t.y * grid.x + t.x) * channels + c;
         footprints[i] = vec4(0.0);
         Photon ph = photons[i];
-        if (ph.position.w <= 0.0 || all(equal(ph.flux.rgb, vec3(0.0)))) continue;
+        // Adaptive cells not live (helpers, refined parents: adaptive_states.glsl) are only neighbours.
+        if (ph.position.w <= 0.0 || ph.flux.w != STATE_LIVE || all(equal(ph.flux.rgb, vec3(0.0)))) continue;
         int face;
         bool inside;
         vec2 x0 = view_pixel(0, ph.position.xyz, face, inside);

@@ -6,10 +6,23 @@
 // lands where the intersection estimate against the receivers' position texture (view 1) puts it.
 // The first guess of the estimate is the distance to the receiver behind the origin (Shah et al. use
 // d = 1), or, in a second pass, to where the first pass landed the photon.
-// Host defines: VIEW_COUNT (2), MAX_CASTERS (32), CASTER_NONE, _MIRROR, _SOLID, _SURFACE (scene/codes.py, in every program).
+// ADAPTIVE 1 (Wyman and Nichols 2009, adaptive caustic maps; techniques/caustic_mapping.py, AdaptivePhotons):
+// one photon per cell of refinement level `level`, a cell covering block x block caster texels; the photon
+// starts at the block's centre texel and carries the flux of every texel of the block that sees the same
+// caster (so four children carry their parent's flux). Cells are traced where their parent (binding 2,
+// level - 1) was refined, or where a 4-neighbour's was (helpers: landing points for the footprints and the
+// refinement test, not splatted); a second landing of a level (has_initial) copies the first's states.
+// flux.w holds the cell's state: STATE_LIVE (splatted), STATE_HELPER,
+// STATE_REFINED (children traced next level) or STATE_UNTRACED; a cell on a caster's rim (some texels of
+// its block see no caster or another) or whose photon was lost is refined below last_level.
+// Host defines: VIEW_COUNT (2), MAX_CASTERS (32), ADAPTIVE (0), CASTER_NONE, _MIRROR, _SOLID, _SURFACE
+// (scene/codes.py, in every program).
 #version 430 core
 #ifndef MAX_CASTERS
 #define MAX_CASTERS 32
+#endif
+#ifndef ADAPTIVE
+#define ADAPTIVE 0
 #endif
 #include "common/optics.glsl"
 #include "passes/caustic_light_space.glsl"
@@ -35,6 +48,13 @@ uniform int iterations;
 uniform int exit_iterations;
 uniform int estimator;
 uniform float fallback_distance;  // initial guess where no receiver lies behind the photon's origin
+#if ADAPTIVE
+#include "passes/adaptive_states.glsl"
+layout(std430, binding = 2) readonly buffer Parent { Photon parent[]; };  // level - 1 (unread at level 0)
+uniform int level;       // 0: the coarsest
+uniform int last_level;  // no refinement at the last
+uniform int block;       // caster texels a side of one cell
+#endif
 
 // Land a photon leaving o along r on the receivers; returns the landing point (w = 0: lost).
 vec4 land(vec3 o, vec3 r, int index) {
@@ -85,34 +105,23 @@ float exit_distance(vec3 p1, vec3 t1, float f0, float dv) {
     return miss_hi ? lo : lo - flo * (hi - lo) / (fhi - flo);
 }
 
-void main() {
-    ivec2 t = ivec2(gl_GlobalInvocationID.xy);
-    int n = view_size[0];
-    int faces = view_kind[0] == VIEW_CUBE ? 6 : 1;
-    if (t.x >= faces * n || t.y >= n) return;
-    int first = (t.y * faces * n + t.x) * channel_count;
-    for (int c = 0; c < channel_count; ++c) photons[first + c] = Photon(vec4(0.0), vec4(0.0));
-
-    // The caster surface this texel sees, and the flux through the texel.
-    vec4 front = texelFetch(front_position, t, 0);
-    vec4 fn = texelFetch(front_normal, t, 0);
-    int id = int(fn.w + 0.5) - 1;
-    if (front.a <= 0.0 || id < 0 || id >= MAX_CASTERS || caster_type[id] == CASTER_NONE) return;
+// Trace the photons of caster texel s (its caster id, front point p1, normal fn) carrying `flux` into
+// photons[first ..]; true where one landed.
+bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
     vec3 p1 = front.xyz;
     vec3 l = light_ray(p1);
-    int face = t.x / n;
-    vec3 flux = ls_light_intensity * texel_measure(0, face, p1) * light_falloff(l);
-    vec3 n1 = normalize(fn.xyz);
+    vec3 n1 = normalize(fn);
     if (dot(n1, l) > 0.0) n1 = -n1;  // face the light (open meshes seen from below)
 
     // Mirror: a single specular bounce.
     if (caster_type[id] == CASTER_MIRROR) {
         vec4 hit = land(p1 + 1e-4 * length_unit * n1, reflect(l, n1), first);
         if (hit.w > 0.0) photons[first] = Photon(hit, vec4(flux * caster_color[id], 0.0));
-        return;
+        return hit.w > 0.0;
     }
 
     // Glass: one photon per channel (dispersion) or one for all three.
+    bool landed = false;
     for (int c = 0; c < channel_count; ++c) {
         vec3 mask = channel_count == 1 ? vec3(1.0) : vec3(c == 0, c == 1, c == 2);
         float eta = caster_ior[id][c];
@@ -123,7 +132,7 @@ void main() {
         float inside = 0.0;
         if (caster_type[id] == CASTER_SOLID) {
             // Exit point: P2 = P1 + d T1, d from d_V refined against the back faces; N2 from the back buffer.
-            vec4 back = texelFetch(back_position, t, 0);
+            vec4 back = texelFetch(back_position, s, 0);
             if (back.a <= 0.0) continue;
             float dv = max(back.a - front.a, 0.0);
             float d = exit_iterations > 0 ? exit_distance(p1, t1, front.a - back.a, dv) : dv;
@@ -132,7 +141,7 @@ void main() {
             bool in2;
             vec2 x2 = view_pixel(0, p2, f2, in2);
             vec3 n2 = in2 ? fetch_surface(back_normal, 0, f2, x2).xyz : vec3(0.0);
-            if (dot(n2, n2) < 1e-12) n2 = texelFetch(back_normal, t, 0).xyz;
+            if (dot(n2, n2) < 1e-12) n2 = texelFetch(back_normal, s, 0).xyz;
             n2 = normalize(n2);
             if (dot(n2, t1) < 0.0) n2 = -n2;  // outward, along the leaving ray
             vec3 t2 = refract(t1, -n2, eta);
@@ -150,5 +159,109 @@ void main() {
         if (caster_type[id] == CASTER_SURFACE) inside = length(hit.xyz - o);
         vec3 absorbed = exp(-caster_sigma[id] * inside);
         photons[first + c] = Photon(hit, vec4(flux * transmit * absorbed * mask, 0.0));
+        landed = true;
     }
+    return landed;
+}
+
+// The caster index texel s sees (-1: none).
+int caster_at(ivec2 s, out vec4 front, out vec4 fn) {
+    front = texelFetch(front_position, s, 0);
+    fn = texelFetch(front_normal, s, 0);
+    int id = int(fn.w + 0.5) - 1;
+    return front.a <= 0.0 || id < 0 || id >= MAX_CASTERS || caster_type[id] == CASTER_NONE ? -1 : id;
+}
+
+#if ADAPTIVE
+// Whether the parent (level - 1) of cell t, on grid face `face` of `cells` a side, was refined.
+bool parent_refined(ivec2 t, int face, int cells) {
+    if (t.y < 0 || t.y >= cells || t.x < face * cells || t.x >= face * cells + cells) return false;
+    int faces = view_kind[0] == VIEW_CUBE ? 6 : 1;
+    ivec2 p = t / 2;
+    return parent[(p.y * faces * (cells / 2) + p.x) * channel_count].flux.w == STATE_REFINED;
+}
+
+// The flux through the texels of the block from t0 (block x block) that see caster id, on `face`;
+// `whole`: every texel sees it; `covered`: some texel sees a caster.
+vec3 block_flux(ivec2 t0, int face, int id, out bool whole, out bool covered) {
+    float measure = 0.0;
+    whole = true;
+    covered = false;
+    for (int j = 0; j < block; ++j) {
+        for (int i = 0; i < block; ++i) {
+            vec4 front, fn;
+            int k = caster_at(t0 + ivec2(i, j), front, fn);
+            covered = covered || k >= 0;
+            if (k < 0 || k != id) {
+                whole = false;
+                continue;
+            }
+            measure += texel_measure(0, face, front.xyz) * light_falloff(light_ray(front.xyz));
+        }
+    }
+    return ls_light_intensity * measure;
+}
+#endif
+
+void main() {
+    ivec2 t = ivec2(gl_GlobalInvocationID.xy);
+    int faces = view_kind[0] == VIEW_CUBE ? 6 : 1;
+#if ADAPTIVE
+    // Cell t of this level: traced where its parent or a 4-neighbour's parent was refined.
+    int n = view_size[0] / block;
+    if (t.x >= faces * n || t.y >= n) return;
+    int face = t.x / n;
+    float state = STATE_LIVE;
+    if (level > 0 && !parent_refined(t, face, n)) {
+        bool ring = parent_refined(t + ivec2(1, 0), face, n) || parent_refined(t - ivec2(1, 0), face, n) ||
+                    parent_refined(t + ivec2(0, 1), face, n) || parent_refined(t - ivec2(0, 1), face, n);
+        state = ring ? STATE_HELPER : STATE_UNTRACED;
+    }
+    ivec2 s = t * block + max(block / 2 - 1, 0);  // the first of the block's four central texels
+#else
+    int n = view_size[0];
+    if (t.x >= faces * n || t.y >= n) return;
+    int face = t.x / n;
+    ivec2 s = t;
+#endif
+    int first = (t.y * faces * n + t.x) * channel_count;
+#if ADAPTIVE
+    // A second landing of the level keeps the states the first landing's refinement gave.
+    if (has_initial != 0) state = initial[first].flux.w;
+#endif
+    for (int c = 0; c < channel_count; ++c) photons[first + c] = Photon(vec4(0.0), vec4(0.0));
+
+    // The caster surface this texel sees, and the flux through the texel (the block's caster texels).
+    vec4 front, fn;
+    int id = caster_at(s, front, fn);
+#if ADAPTIVE
+    // The photon leaves the block's centre (a texel corner from two texels a side): the mean of the four
+    // central texels' surface points and normals where they see one caster.
+    if (block > 1 && id >= 0) {
+        vec4 sum = front, nsum = vec4(fn.xyz, 0.0);
+        bool same = true;
+        for (int k = 1; k < 4; ++k) {
+            vec4 f, n;
+            same = same && caster_at(s + ivec2(k & 1, k >> 1), f, n) == id;
+            sum += f;
+            nsum.xyz += n.xyz;
+        }
+        if (same) {
+            front = 0.25 * sum;
+            fn.xyz = nsum.xyz;
+        }
+    }
+    bool refinable = state == STATE_LIVE && level < last_level && has_initial == 0;
+    bool whole = false, covered = false;
+    vec3 flux = vec3(0.0);
+    if (state != STATE_UNTRACED) flux = block_flux(t * block, face, id, whole, covered);
+    bool landed = state != STATE_UNTRACED && id >= 0 && trace_texel(s, id, front, fn.xyz, flux, first);
+    // A rim cell, or one whose photon was lost, is refined.
+    if (refinable && covered && (!whole || !landed)) state = STATE_REFINED;
+    for (int c = 0; c < channel_count; ++c) photons[first + c].flux.w = state;
+#else
+    if (id < 0) return;
+    vec3 flux = ls_light_intensity * texel_measure(0, face, front.xyz) * light_falloff(light_ray(front.xyz));
+    trace_texel(s, id, front, fn.xyz, flux, first);
+#endif
 }
