@@ -240,6 +240,7 @@ class Auto(Technique):
         own = {name: values.pop(name) for name in ("quality", "budget_ms", "environment_lobes") if name in values}
         params = super().make_params(**own)
         params.overrides = values  # not a field: what the plan's technique takes depends on the scene
+        params.given = frozenset(own)  # auto's own parameters named by the caller: they win over the plan's rules
         return params
 
     def for_scene(self, scene, params, frame_ms=None):
@@ -271,5 +272,8 @@ class Auto(Technique):
                                  f"see 'caustica techniques {chosen.technique}'") from None
         # Not a field of the planned technique's parameters: ShadowMaps reads it (environment_lights.lobe_settings).
         view_values = values[0] if isinstance(values, tuple) else values  # a composite's: (view, caustics)
-        view_values.environment_lobes = params.environment_lobes if _occluded_ambient(scene) else 0
+        given = "environment_lobes" in getattr(params, "given", ())
+        view_values.environment_lobes = params.environment_lobes if given or _occluded_ambient(scene) else 0
+        if given:
+            chosen.notes.append(f"environment_lobes={params.environment_lobes} as given (the plan's rule set aside)")
         return technique, values
