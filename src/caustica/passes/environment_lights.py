@@ -178,3 +178,63 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
+
+
+LOBE_POINTS = 2048  # points on the diffuse surfaces where lobe_occlusion tries the lobes
+
+
+def lobe_occlusion(scene, count: int = LOBES) -> float:
+    """The share of the lobes' irradiance (sun taken out, as the frame does) that opaque objects block on the
+    scene's diffuse surfaces: the mean over LOBE_POINTS area-sampled points of the faces the camera can see (a
+    closed mesh's outside, an open sheet's side towards the camera) of sum_k blocked_k cos_k E_k / sum_k cos_k
+    E_k, with exact rays (Embree) towards each lobe. The lobes change
+    the image only where a lobe is blocked, so 0 means they would cost a frame and change no pixel (auto's
+    planner skips them then). Cached on the scene by its state and the camera's position."""
+    from ..cache import scene_state_key
+
+    key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects), int(count),
+           np.asarray(scene.camera.position, np.float64).tobytes())
+    cache = getattr(scene, "_lobe_occlusion_cache", None)
+    if cache is None or cache[0] != key:
+        cache = (key, _lobe_occlusion(scene, int(count)))
+        scene._lobe_occlusion_cache = cache
+    return cache[1]
+
+
+def _lobe_occlusion(scene, count: int) -> float:
+    from ..raytrace.embree_scene import RayScene
+
+    diffuse = [o.world_mesh() for o in scene.objects if o.material.kind == "diffuse"]
+    opaque = [o.world_mesh() for o in scene.objects if o.material.kind != "glass"]
+    if not diffuse or not count:
+        return 0.0
+    lobes = environment_lobes(scene.environment, environment_sun(scene.environment).light is not None, count)
+    # Area-sampled points on the diffuse triangles (seeded: the plan is the same every time).
+    triangles = np.concatenate([m.vertices[m.faces].astype(np.float64) for m in diffuse])
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    # The faces the camera can see: an open sheet (a floor, a chart) from either side, a closed mesh's outside.
+    open_sheet = np.concatenate([np.full(len(m.faces), m.is_open()) for m in diffuse])
+    towards = np.einsum("ij,ij->i", cross, scene.camera.position - triangles.mean(axis=1)) > 0.0
+    cross = np.where((open_sheet & ~towards)[:, None], -cross, cross)
+    area = np.where(open_sheet | towards, np.linalg.norm(cross, axis=1), 0.0)
+    if not area.sum() > 0.0:
+        return 0.0
+    rng = np.random.default_rng(0)
+    face = rng.choice(len(triangles), LOBE_POINTS, p=area / area.sum())
+    a, b = rng.random((2, LOBE_POINTS))
+    a, b = np.where(a + b > 1.0, 1.0 - a, a), np.where(a + b > 1.0, 1.0 - b, b)
+    t = triangles[face]
+    points = t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
+    normals = cross[face] / np.maximum(area[face], 1e-300)[:, None]
+    # Each lobe's share at each point, and whether an opaque object stops the ray towards it.
+    weight = np.clip(-normals @ lobes.directions.T, 0.0, None) * lobes.irradiance.mean(axis=1)  # (points, lobes)
+    lit = weight > 0.0
+    rows, cols = np.nonzero(lit)
+    size = float(np.linalg.norm(np.ptp(scene.bounds(), axis=0)))
+    rays = RayScene.from_meshes(opaque)
+    blocked = np.zeros_like(weight)
+    blocked[rows, cols] = rays.occluded(points[rows] + 1e-5 * size * normals[rows], -lobes.directions[cols], np.inf,
+                                        tnear=1e-6 * size)
+    total = weight.sum(axis=1)
+    share = np.where(total > 0.0, (blocked * weight).sum(axis=1) / np.maximum(total, 1e-300), 0.0)
+    return float(share.mean())
