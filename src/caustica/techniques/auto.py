@@ -109,8 +109,9 @@ def plan(scene, quality: str = "balanced") -> Plan:
         bounces, dropped = _bounces_that_pay(scene, bounces, BOUNCE_SHARE[quality])
     if glass and len(objects) > 1:  # glass with anything else, another glass object included
         view = "impostors"
-        view_params.update(internal_bounces=bounces, impostor_size=impostor_size)
-        why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2), exits by "
+        view_params.update(internal_bounces=bounces, impostor_size=impostor_size, merge_planes=True)
+        why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2; coplanar flat "
+                     f"objects share one), exits by "
                      f"depth search, {bounces} internal bounce{'' if bounces == 1 else 's'}")
         why_mirror = "its reflections see the nearby objects as impostors (Hu and Qin 2.2)"
     elif glass:
@@ -121,7 +122,7 @@ def plan(scene, quality: str = "balanced") -> Plan:
         why_mirror = ""
     elif hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:
         view = "impostors"
-        view_params.update(impostor_size=impostor_size)
+        view_params.update(impostor_size=impostor_size, merge_planes=True)
         why_mirror = (f"a concave mirror ({', '.join(hollow)}) focuses the reflected rays, where per-vertex's least-squares "
                       "viewpoint fails: each pixel's reflected ray searches the nearby objects as impostors "
                       "(Hu and Qin 2.2)")

@@ -1,7 +1,7 @@
 // Direct light on diffuse receivers with shadow maps, plus unoccluded ambient from the
 // environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone);
 // LIGHT_POINT, _DIRECTIONAL, _SPOT (scene/codes.py: light_type's codes; the shader library sets them
-// in every program).
+// in every program); ENVIRONMENT_SHADOWS (0), ENV_LOBE_REACH (0): the environment's lobes, below.
 #ifndef MAX_LIGHTS
 #define MAX_LIGHTS 8
 #endif
@@ -43,7 +43,8 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 }
 
 // Fraction of light i that reaches p (normal n, facing the light): map_visibility of its map, which
-// also serves the environment's lobes (an atlas of directional maps, tile k from column k N).
+// also serves the environment's lobes (an atlas of directional maps, tile k from column k N); the filter
+// takes (2 reach + 1)^2 taps (1 for the lights: 3x3).
 //
 // Each map is N x N texels (a cube face of the point atlas: N x N from column x0). Texel t's ray, s its
 // centre in ndc, is axis + s.x a + s.y b with axis, a, b orthogonal and axis unit: from the light for
@@ -55,7 +56,7 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 // orthographic: P = m_q dot(axis, n) + s_q.V', U = -V', V' = (a.n, b.n), W = V = 0.
 // The denominator is negative where the ray meets the plane from the light's side (the numerator too),
 // so the tap is lit when stored * den <= num * sqrt(..) there, and wherever stored >= m_q (q's metric).
-float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n, int reach) {
     int N = textureSize(map, 0).y;
     float width;                 // a texel's width at the receiver
     vec3 axis, a, b;
@@ -94,8 +95,8 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
     vec2 U = ortho ? -v : vec2(0.0), W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b)), V = ortho ? vec2(0.0) : v;
     ivec2 c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
     float lit = 0.0;
-    for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x) {
+    for (int y = -reach; y <= reach; ++y)
+        for (int x = -reach; x <= reach; ++x) {
             ivec2 t = clamp(c + ivec2(x, y), ivec2(0), ivec2(N - 1));
             vec2 s = (vec2(t) + 0.5) * (2.0 / float(N)) - 1.0;
             float stored = texelFetch(map, ivec2(x0 + t.x, t.y), 0).r;
@@ -103,12 +104,12 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
             bool plane = den < 0.0 && stored * den <= (P + dot(s, U)) * sqrt(1.0 + dot(s * s, W));
             lit += (plane || stored >= m_q) ? 1.0 : 0.0;
         }
-    return lit / 9.0;
+    return lit / float((2 * reach + 1) * (2 * reach + 1));
 }
 
 float light_visibility(int i, vec3 p, vec3 n) {
     return map_visibility(shadow_map[i], 0, light_type[i], light_position[i], light_direction[i],
-                          light_clip_from_world[i], p, n);
+                          light_clip_from_world[i], p, n, 1);
 }
 
 // Irradiance at p with normal n from every light, shadowed.
@@ -157,6 +158,12 @@ vec3 ambient_irradiance(vec3 n) {
 #ifndef ENVIRONMENT_SHADOWS
 #define ENVIRONMENT_SHADOWS 0
 #endif
+// ENV_LOBE_REACH: the lobes' percentage-closer filter reaches this many texels each way (0: one tap). The
+// sixteen strata's hard shadows already average into a soft one: one tap each measured -0.02 and -0.09 dB
+// against the 3x3 filter on two lens and glass scenes (docs/auto.md) for a ninth of the lobes' fetches.
+#ifndef ENV_LOBE_REACH
+#define ENV_LOBE_REACH 0
+#endif
 #if ENVIRONMENT_SHADOWS
 #define MAX_ENV_LOBES 32
 uniform int env_lobe_count;
@@ -176,7 +183,7 @@ vec3 ambient_irradiance(vec3 p, vec3 n) {
         float c = -dot(n, env_lobe_direction[k]);
         if (c <= 0.0) continue;
         float v = map_visibility(env_shadow_atlas, k, LIGHT_DIRECTIONAL, env_lobe_origin[k], env_lobe_direction[k],
-                                 env_lobe_clip_from_world[k], p, n);
+                                 env_lobe_clip_from_world[k], p, n, ENV_LOBE_REACH);
         blocked += (1.0 - v) * c * env_lobe_irradiance[k];
     }
     e = max(e - blocked, vec3(0.0));
