@@ -47,3 +47,17 @@ def timed_in_turns(renderer, scene, variants: dict, spp: int, rounds: int, basel
             progress(round_index)
     return {name: {"ms": statistics.median(t), "fastest": min(t),
                    "ratio": statistics.median(a / b for a, b in zip(t, times[baseline]))} for name, t in times.items()}
+
+
+def fastest_in_blocks(renderer, scene, variants: dict, spp: int, rounds: int, frames: int = 3) -> dict:
+    """{name: fastest ms} of GPU technique variants timed in blocks: per round, each variant's warm-up frame
+    (which refills the passes it caches across frames, since another variant's frame evicts them) and then
+    ``frames`` frames. The fastest frame is the least disturbed by other work on shared cores: the steady
+    per-frame cost of each variant, for ratios between them. ``variants`` maps a name to (technique, params)."""
+    fastest = {name: float("inf") for name in variants}
+    for _ in range(max(1, rounds)):
+        for name, (technique, params) in variants.items():
+            renderer.render(scene, technique, spp, **params)
+            for _ in range(max(1, frames)):
+                fastest[name] = min(fastest[name], renderer.render_timed(scene, technique, spp, **params)[1])
+    return fastest
