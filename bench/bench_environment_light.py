@@ -4,8 +4,12 @@ Scenes: bench_exact_environment's glass ball and red box on a floor in sky-check
 light, from its camera and from a second, lower one. For each: the Mitsuba composite at ``--reference-spp``
 over ``--seeds`` seeds (averaged), then PSNR per region (bench_exact_environment.regions: glass, caustic,
 diffuse) and median ms of ``auto`` in three states: the sun left in the SH (before part 3), the sun as a
-directional light (part 3, ``environment_lobes=0``) and the sun plus ``--lobes`` environment lobes with
-shadow maps (part 2); ``plain`` gives the cost floor (with the sun and no lobes, as it renders now).
+directional light (part 3, ``environment_lobes=0``), the sun plus ``--lobes`` environment lobes with
+shadow maps of the opaque objects only (part 2 as first built), with the glass's transmittance in them
+(tinted glass shadows), with the floor's bounce for the light from below, and with the occluders' bounce
+where a lobe is blocked (auto now); ``plain`` gives the cost floor (with the sun and no lobes, as it
+renders now).
+``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
 """
@@ -17,30 +21,71 @@ import dataclasses
 import sys
 from unittest import mock
 
+import numpy as np
+
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from bench_exact_environment import mixed_scene, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import timed_render  # noqa: E402
 from caustica.passes import environment_lights, lights  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
-from caustica.scene import Camera  # noqa: E402
+from caustica.scene import Camera, Diffuse, Glass, SceneObject, Transform  # noqa: E402
+from caustica.scene.shapes import box, sphere  # noqa: E402
 
 
-def scenes(size):
+def scenes(size, tinted: bool = True):
     for light in (False, True):
         scene = mixed_scene(size, light)
         yield scene
         low = Camera(position=[-3.6, 1.6, 3.4], look_at=[-0.4, 0.5, -0.2], fov_y=45.0, size=size)
         yield dataclasses.replace(scene, camera=low, name=scene.name + "-low")
+    if tinted:
+        yield from tinted_scenes(size)
+
+
+def tinted_scenes(size):
+    """Two more scenes under the sky alone (where auto draws the lobes): env-tinted, a small amber ball
+    (radius 0.5, transmittance 0.85 / 0.55 / 0.2 per unit length) and a large clear one (radius 1.1) beside
+    the red box, seen from above; env-slab, a green glass block (1.6 x 0.5 x 1.0, IOR 1.5, 0.4 / 0.85 / 0.5
+    per unit length) on two grey posts 0.6 high with the red box behind, from the side."""
+    base = mixed_scene(size, False)
+    floor, box_object = base.objects[0], base.objects[2]
+    small = sphere(0.5, 5)
+    small.analytic_sphere = (np.zeros(3), 0.5)
+    large = sphere(1.1, 6)
+    large.analytic_sphere = (np.zeros(3), 1.1)
+    amber = Glass(ior=1.5, absorption_color=[0.85, 0.55, 0.2], absorption_distance=1.0)
+    tinted = [floor, box_object,
+              SceneObject("amber", small, amber, Transform(position=[0.9, 0.5, 1.0])),
+              SceneObject("clear", large, Glass(ior=1.5), Transform(position=[0.4, 1.1, -1.7]))]
+    above = Camera(position=[1.5, 6.0, 5.5], look_at=[-0.3, 0.3, 0.2], fov_y=45.0, size=size)
+    yield dataclasses.replace(base, objects=tinted, camera=above, name="env-tinted")
+    green = Glass(ior=1.5, absorption_color=[0.4, 0.85, 0.5], absorption_distance=1.0)
+    grey = Diffuse(color=[0.5, 0.5, 0.5])
+    slab = [floor, box_object,
+            SceneObject("block", box((1.6, 0.5, 1.0)), green, Transform(position=[0.6, 0.85, 0.4])),
+            SceneObject("post-a", box((0.2, 0.6, 0.2)), grey, Transform(position=[-0.05, 0.3, 0.4])),
+            SceneObject("post-b", box((0.2, 0.6, 0.2)), grey, Transform(position=[1.25, 0.3, 0.4]))]
+    side = Camera(position=[3.8, 1.4, 3.6], look_at=[0.2, 0.5, 0.0], fov_y=45.0, size=size)
+    yield dataclasses.replace(base, objects=slab, camera=side, name="env-slab")
 
 
 def states(lobes: int):
     """(label, context manager, auto parameters) of each state measured."""
     no_sun = mock.patch.object(lights, "environment_sun",
                                lambda env: environment_lights.EnvironmentSun(None, env.irradiance_sh()))
+    def without(**fields):  # the lobes' EnvironmentShadows with ``fields`` taken out (set to None)
+        draw = lights.ShadowMaps._environment_shadows
+        return mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda *args: (
+            None if (shadows := draw(*args)) is None else dataclasses.replace(shadows, **fields)))
+
     return [("sun in SH (before)", no_sun, {"environment_lobes": 0}),
             ("sun as a light", contextlib.nullcontext(), {"environment_lobes": 0}),
-            (f"sun + {lobes} lobes", contextlib.nullcontext(), {"environment_lobes": lobes})]
+            (f"+ {lobes} lobes, glass left out", without(glass=None, ambient_sh=None, bounce=None),
+             {"environment_lobes": lobes}),
+            ("+ glass transmits", without(ambient_sh=None, bounce=None), {"environment_lobes": lobes}),
+            ("+ floor bounce", without(bounce=None), {"environment_lobes": lobes}),
+            ("+ occluders' bounce (now)", contextlib.nullcontext(), {"environment_lobes": lobes})]
 
 
 def main(argv=None) -> None:
@@ -50,10 +95,11 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--lobes", type=int, default=environment_lights.LOBES)
     parser.add_argument("--frames", type=int, default=5)
+    parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows = []
-    for scene in scenes(size):
+    for scene in scenes(size, not args.no_tinted):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
         with Renderer() as renderer:
             _, plain_ms = timed_render(renderer, scene, "plain", 1, args.frames)

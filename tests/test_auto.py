@@ -286,12 +286,15 @@ def lens_before_a_chart(size=(64, 48)) -> Scene:
 
 
 def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
-    """Neither the lobes' shadows nor a caustic map change a pixel of the lens before the chart: the plan has
-    neither, says why, and its image is the one rendered with both."""
+    """A caustic map changes no pixel of the lens before the chart, and the lobes next to none (the lens dims a
+    sliver of the chart's sky by its 8 % Fresnel loss: 0.3 % of the sky's light, under LOBE_SHARE): the plan has
+    neither, says why, and its image is the one rendered with the caustic map, and within 0.1 % on average of
+    the one with the lobes."""
     from caustica.passes.environment_lights import lobe_occlusion
+    from caustica.techniques.auto import LOBE_SHARE
 
     scene = lens_before_a_chart()
-    assert lobe_occlusion(scene) == 0.0
+    assert 0.0 < lobe_occlusion(scene) < LOBE_SHARE
     chosen = plan(scene)
     assert chosen.technique == "impostors"
     assert "no caustics" in chosen.describe()
@@ -300,21 +303,22 @@ def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
         assert renderer.last_plan.technique == "impostors"
         lobes = renderer.render(scene, "auto", environment_lobes=16)  # given by name: honoured
         caustics = renderer.render(scene, "impostors+caustic-mapping", **chosen.params)
-    assert np.array_equal(image, lobes)
+    assert np.abs(image - lobes).mean() < 1e-3 * image.mean() and not np.array_equal(image, lobes)
     assert np.array_equal(image, caustics)
 
 
 def test_lobes_are_kept_where_an_opaque_object_hides_sky():
-    """A box on the table hides part of the sky from it: the share is well above LOBE_SHARE and the plan keeps the
-    lobes (the environment is the only light)."""
+    """A box on the table hides part of the sky from it: the share (8 %) is well above LOBE_SHARE and the plan keeps
+    the lobes (the environment is the only light); the glass ball alone dims the table's sky by 0.7 %."""
     from caustica.passes.environment_lights import lobe_occlusion
     from caustica.techniques.auto import LOBE_SHARE, _occluded_ambient
 
     block = SceneObject("block", box((0.5, 0.5, 0.5)), Diffuse(color=[0.5, 0.5, 0.5]),
                         Transform(position=[-0.4, 0.25, 0]))
     scene = scene_of([marble(), table(), block])
-    assert lobe_occlusion(scene) > 10 * LOBE_SHARE and _occluded_ambient(scene)
-    assert not _occluded_ambient(scene_of([marble(), table()]))  # glass lets the sky through: nothing to shadow
+    assert lobe_occlusion(scene) > 5 * LOBE_SHARE and _occluded_ambient(scene)
+    alone = scene_of([marble(), table()])
+    assert 0.0 < lobe_occlusion(alone) < LOBE_SHARE and not _occluded_ambient(alone)
 
 
 def test_exit_shares_of_a_ball_have_the_closed_form():

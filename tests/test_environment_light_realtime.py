@@ -151,6 +151,160 @@ def test_lobes_shadow_the_floor_under_a_slab(renderer):
     assert image[centre].mean() < 0.15 * ALBEDO
 
 
+# ---- glass in the lobes' maps: its transmittance, not an opaque shadow ---------------------------------
+
+SLAB_HEIGHT, SLAB_HALF, SLAB_THICKNESS = 0.2, 3.5, 0.05  # a 7 x 7 glass slab's underside 0.2 above the floor
+
+
+def fresnel(cos_i: np.ndarray, ior: float) -> np.ndarray:
+    """Unpolarised Fresnel reflectance entering glass of ``ior`` from air."""
+    cos_t = np.sqrt(1.0 - (1.0 - cos_i**2) / ior**2)
+    rs = (cos_i - ior * cos_t) / (cos_i + ior * cos_t)
+    rp = (ior * cos_i - cos_t) / (ior * cos_i + cos_t)
+    return 0.5 * (rs**2 + rp**2)
+
+
+def under_slab(transmittance) -> float:
+    """Irradiance / pi at the floor under the slab's centre from a constant sky of radiance 1, where the sky
+    seen through the slab comes through as transmittance(cos theta) (closed form: quadrature over the
+    hemisphere of the slab's square footprint)."""
+    theta, phi = np.meshgrid(np.linspace(0.0, np.pi / 2 - 1e-6, 2001), np.linspace(0.0, 2 * np.pi, 721),
+                             indexing="ij")
+    reach = SLAB_HEIGHT * np.tan(theta)
+    covered = (np.abs(reach * np.cos(phi)) < SLAB_HALF) & (np.abs(reach * np.sin(phi)) < SLAB_HALF)
+    through = np.where(covered, transmittance(np.cos(theta)), 1.0)
+    weight = np.cos(theta) * np.sin(theta) / np.pi
+    return float(np.trapezoid(np.trapezoid(through * weight, phi[0], axis=1), theta[:, 0]))
+
+
+def glass_slab_floor(renderer, material, environment=None) -> np.ndarray:
+    """auto with the lobes: the mean radiance / albedo of the floor under the slab's centre, seen from
+    between the slab and the floor."""
+    slab = SceneObject("slab", box((2 * SLAB_HALF, SLAB_THICKNESS, 2 * SLAB_HALF)), material,
+                       Transform(position=[0.0, SLAB_HEIGHT + SLAB_THICKNESS / 2, 0.0]))
+    scene = floor_scene([slab], environment or Environment(np.ones((128, 256, 3), np.float32)))
+    scene.camera = Camera(position=[0.0, 0.1, 3.9], look_at=[0.0, 0.0, 0.0], fov_y=30.0, size=SIZE)
+    image = renderer.render(scene, "auto", environment_lobes=16)
+    hit = floor_hits(scene.camera)
+    centre = np.abs(hit[..., [0, 2]]).max(axis=-1) < 0.5
+    assert centre.sum() > 50
+    return image[centre].mean(axis=0) / ALBEDO
+
+
+@pytest.mark.parametrize("ior", [1.5, 2.0])
+def test_clear_glass_slab_passes_the_sky_by_its_fresnel_transmittance(renderer, ior):
+    """Under a constant sky, the floor beneath a clear slab gets the sky through two interfaces: radiance /
+    albedo = the hemisphere's mean of (1 - F(theta))^2 over the slab's footprint (0.838 for IOR 1.5, 0.716 for
+    2), not 1 (glass left out) and not 0.003 (an opaque slab)."""
+    got = glass_slab_floor(renderer, Glass(ior=ior))
+    expected = under_slab(lambda c: (1.0 - fresnel(c, ior)) ** 2)
+    assert got == pytest.approx([expected] * 3, rel=0.015)
+
+
+def test_absorbing_glass_slab_tints_the_floor_by_beer_lambert(renderer):
+    """A coloured slab (transmittance 0.9 / 0.5 / 0.2 per channel through its thickness) adds Beer-Lambert
+    absorption along the straight chord through it, SLAB_THICKNESS / cos theta, per channel (the model;
+    exp(-sigma d) at normal incidence; docs/environment-light.md measures it against the refracted path).
+    Measured 0.717 / 0.313 / 0.096 against 0.708 / 0.301 / 0.092: the 16 lobes' mean directions sample the
+    steep 1 / cos of the lowest band coarsely."""
+    colour = np.array([0.9, 0.5, 0.2])
+    got = glass_slab_floor(renderer, Glass(ior=1.5, absorption_color=colour, absorption_distance=SLAB_THICKNESS))
+    for channel, transmitted in enumerate(colour):
+        expected = under_slab(lambda c: (1.0 - fresnel(c, 1.5)) ** 2 * transmitted ** (1.0 / c))
+        assert got[channel] == pytest.approx(expected, rel=0.05), channel  # 16 lobes' quadrature of 1 / cos
+    assert got[0] > 2.0 * got[1] > 4.0 * got[2]  # tinted: red passes, blue is stopped
+
+
+def test_ior1_glass_casts_no_sky_shadow(renderer):
+    """A ball of IOR 1 without absorption transmits the whole sky: the floor beside its foot keeps the albedo
+    (an opaque ball of the same size darkens it below 0.9)."""
+    constant = Environment(np.ones((128, 256, 3), np.float32))
+    images = {}
+    for name, material in (("glass", Glass(ior=1.0)), ("opaque", Diffuse([0.5] * 3))):
+        ball = SceneObject("ball", sphere(0.5, 4), material, Transform(position=[0.0, 0.5, 0.0]))
+        scene = floor_scene([ball], constant)
+        images[name] = renderer.render(scene, "auto", environment_lobes=16)
+    hit = floor_hits(scene.camera)
+    origin, direction = (x[:, :, 0] for x in scene.camera.primary_rays())
+    to_centre = np.array([0.0, 0.5, 0.0]) - origin
+    along = (to_centre * direction).sum(-1)
+    miss = np.linalg.norm(to_centre - along[..., None] * direction, axis=-1) > 0.55
+    foot = miss & (np.linalg.norm(hit[..., [0, 2]], axis=-1) < 0.8) & (np.abs(hit).max(axis=-1) < 3.0)
+    assert foot.sum() > 30
+    assert images["opaque"][foot].mean() < 0.9 * ALBEDO
+    assert images["glass"][foot].mean(axis=0) == pytest.approx([ALBEDO] * 3, rel=0.005)
+
+
+def test_glass_that_transmits_everything_leaves_opaque_shadows_bit_identical(renderer):
+    """The glass path (ENVIRONMENT_GLASS) multiplies each lit tap by exp(-0) = 1: an IOR-1 ball hidden inside
+    the opaque box leaves every floor pixel as the box alone gives it, bit for bit."""
+    constant = Environment(np.ones((128, 256, 3), np.float32))
+    hidden = SceneObject("hidden", sphere(0.2, 3), Glass(ior=1.0), Transform(position=[0.0, 0.4, 0.0]))
+    alone, with_glass = floor_scene([red_box()], constant), floor_scene([red_box(), hidden], constant)
+    a = renderer.render(alone, "auto", environment_lobes=16)
+    b = renderer.render(with_glass, "auto", environment_lobes=16)
+    hit = floor_hits(alone.camera)
+    floor = (np.abs(hit).max(axis=-1) < 3.0) & ~np.all(np.abs(hit[..., [0, 2]]) < 0.35, axis=-1)
+    assert (a[floor] < 0.95 * ALBEDO).sum() > 20  # the box's sky shadow is in the region
+    np.testing.assert_array_equal(a[floor], b[floor])
+
+
+def test_floor_bounce_lights_the_box_sides_from_below(renderer):
+    """With the lobes, what a diffuse surface sees below the horizon is the floor lit by the sky: under a
+    constant sky of radiance 1 a box side facing +z sees half sky (1) and half floor (radiance ALBEDO), so
+    its radiance is its albedo times (1 + ALBEDO) / 2 (the SH of a step in y is exact to band 2), where the
+    environment's own ground gave the albedo (test_lobes_leave_the_open_floor_at_albedo: the floor's stays)."""
+    grey = SceneObject("box", box((0.6, 2.0, 0.6)), Diffuse([0.5] * 3), Transform(position=[0.0, 1.0, 0.0]))
+    scene = floor_scene([grey], Environment(np.ones((128, 256, 3), np.float32)))
+    scene.camera = Camera(position=[0.0, 1.6, 4.0], look_at=[0.0, 1.2, 0.0], fov_y=40.0, size=SIZE)
+    image = renderer.render(scene, "auto", environment_lobes=16)
+    origin, direction = (a[:, :, 0] for a in scene.camera.primary_rays())
+    hit = origin + ((0.3 - origin[..., 2]) / direction[..., 2])[..., None] * direction  # the plane z = 0.3
+    upper = (np.abs(hit[..., 0]) < 0.25) & (hit[..., 1] > 1.3) & (hit[..., 1] < 1.9)  # far above the floor's shadow
+    assert upper.sum() > 30
+    assert image[upper].mean(axis=0) == pytest.approx([0.5 * (1.0 + ALBEDO) / 2.0] * 3, rel=0.02)
+    before = renderer.render(scene, "auto", environment_lobes=0)  # unoccluded SH of the environment's ground
+    assert before[upper].mean(axis=0) == pytest.approx([0.5] * 3, rel=0.02)
+
+
+def test_scene_floor_is_the_flat_diffuse_object_under_the_rest():
+    from caustica.passes.environment_lights import scene_floor
+
+    scene = floor_scene([red_box()])
+    assert scene_floor(scene) is scene.objects[0]
+    shelf = SceneObject("shelf", plane((8.0, 8.0)), Diffuse([0.5] * 3), Transform(position=[0.0, 0.5, 0.0]))
+    assert scene_floor(Scene(camera=scene.camera, objects=[shelf, red_box()])) is None  # the box reaches below it
+    small = SceneObject("mat", plane((0.3, 0.3)), Diffuse([0.5] * 3))
+    assert scene_floor(Scene(camera=scene.camera, objects=[small, red_box()])) is None  # covers less than the box
+    assert scene_floor(Scene(camera=scene.camera, objects=[red_box()])) is None
+
+
+def test_blocked_sky_shows_the_occluders_bounce(renderer):
+    """Where a lobe's sky is blocked, the receiver sees the occluder lit instead: under a constant sky a
+    white wall (albedo 0.8, lit by the sky above its horizon: radiance 0.4) adds to the floor at distance x
+    from its foot ALBEDO * F * 0.4, F = (1 - x / sqrt(x^2 + H^2)) / 2 the form factor of a wide wall of height
+    H, over what a black wall leaves (which only blocks). Measured 0.160 against 0.155 (the lobes' strata
+    are either side of the wall whole)."""
+    constant = Environment(np.ones((128, 256, 3), np.float32))
+    height = 20.0  # tall: the 16 lobes' top band, 50 to 90 degrees, lies wholly behind it
+    images = {}
+    for albedo in (0.0, 0.8):
+        wall = SceneObject("wall", box((16.0, height, 0.2)), Diffuse([albedo] * 3),
+                           Transform(position=[0.0, height / 2, -0.1]))
+        floor = SceneObject("floor", plane((20.0, 20.0)), Diffuse([ALBEDO] * 3))
+        camera = Camera(position=[0.0, 2.5, 3.0], look_at=[0.0, 0.0, 0.6], fov_y=40.0, size=SIZE)
+        scene = Scene(camera=camera, objects=[floor, wall], environment=constant)
+        images[albedo] = renderer.render(scene, "auto", environment_lobes=16)
+    hit = floor_hits(scene.camera)
+    strip = (np.abs(hit[..., 0]) < 1.5) & (hit[..., 2] > 0.3) & (hit[..., 2] < 0.9)
+    assert strip.sum() > 100
+    x = hit[..., 2][strip]
+    expected = ALBEDO * 0.5 * (1.0 - x / np.sqrt(x**2 + height**2)) * 0.4
+    added = (images[0.8] - images[0.0])[strip].mean(axis=-1)
+    assert added.mean() == pytest.approx(expected.mean(), rel=0.06)
+    assert images[0.0][strip].mean() < 0.6 * ALBEDO  # the wall blocks about half the sky
+
+
 def test_lobes_given_by_name_shade_a_lit_scene_too(renderer):
     """With a light of its own auto leaves the lobes off by default, but ``environment_lobes`` given by name is
     honoured: under the slab of the test above, shadowed from a point light right over it, the constant sky

@@ -38,7 +38,8 @@ def fresh_trace(mesh, vertex, incident):
     eta = 1.0 / IOR
     k = 1.0 - eta**2 * (1.0 - cos**2)
     inward = normalize(eta * d + (eta * cos - np.sqrt(k)) * n)
-    paths = follow_refraction(RayScene(scene), scene, mesh.vertices[vertex].astype(np.float64)[None], inward, 8)
+    paths = follow_refraction(RayScene(scene), scene, mesh.vertices[vertex].astype(np.float64)[None], inward, 8,
+                              start_inside=True)
     t = (1.0 - fresnel_dielectric(cos, 1.0, IOR)) * paths.transmittance[0]
     return paths.position[0], paths.direction[0], t, bool(paths.valid[0])
 
@@ -269,10 +270,27 @@ def test_cli_precompute_writes_a_table_and_refuses_bad_input(tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
 
 
-def test_bunny_table_precomputes_in_seconds(data_dir):
+def test_bunny_table_precomputes(data_dir):
+    """The 69K-triangle scan precomputes a table for every vertex (its time is a benchmark:
+    bench/bench_transport.py, docs/benchmarks.md; a wall-clock bound here was flaky under load)."""
     from caustica.scene.mesh import load_mesh
 
     mesh = load_mesh(data_dir / "models" / "stanford-bunny.obj")
     table = precompute_table(mesh, IOR, 129, progress=False)
-    assert table.stats["seconds"] < 30.0  # target 10 s on 2 cores; the paper: hours
+    assert table.vertex_count == len(mesh.vertices)
+    # Light that is not blocked nearly always finds its way out (measured 0.94: the rest exceeds max_depth).
+    assert table.valid[~table.occluded].mean() > 0.9
     assert quantize(table).bytes_per_sample == 12.0
+
+
+def test_light_reflected_totally_and_leaking_out_of_an_open_mesh_is_invalid():
+    """A ray already inside glass (the table's rays start refracted into the object) that meets a surface
+    beyond the critical angle, reflects totally and then leaves through a hole of an open mesh never exits
+    through glass: it is no valid table entry. Counting it valid gave 1% of the bunny scan's samples a
+    single interface (transmittance 1 - R0 = 0.96, above the (1 - R0)^2 every real exit has)."""
+    scene = glass_scene(plane((2.0, 2.0)), IOR)  # one open sheet at y = 0, facing +Y
+    grazing = normalize(np.array([[1.0, 0.2, 0.0]]))  # 11 degrees above the sheet: beyond the critical angle
+    origin = np.array([[-0.5, -0.1, 0.0]])
+    paths = follow_refraction(RayScene(scene), scene, origin, grazing, 8, start_inside=True)
+    assert paths.interfaces[0] == 1 and paths.transmittance[0] == 1.0  # the total reflection, then nothing
+    assert not paths.valid[0]

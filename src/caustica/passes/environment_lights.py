@@ -14,6 +14,10 @@ The light's irradiance is the bright part's radiance integrated over solid angle
 direction of travel minus the power-weighted mean direction, both estimated from SUN_SAMPLES stratified
 samples of ``EnvironmentLight.sample_bright`` (which samples by power, so the estimate is near exact). A
 bright part spread wider than SUN_SPREAD degrees (several suns, a window) is no sun: it stays in the SH.
+
+Part 2 (where auto asks for ``environment_lobes``): the rest of the sky as strata of equal power with
+shadow maps (passes/lights.py ShadowMaps draws them), glass passing its transmittance, the blocked sky
+showing the occluders' bounce, and a floor's bounce for the light from below (docs/environment-light.md).
 """
 from __future__ import annotations
 
@@ -23,7 +27,7 @@ import numpy as np
 
 from ..cache import array_digest
 from ..raytrace.environment_light import environment_light, hammersley
-from ..scene.environment import Environment, uv_to_direction
+from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
 
 SUN_SAMPLES = 16384  # stratified samples of the bright part (its integral to about 1e-4 on sky-checker's sun)
@@ -63,9 +67,12 @@ def _extract_sun(environment: Environment) -> EnvironmentSun:
     return EnvironmentSun(light, split.rest.irradiance_sh())
 
 
-def ambient_sh(environment: Environment, samples) -> np.ndarray:
-    """(9, 3) SH irradiance diffuse surfaces take as ambient: the environment's without its sun where the
-    ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+def ambient_sh(environment: Environment, samples, shadows=None) -> np.ndarray:
+    """(9, 3) SH irradiance diffuse surfaces take as ambient: the floor's bounce below the horizon where the
+    frame's ``environment_shadows`` hold it (floor_bounce_sh); else the environment's without its sun where
+    the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+    if shadows is not None and shadows.ambient_sh is not None:
+        return shadows.ambient_sh
     if any(getattr(s, "environment", False) for s in samples):
         return environment_sun(environment).rest_sh
     return environment.irradiance_sh()
@@ -86,6 +93,7 @@ class EnvironmentLobes:
 
     directions: np.ndarray  # (K, 3) unit directions of travel (minus each stratum's mean direction)
     irradiance: np.ndarray  # (K, 3) per channel: |sum of radiance * solid angle * direction| over the stratum
+    span: np.ndarray  # (K,) |sum of solid angle * direction| over the stratum: irradiance per unit radiance
 
 
 def environment_lobes(environment: Environment, sun_taken: bool, count: int = LOBES) -> EnvironmentLobes:
@@ -108,14 +116,14 @@ def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
     h, w = image.shape[:2]
     uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, np.arange(h) / (h - 1))
     direction = uv_to_direction(np.stack([uu, vv], axis=-1))
-    weighted = image * (np.sin(np.pi * vv) * (np.pi / (h - 1)) * (2.0 * np.pi / w))[..., None]
     sky = (direction[..., 1] > 0.0)[..., None]
-    weighted = weighted * sky  # above the horizon only
+    solid_angle = np.sin(np.pi * vv) * (np.pi / (h - 1)) * (2.0 * np.pi / w) * sky[..., 0]
+    weighted = image * solid_angle[..., None]  # above the horizon only
     power = weighted.mean(axis=2) + 1e-30 * sky[..., 0]  # a black sky still cuts into strata
     bands = max(int(round(np.sqrt(count))), 1)
     per_band = [count // bands + (1 if b < count % bands else 0) for b in range(bands)]
     row_edges = _equal_cuts(power.sum(axis=1), bands)
-    directions, irradiance = [], []
+    directions, irradiance, spans = [], [], []
     for (top, bottom), columns in zip(zip(row_edges[:-1], row_edges[1:]), per_band):
         column_edges = _equal_cuts(power[top:bottom].sum(axis=0), columns)
         for left, right in zip(column_edges[:-1], column_edges[1:]):
@@ -125,7 +133,8 @@ def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
             norm = np.linalg.norm(mean)
             directions.append(-mean / norm if norm > 0 else np.array([0.0, -1.0, 0.0]))
             irradiance.append(np.linalg.norm(vectors, axis=1))
-    return EnvironmentLobes(np.array(directions), np.array(irradiance))
+            spans.append(np.linalg.norm(np.einsum("hw,hwk->k", solid_angle[cell], direction[cell])))
+    return EnvironmentLobes(np.array(directions), np.array(irradiance), np.array(spans))
 
 
 def _equal_cuts(weights: np.ndarray, parts: int) -> list[int]:
@@ -137,6 +146,58 @@ def _equal_cuts(weights: np.ndarray, parts: int) -> list[int]:
         cut = int(np.searchsorted(cdf, k / parts)) + 1
         edges.append(min(max(cut, edges[-1] + 1), len(weights) - (parts - k)))
     return edges + [len(weights)]
+
+
+# The floor's bounce: the ground's light for diffuse surfaces --------------------------------------------
+
+FLOOR_FLATNESS = 0.01  # a floor's height over its width, at most
+
+
+def scene_floor(scene):
+    """The scene's floor, or None: a diffuse object at most FLOOR_FLATNESS as high as it is wide whose top is
+    at or below every other object's bottom and whose x and z extents cover theirs."""
+    boxes = [o.world_mesh().bounds for o in scene.objects]
+    for i, obj in enumerate(scene.objects):
+        low, high = boxes[i]
+        width = max(high[0] - low[0], high[2] - low[2])
+        others = np.array([b for j, b in enumerate(boxes) if j != i])
+        if obj.material.kind != "diffuse" or not len(others) or high[1] - low[1] > FLOOR_FLATNESS * width:
+            continue
+        below = others[:, 0].min(axis=0)[1] >= high[1] - FLOOR_FLATNESS * width
+        if below and np.all(low[[0, 2]] <= others[:, 0].min(axis=0)[[0, 2]]) and np.all(
+                high[[0, 2]] >= others[:, 1].max(axis=0)[[0, 2]]):
+            return obj
+    return None
+
+
+def floor_bounce_sh(environment: Environment, sun_taken: bool, albedo: np.ndarray) -> np.ndarray:
+    """(9, 3) SH irradiance for diffuse surfaces where a floor of ``albedo`` lies under the scene: the
+    environment (its rest when ``sun_taken``) with the light from below the horizon replaced by the open
+    floor's radiance, albedo / pi times the whole environment's irradiance on an upward normal (sun included).
+    A one-bounce interreflection from an unshadowed, infinite floor: what a box's side sees below the horizon is
+    the floor lit by the sky, not the environment's ground. Cached on the environment."""
+    key = (array_digest(environment.image), bool(sun_taken), tuple(np.round(albedo, 9)))
+    cache = getattr(environment, "_floor_cache", None)
+    if cache is None or cache[0] != key:
+        directions, solid_angle = texel_grid(*environment.image.shape[:2])
+        up = np.maximum(directions[..., 1], 0.0) * solid_angle
+        radiance = albedo / np.pi * np.einsum("hwc,hw->c", environment.image.astype(np.float64), up)
+        image = (environment_light(environment).rest.image if sun_taken else environment.image).astype(np.float64)
+        image = np.where((directions[..., 1] < 0.0)[..., None], radiance, image)
+        cache = (key, irradiance_sh_of(image))
+        environment._floor_cache = cache
+    return cache[1]
+
+
+def mean_albedo(obj) -> np.ndarray:
+    """An object's mean diffuse albedo per channel: its texture's mean where it shows one, else its colour;
+    0 for mirrors and glass."""
+    from ..scene.textures import texture_of
+
+    if obj.material.kind != "diffuse":
+        return np.zeros(3)
+    texture = texture_of(obj)
+    return np.asarray(texture, np.float64).reshape(-1, 3).mean(axis=0) if texture is not None else obj.material.color
 
 
 def lobe_settings(params) -> tuple[int, int]:
@@ -153,21 +214,34 @@ def lobe_settings(params) -> tuple[int, int]:
 @dataclass
 class EnvironmentShadows:
     """ShadowMaps' ``environment_shadows``: the lobes, their directional samples (passes/lights.py's
-    LightSample, one tile each) and the atlas of their distance maps (r32f, K N x N)."""
+    LightSample, one tile each) and the atlas of their opaque objects' distance maps (r32f, K N x N); where
+    the scene has glass, the atlas of the glass along each lobe (rgba32f: rgb its optical depth, -log of its
+    transmittance per channel, a its nearest distance; passes/glass_optical_depth.frag), else None."""
 
     atlas: object
     tiles: list
     lobes: EnvironmentLobes
+    glass: object = None
+    ambient_sh: np.ndarray | None = None  # (9, 3): floor_bounce_sh where the scene has a floor, else None
+    bounce: object = None  # rgba32f atlas: per lobe texel, the radiance a receiver behind the occluder sees
+    nearest: object = None  # rg32f atlas: per lobe texel, the nearest opaque and glass distance over its taps
+
+    def defines(self) -> dict[str, int]:
+        """lighting.glsl's ENVIRONMENT_GLASS and ENVIRONMENT_BOUNCE: 1 where the glass's, the bounce's atlas is
+        bound (ShadowMaps always draws the bounce; bench_environment_light measures without it)."""
+        return {"ENVIRONMENT_GLASS": int(self.glass is not None), "ENVIRONMENT_BOUNCE": int(self.bounce is not None)}
 
 
 def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) -> None:
-    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit``."""
+    """Set lighting.glsl's env_lobe_* uniforms and bind the atlas to texture unit ``unit`` (the glass's,
+    where there is one, to ``unit`` + 1, the bounce atlas to ``unit`` + 2, the nearest distances' to + 3)."""
     from ..gpu.meshes import set_uniform, write_uniform_array
 
     count = len(shadows.tiles)
     rows = {"env_lobe_origin": [t.position for t in shadows.tiles],
             "env_lobe_direction": [t.direction for t in shadows.tiles],
-            "env_lobe_irradiance": shadows.lobes.irradiance}
+            "env_lobe_irradiance": shadows.lobes.irradiance,
+            "env_lobe_span": np.repeat(shadows.lobes.span[:, None], 3, axis=1)}
     for name, values in rows.items():
         padded = np.zeros((MAX_LOBES, 3), "f4")
         padded[:count] = values
@@ -178,18 +252,27 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     set_uniform(program, "env_lobe_count", count)
     shadows.atlas.use(unit)
     set_uniform(program, "env_shadow_atlas", unit)
+    if shadows.bounce is not None:
+        shadows.bounce.use(unit + 2)
+        set_uniform(program, "env_bounce_atlas", unit + 2)
+    shadows.nearest.use(unit + 3)
+    set_uniform(program, "env_nearest_atlas", unit + 3)
+    if shadows.glass is not None:
+        shadows.glass.use(unit + 1)
+        set_uniform(program, "env_glass_atlas", unit + 1)
 
 
 LOBE_POINTS = 2048  # points on the diffuse surfaces where lobe_occlusion tries the lobes
 
 
 def lobe_occlusion(scene, count: int = LOBES) -> float:
-    """The share of the lobes' irradiance (sun taken out, as the frame does) that opaque objects block on the
-    scene's diffuse surfaces: the mean over LOBE_POINTS area-sampled points of the faces the camera can see (a
+    """The share of the lobes' irradiance (sun taken out, as the frame does) that other objects block on the
+    scene's diffuse surfaces (glass by what it does not transmit, _glass_loss): the mean over LOBE_POINTS area-sampled points of the faces the camera can see (a
     closed mesh's outside, an open sheet's side towards the camera) of sum_k blocked_k cos_k E_k / sum_k cos_k
-    E_k, with exact rays (Embree) towards each lobe. The lobes change
-    the image only where a lobe is blocked, so 0 means they would cost a frame and change no pixel (auto's
-    planner skips them then). Cached on the scene by its state and the camera's position."""
+    E_k, with exact rays (Embree) towards each lobe. Where nothing blocks a
+    lobe and the scene has no floor (scene_floor, whose bounce replaces the ground's light), the lobes change
+    no pixel: 0 means they would cost a frame for nothing (auto's planner skips them then). Cached on the
+    scene by its state and the camera's position."""
     from ..cache import scene_state_key
 
     key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects), int(count),
@@ -205,6 +288,7 @@ def _lobe_occlusion(scene, count: int) -> float:
     from ..raytrace.embree_scene import RayScene
 
     diffuse = [o.world_mesh() for o in scene.objects if o.material.kind == "diffuse"]
+    glass = [o for o in scene.objects if o.material.kind == "glass"]
     opaque = [o.world_mesh() for o in scene.objects if o.material.kind != "glass"]
     if not diffuse or not count:
         return 0.0
@@ -226,15 +310,36 @@ def _lobe_occlusion(scene, count: int) -> float:
     t = triangles[face]
     points = t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
     normals = cross[face] / np.maximum(area[face], 1e-300)[:, None]
-    # Each lobe's share at each point, and whether an opaque object stops the ray towards it.
+    # Each lobe's share at each point, and whether an object stops the ray towards it.
     weight = np.clip(-normals @ lobes.directions.T, 0.0, None) * lobes.irradiance.mean(axis=1)  # (points, lobes)
     lit = weight > 0.0
     rows, cols = np.nonzero(lit)
     size = float(np.linalg.norm(np.ptp(scene.bounds(), axis=0)))
-    rays = RayScene.from_meshes(opaque)
+    origins, towards = points[rows] + 1e-5 * size * normals[rows], -lobes.directions[cols]
     blocked = np.zeros_like(weight)
-    blocked[rows, cols] = rays.occluded(points[rows] + 1e-5 * size * normals[rows], -lobes.directions[cols], np.inf,
-                                        tnear=1e-6 * size)
+    blocked[rows, cols] = RayScene.from_meshes(opaque).occluded(origins, towards, np.inf, tnear=1e-6 * size)
+    if glass:
+        blocked[rows, cols] = np.maximum(blocked[rows, cols], _glass_loss(glass, origins, towards, 1e-6 * size))
     total = weight.sum(axis=1)
     share = np.where(total > 0.0, (blocked * weight).sum(axis=1) / np.maximum(total, 1e-300), 0.0)
     return float(share.mean())
+
+
+def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear: float) -> np.ndarray:
+    """Per ray, the share of a lobe's light the first glass object along it takes (the lobes' glass atlas dims
+    them so): 1 - (1 - F0)^2 exp(-sigma chord), F0 the normal-incidence reflectance of each of its two
+    interfaces, sigma its mean absorption coefficient, chord the ray's path inside (exact, Embree)."""
+    from ..raytrace.embree_scene import RayScene
+
+    rays = RayScene.from_meshes([o.world_mesh() for o in glass])
+    entry = rays.intersect(origins, directions, tnear)
+    loss = np.zeros(len(origins))
+    if not entry.hit.any():
+        return loss
+    exit_ = rays.intersect(entry.position[entry.hit], directions[entry.hit], tnear)
+    index = entry.object_index[entry.hit]
+    ior = np.array([o.material.ior_rgb[1] for o in glass])[index]
+    sigma = np.array([float(np.mean(o.material.absorption_coefficient)) for o in glass])[index]
+    chord = np.where(exit_.hit, exit_.t, 0.0)
+    loss[entry.hit] = 1.0 - (1.0 - ((ior - 1.0) / (ior + 1.0)) ** 2) ** 2 * np.exp(-sigma * chord)
+    return loss

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..cache import scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
+from ..cache import material_state_key, scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
 from ..errors import TechniqueError
 from ..gpu.meshes import set_object_transform, set_uniform
+from ..gpu.shaders import run_compute
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.transform import (
@@ -29,7 +30,8 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import EnvironmentShadows, environment_lobes, environment_sun, lobe_settings
+from .environment_lights import (EnvironmentShadows, environment_lobes, environment_sun, floor_bounce_sh,
+                                 lobe_settings, mean_albedo, scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -112,27 +114,114 @@ class ShadowMaps(Pass):
         self.size = size
 
     def cache_key(self, frame: Frame):
-        return self.size, lobe_settings(frame.params), scene_state_key(frame.scene)
+        lobes = lobe_settings(frame.params)
+        # The lobes' maps tell glass from opaque objects and hold the glass's IOR and absorption.
+        return self.size, lobes, scene_state_key(frame.scene), material_state_key(frame.scene) if lobes[0] else ()
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
+        maps = [self._render(frame, [s], frame.scene.objects) for s in samples]
         frame.write("light_samples", samples)
-        frame.write("shadow_maps", [self._render(frame, [s], frame.scene.objects) for s in samples])
-        frame.write("environment_shadows", self._environment_shadows(frame, samples))
+        frame.write("shadow_maps", maps)
+        frame.write("environment_shadows", self._environment_shadows(frame, samples, maps))
 
-    def _environment_shadows(self, frame: Frame, samples: list[LightSample]):
+    def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)
         if not count:
             return None
         scene = frame.scene
-        lobes = environment_lobes(scene.environment, any(s.environment for s in samples), count)
+        sun_taken = any(s.environment for s in samples)
+        lobes = environment_lobes(scene.environment, sun_taken, count)
+        floor = scene_floor(scene)
+        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
         center = scene.bounds().mean(axis=0)
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
         tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
-        # Glass lets the environment through (its light reaches the floor refracted, not stopped): opaque casters only.
+        # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
+        # nearest distance and its optical depth along each lobe, in one more atlas.
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
+        glass = [o for o in scene.objects if o.material.kind == "glass"]
         atlas = self._render(frame, tiles, opaque, size)
-        return EnvironmentShadows(atlas, tiles, lobes)
+        sky_only = floor_bounce_sh(scene.environment, sun_taken, np.zeros(3))
+        bounce = self._bounce(frame, tiles, opaque, size, samples, maps, sky_only)
+        glass_atlas = self._glass(frame, tiles, glass, size) if glass else None
+        return EnvironmentShadows(atlas, tiles, lobes, glass_atlas, ground, bounce,
+                                  self._nearest(frame, atlas, glass_atlas, size))
+
+    def _nearest(self, frame: Frame, atlas, glass_atlas, size: int):
+        """rg32f: per lobe texel the nearest opaque and glass distance over its 3x3 taps (lobe_nearest.comp)."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture(atlas.size, 2, dtype="f4"))
+        program = frame.gpu.shaders.compute("passes/lobe_nearest.comp")
+        atlas.use(0)
+        (glass_atlas or atlas).use(1)
+        set_uniform(program, "opaque", 0)
+        set_uniform(program, "glass", 1)
+        set_uniform(program, "has_glass", int(glass_atlas is not None))
+        set_uniform(program, "tile_size", size)
+        target.bind_to_image(0, read=False, write=True)
+        run_compute(program, (atlas.size[0] + 7) // 8, (atlas.size[1] + 7) // 8)
+        ctx.memory_barrier()
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
+
+    def _bounce(self, frame: Frame, tiles: list[LightSample], opaque, size: int, samples, maps, sky_sh):
+        """Per lobe texel (rgba32f atlas), the radiance of the nearest opaque surface facing along the lobe
+        (lobe_bounce.frag), lit by ``samples`` through their shadow ``maps`` and by ``sky_sh``; 0 where none."""
+        from .surfaces import FIRST_SHADOW_UNIT
+
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target], frame.own(ctx.depth_renderbuffer((size * len(tiles), size)))))
+        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/lobe_bounce.frag",
+                                            {"MAX_LIGHTS": MAX_LIGHTS})
+        bind_lights(program, samples, maps, first_unit=FIRST_SHADOW_UNIT)
+        set_uniform(program, "irradiance_sh", sky_sh.astype("f4"))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        for k, tile in enumerate(tiles):
+            fbo.viewport = (k * size, 0, size, size)
+            set_uniform(program, "direction", tile.direction.astype("f4"))
+            for obj in opaque:
+                set_uniform(program, "albedo", mean_albedo(obj).astype("f4"))
+                draw_objects(frame, program, [obj], tile.clip_from_world)
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
+
+    def _glass(self, frame: Frame, tiles: list[LightSample], glass, size: int):
+        """The glass along each directional tile (glass_optical_depth.frag), rgba32f: rgb its optical depth
+        per channel (every face of every glass object summed with additive blending), a its nearest distance
+        (MIN blending); no depth test."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target]))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 1e30)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        try:
+            for nearest, equation in ((0, moderngl.FUNC_ADD), (1, moderngl.MIN)):
+                ctx.blend_equation = equation
+                program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/glass_optical_depth.frag",
+                                                    {"NEAREST_DISTANCE": nearest})
+                for k, tile in enumerate(tiles):
+                    fbo.viewport = (k * size, 0, size, size)
+                    set_uniform(program, "origin", tile.position.astype("f4"))
+                    set_uniform(program, "direction", tile.direction.astype("f4"))
+                    for obj in glass:
+                        set_uniform(program, "sigma", obj.material.absorption_coefficient.astype("f4"))
+                        set_uniform(program, "ior", obj.material.ior_rgb.astype("f4"))
+                        set_uniform(program, "solid", float(obj.mesh.is_solid()))
+                        draw_objects(frame, program, [obj], tile.clip_from_world)
+        finally:
+            ctx.blend_equation = moderngl.FUNC_ADD
+            ctx.disable(moderngl.BLEND)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
 
     def _render(self, frame: Frame, samples: list[LightSample], objects, size: int | None = None):
         """One map: a point sample's six-face atlas, or the directional and spot ``samples`` as tiles side by side."""

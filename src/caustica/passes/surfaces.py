@@ -22,7 +22,7 @@ from .lights import MAX_LIGHTS, bind_lights, draw_objects
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
-ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas (passes/environment_lights.py)
+ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27-29 their glass's, bounce's, nearest distances' (passes/environment_lights.py)
 
 
 class RefractorSurfaces(Pass):
@@ -245,6 +245,8 @@ class ShadeSurfaces(Pass):
         caustic_maps = frame.optional("caustic_maps")
         defines = {**self.defines, "MAX_LIGHTS": MAX_LIGHTS, **frame.optional_defines(self),
                    "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
+        if frame.optional("environment_shadows") is not None:
+            defines.update(frame.optional("environment_shadows").defines())
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()
@@ -325,10 +327,11 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
         samples = frame.read("light_samples")
-        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples).astype("f4"))
+        shadows = frame.optional("environment_shadows")
+        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples, shadows).astype("f4"))
         bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
-        if frame.optional("environment_shadows") is not None:
-            bind_environment_shadows(program, frame.optional("environment_shadows"), ENVIRONMENT_SHADOW_UNIT)
+        if shadows is not None:
+            bind_environment_shadows(program, shadows, ENVIRONMENT_SHADOW_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         elif frame.optional("caustic_tiles") is not None:

@@ -418,14 +418,16 @@ class RefractedPaths:
 
 
 def follow_refraction(
-    ray_scene: RayScene, scene, origins, dirs, max_interfaces: int = 16, channel: int | None = None
+    ray_scene: RayScene, scene, origins, dirs, max_interfaces: int = 16, channel: int | None = None,
+    start_inside: bool = False,
 ) -> RefractedPaths:
     """Follow each ray's refracted branch through glass (TIR reflects) until it leaves all glass.
 
     A ray is done when, outside glass, it misses everything or hits a
     non-glass object. It is invalid when it leaks out of a glass mesh, hits a
     non-glass object inside glass, or meets more than ``max_interfaces`` glass
-    surfaces. ``channel`` picks the per-channel IOR of dispersive glass (default: ``ior``).
+    surfaces. ``channel`` picks the per-channel IOR of dispersive glass (default: ``ior``);
+    ``start_inside`` says the rays start inside glass (already refracted into it).
     """
     o = np.array(origins, dtype=np.float64).reshape(-1, 3)
     d = np.array(dirs, dtype=np.float64).reshape(-1, 3)
@@ -438,7 +440,7 @@ def follow_refraction(
     result = RefractedPaths(d.copy(), o.copy(), np.zeros(n, bool), np.zeros(n), np.ones(n), np.zeros(n, np.int64),
                             np.full(n, -1, np.int32), np.zeros((n, 3)))
     active = np.arange(n)
-    inside = np.zeros(n, bool)
+    inside = np.full(n, bool(start_inside))
     for step in range(max_interfaces + 1):
         if len(active) == 0:
             break

@@ -152,11 +152,7 @@ class Environment:
         exact oracle with ``environment_samples = 0``).
         """
         if self._sh is None:
-            basis, solid_angle = _sh_grid(*self.image.shape[:2])
-            radiance = self.image.astype(np.float64)
-            coeffs = np.einsum("hwk,hwc,hw->kc", basis, radiance, solid_angle)
-            band = np.array([np.pi] + [2 * np.pi / 3] * 3 + [np.pi / 4] * 5)
-            self._sh = (coeffs * band[:, None]).astype(np.float32)
+            self._sh = irradiance_sh_of(self.image)
         return self._sh
 
     def irradiance(self, n: np.ndarray) -> np.ndarray:
@@ -168,15 +164,28 @@ _SH_GRID: dict = {}  # the last image shape's (basis, solid angle): a new image 
 # environment in a batch) skips recomputing them, about 100 of its 136 ms at 1024x512
 
 
+def irradiance_sh_of(image: np.ndarray) -> np.ndarray:
+    """(9, 3) float32 SH coefficients of the cosine-convolved equirectangular ``image`` (Environment.irradiance_sh)."""
+    basis, solid_angle = _sh_grid(*image.shape[:2])
+    coeffs = np.einsum("hwk,hwc,hw->kc", basis, image.astype(np.float64), solid_angle)
+    band = np.array([np.pi] + [2 * np.pi / 3] * 3 + [np.pi / 4] * 5)
+    return (coeffs * band[:, None]).astype(np.float32)
+
+
+def texel_grid(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """(h, w, 3) unit directions of an (h, w) equirectangular image's texel centres and (h, w) their solid angles."""
+    v = (np.arange(h) + 0.5) / h
+    u = (np.arange(w) + 0.5) / w
+    uu, vv = np.meshgrid(u, v)
+    return uv_to_direction(np.stack([uu, vv], axis=-1)), (2 * np.pi / w) * (np.pi / h) * np.sin(vv * np.pi)
+
+
 def _sh_grid(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     """The SH basis at each texel centre of an (h, w) equirectangular image, and each texel's solid angle."""
     if (h, w) not in _SH_GRID:
-        v = (np.arange(h) + 0.5) / h
-        u = (np.arange(w) + 0.5) / w
-        uu, vv = np.meshgrid(u, v)
-        d = uv_to_direction(np.stack([uu, vv], axis=-1))
+        d, solid_angle = texel_grid(h, w)
         _SH_GRID.clear()
-        _SH_GRID[(h, w)] = (sh9_basis(d), (2 * np.pi / w) * (np.pi / h) * np.sin(vv * np.pi))
+        _SH_GRID[(h, w)] = (sh9_basis(d), solid_angle)
     return _SH_GRID[(h, w)]
 
 

@@ -43,7 +43,7 @@ from ..scene.materials import Glass
 from ..scene.mesh import Mesh
 from ..scene.scene import Scene, SceneObject
 
-TABLE_VERSION = 1
+TABLE_VERSION = 2  # 2: a ray reflected totally and then leaking out of an open mesh is invalid
 DEFAULT_DIRECTIONS = 129
 DEFAULT_MAX_DEPTH = 8
 BLOCK_RAYS = 1 << 19  # rays per block (bounded memory; each block uses every core)
@@ -149,7 +149,7 @@ def trace_samples(ray_scene: RayScene, scene: Scene, positions: np.ndarray, norm
     inward, _ = refract(-incident, normals, np.full(len(incident), 1.0 / ior))
     first = 1.0 - fresnel_dielectric(cos_i, 1.0, ior)
     # Follow the refracted branch to the exit.
-    paths = follow_refraction(ray_scene, scene, positions, inward, max_interfaces=max_depth)
+    paths = follow_refraction(ray_scene, scene, positions, inward, max_interfaces=max_depth, start_inside=True)
     valid = above & paths.valid & (paths.interfaces >= 1)
     transmittance = np.where(valid, first * paths.transmittance, 0.0)
     exit_position = np.where(valid[:, None], paths.position, positions)

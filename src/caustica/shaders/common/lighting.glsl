@@ -1,7 +1,7 @@
 // Direct light on diffuse receivers with shadow maps, plus unoccluded ambient from the
 // environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone);
 // LIGHT_POINT, _DIRECTIONAL, _SPOT (scene/codes.py: light_type's codes; the shader library sets them
-// in every program); ENVIRONMENT_SHADOWS (0), ENV_LOBE_REACH (0): the environment's lobes, below.
+// in every program).
 #ifndef MAX_LIGHTS
 #define MAX_LIGHTS 8
 #endif
@@ -43,8 +43,7 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 }
 
 // Fraction of light i that reaches p (normal n, facing the light): map_visibility of its map, which
-// also serves the environment's lobes (an atlas of directional maps, tile k from column k N); the filter
-// takes (2 reach + 1)^2 taps (1 for the lights: 3x3).
+// also serves the environment's lobes (an atlas of directional maps, tile k from column k N).
 //
 // Each map is N x N texels (a cube face of the point atlas: N x N from column x0). Texel t's ray, s its
 // centre in ndc, is axis + s.x a + s.y b with axis, a, b orthogonal and axis unit: from the light for
@@ -56,8 +55,15 @@ vec2 cube_atlas_uv(vec3 v, out int face) {
 // orthographic: P = m_q dot(axis, n) + s_q.V', U = -V', V' = (a.n, b.n), W = V = 0.
 // The denominator is negative where the ray meets the plane from the light's side (the numerator too),
 // so the tap is lit when stored * den <= num * sqrt(..) there, and wherever stored >= m_q (q's metric).
-float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n, int reach) {
-    int N = textureSize(map, 0).y;
+// One receiver's lookup in a map: its 3x3 taps around texel c of tile x0, each lit (tap_lit) when the
+// stored metric passes the receiver-plane test above. outside >= 0: q falls outside a directional or spot
+// map, whose visibility is then outside (1 or 0) and no tap is read.
+struct MapLookup { int N, x0; ivec2 c; float P, an, m_q, outside; vec2 U, V, W; };
+
+MapLookup map_lookup(int N, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+    MapLookup l;
+    l.N = N;
+    l.outside = -1.0;
     float width;                 // a texel's width at the receiver
     vec3 axis, a, b;
     bool point = type == LIGHT_POINT, ortho = type == LIGHT_DIRECTIONAL;
@@ -74,7 +80,7 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
         width = 2.0 * length(a) / float(N) * (ortho ? 1.0 : length(p - light));
     }
     vec3 q = p + n * (shadow_bias * width);
-    int x0 = tile * N;  // a directional or spot map's tile in an atlas of N x N tiles
+    l.x0 = tile * N;  // a directional or spot map's tile in an atlas of N x N tiles
     vec2 s_q;
     if (point) {
         int face;
@@ -82,34 +88,56 @@ float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 directi
         axis = cube_forward[face];
         b = cube_up[face];
         a = cross(axis, b);
-        x0 = face * N;
+        l.x0 = face * N;
     } else {
         vec4 clip = m * vec4(q, 1.0);
         s_q = clip.xy / clip.w;
-        if (any(greaterThan(abs(s_q), vec2(1.0)))) return ortho ? 1.0 : 0.0;
+        if (any(greaterThan(abs(s_q), vec2(1.0)))) l.outside = ortho ? 1.0 : 0.0;
     }
-    float m_q = ortho ? dot(q - light, axis) : length(q - light);
-    float an = dot(axis, n);
+    l.m_q = ortho ? dot(q - light, axis) : length(q - light);
+    l.an = dot(axis, n);
     vec2 v = vec2(dot(a, n), dot(b, n));
-    float P = ortho ? m_q * an + dot(s_q, v) : dot(q - light, n);
-    vec2 U = ortho ? -v : vec2(0.0), W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b)), V = ortho ? vec2(0.0) : v;
-    ivec2 c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
+    l.P = ortho ? l.m_q * l.an + dot(s_q, v) : dot(q - light, n);
+    l.U = ortho ? -v : vec2(0.0);
+    l.W = ortho ? vec2(0.0) : vec2(dot(a, a), dot(b, b));
+    l.V = ortho ? vec2(0.0) : v;
+    l.c = clamp(ivec2(floor((s_q * 0.5 + 0.5) * float(N))), ivec2(0), ivec2(N - 1));
+    return l;
+}
+
+// Tap (x, y) of the 3x3 around l.c: its texel in the map (the atlas's column x0 + t.x).
+ivec2 map_tap(MapLookup l, int x, int y) {
+    ivec2 t = clamp(l.c + ivec2(x, y), ivec2(0), ivec2(l.N - 1));
+    return ivec2(l.x0 + t.x, t.y);
+}
+
+// The tap at texel ``texel`` (map_tap): where its ray meets the receiver plane, as (den, num) of the
+// comparison above (num: (P + s.U) sqrt(1 + s^2.W)).
+vec2 tap_plane(MapLookup l, ivec2 texel) {
+    vec2 s = (vec2(texel.x - l.x0, texel.y) + 0.5) * (2.0 / float(l.N)) - 1.0;
+    return vec2(l.an + dot(s, l.V), (l.P + dot(s, l.U)) * sqrt(1.0 + dot(s * s, l.W)));
+}
+
+// Whether a tap (its tap_plane) storing ``stored`` leaves the receiver lit.
+bool tap_lit(MapLookup l, vec2 plane, float stored) {
+    return (plane.x < 0.0 && stored * plane.x <= plane.y) || stored >= l.m_q;
+}
+
+float map_visibility(sampler2D map, int tile, int type, vec3 light, vec3 direction, mat4 m, vec3 p, vec3 n) {
+    MapLookup l = map_lookup(textureSize(map, 0).y, tile, type, light, direction, m, p, n);
+    if (l.outside >= 0.0) return l.outside;
     float lit = 0.0;
-    for (int y = -reach; y <= reach; ++y)
-        for (int x = -reach; x <= reach; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), ivec2(N - 1));
-            vec2 s = (vec2(t) + 0.5) * (2.0 / float(N)) - 1.0;
-            float stored = texelFetch(map, ivec2(x0 + t.x, t.y), 0).r;
-            float den = an + dot(s, V);
-            bool plane = den < 0.0 && stored * den <= (P + dot(s, U)) * sqrt(1.0 + dot(s * s, W));
-            lit += (plane || stored >= m_q) ? 1.0 : 0.0;
+    for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 t = map_tap(l, x, y);
+            lit += tap_lit(l, tap_plane(l, t), texelFetch(map, t, 0).r) ? 1.0 : 0.0;
         }
-    return lit / float((2 * reach + 1) * (2 * reach + 1));
+    return lit / 9.0;
 }
 
 float light_visibility(int i, vec3 p, vec3 n) {
     return map_visibility(shadow_map[i], 0, light_type[i], light_position[i], light_direction[i],
-                          light_clip_from_world[i], p, n, 1);
+                          light_clip_from_world[i], p, n);
 }
 
 // Irradiance at p with normal n from every light, shadowed.
@@ -158,35 +186,87 @@ vec3 ambient_irradiance(vec3 n) {
 #ifndef ENVIRONMENT_SHADOWS
 #define ENVIRONMENT_SHADOWS 0
 #endif
-// ENV_LOBE_REACH: the lobes' percentage-closer filter reaches this many texels each way (0: one tap). The
-// sixteen strata's hard shadows already average into a soft one: one tap each measured -0.02 and -0.09 dB
-// against the 3x3 filter on two lens and glass scenes (docs/auto.md) for a ninth of the lobes' fetches.
-#ifndef ENV_LOBE_REACH
-#define ENV_LOBE_REACH 0
-#endif
 #if ENVIRONMENT_SHADOWS
 #define MAX_ENV_LOBES 32
 uniform int env_lobe_count;
 uniform vec3 env_lobe_origin[MAX_ENV_LOBES];
 uniform vec3 env_lobe_direction[MAX_ENV_LOBES];   // travel direction
 uniform vec3 env_lobe_irradiance[MAX_ENV_LOBES];  // per channel, facing the stratum
+uniform vec3 env_lobe_span[MAX_ENV_LOBES];        // |sum of solid angle * direction| over the stratum (each component)
 uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
+uniform sampler2D env_nearest_atlas;  // rg32f: the nearest opaque, glass distance over each texel's 3x3 taps
+#endif
+// One bounce (host define ENVIRONMENT_BOUNCE; passes/lobe_bounce.frag): per texel, the radiance of the
+// nearest opaque surface facing along the lobe, which a receiver whose tap the opaque map shadows sees
+// instead of the sky.
+#ifndef ENVIRONMENT_BOUNCE
+#define ENVIRONMENT_BOUNCE 0
+#endif
+#if ENVIRONMENT_SHADOWS && ENVIRONMENT_BOUNCE
+uniform sampler2D env_bounce_atlas;
+#endif
+// Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas, rgb
+// the glass's optical depth along each lobe (-log of its transmittance per channel: two Fresnel interfaces
+// and Beer-Lambert absorption over the chord; passes/glass_optical_depth.frag), a its nearest distance (as
+// env_shadow_atlas's). A tap that the glass's distance shadows lets exp(-depth) through.
+#ifndef ENVIRONMENT_GLASS
+#define ENVIRONMENT_GLASS 0
+#endif
+#if ENVIRONMENT_SHADOWS && ENVIRONMENT_GLASS
+uniform sampler2D env_glass_atlas;
 #endif
 
-// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked.
+#if ENVIRONMENT_SHADOWS
+// Per channel, the fraction of lobe k's light that reaches p: the opaque map's 3x3 filter, each lit tap
+// dimmed by the glass's transmittance where the glass's distance shadows it (ENVIRONMENT_GLASS); ``seen``,
+// the mean over the taps of the bounce radiance where the opaque map shadows them (0 where lit).
+vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
+    seen = vec3(0.0);
+    MapLookup l = map_lookup(textureSize(env_shadow_atlas, 0).y, k, LIGHT_DIRECTIONAL, env_lobe_origin[k],
+                             env_lobe_direction[k], env_lobe_clip_from_world[k], p, n);
+    if (l.outside >= 0.0) return vec3(l.outside);
+    vec2 nearest = texelFetch(env_nearest_atlas, ivec2(l.x0 + l.c.x, l.c.y), 0).rg;
+    if (nearest.x >= l.m_q && nearest.y >= l.m_q) return vec3(1.0);  // every tap lit (lobe_nearest.comp)
+    vec3 lit = vec3(0.0);
+    for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+            ivec2 t = map_tap(l, x, y);
+            vec2 plane = tap_plane(l, t);
+            if (!tap_lit(l, plane, texelFetch(env_shadow_atlas, t, 0).r)) {
+#if ENVIRONMENT_BOUNCE
+                seen += texelFetch(env_bounce_atlas, t, 0).rgb;
+#endif
+                continue;
+            }
+#if ENVIRONMENT_GLASS
+            vec4 glass = texelFetch(env_glass_atlas, t, 0);
+            if (tap_lit(l, plane, glass.a)) lit += vec3(1.0);  // a branch: most taps see no glass
+            else lit += exp(-max(glass.rgb, vec3(0.0)));
+#else
+            lit += vec3(1.0);
+#endif
+        }
+    seen /= 9.0;
+    return lit / 9.0;
+}
+#endif
+
+// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked, plus what
+// the blocked directions show instead (the occluders' bounce, over each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
     vec3 e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
-    vec3 blocked = vec3(0.0);
+    vec3 blocked = vec3(0.0), bounce = vec3(0.0);
     for (int k = 0; k < env_lobe_count; ++k) {
         float c = -dot(n, env_lobe_direction[k]);
         if (c <= 0.0) continue;
-        float v = map_visibility(env_shadow_atlas, k, LIGHT_DIRECTIONAL, env_lobe_origin[k], env_lobe_direction[k],
-                                 env_lobe_clip_from_world[k], p, n, ENV_LOBE_REACH);
+        vec3 seen;
+        vec3 v = lobe_light(k, p, n, seen);
         blocked += (1.0 - v) * c * env_lobe_irradiance[k];
+        bounce += seen * c * env_lobe_span[k];
     }
-    e = max(e - blocked, vec3(0.0));
+    e = max(e - blocked, vec3(0.0)) + bounce;
 #endif
     return e;
 }
