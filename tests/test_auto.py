@@ -353,3 +353,15 @@ def test_internal_bounces_are_followed_where_they_carry_light():
     assert lens.params["internal_bounces"] == 1
     assert any("internal bounce" in note for note in lens.notes)
     assert plan(lens_before_a_chart(), "high").params["internal_bounces"] == 4
+
+
+def test_glass_takes_its_fresnel_loss_and_absorption_from_a_lobe():
+    """A ray through a glass slab 0.2 thick at normal incidence keeps (1 - F0)^2 exp(-sigma 0.2), F0 = ((n - 1) /
+    (n + 1))^2 at each interface and sigma the absorption coefficient's mean; a ray beside it loses nothing."""
+    from caustica.passes.environment_lights import _glass_loss
+
+    glass = Glass(ior=1.5, absorption_color=[0.5, 0.6, 0.7], absorption_distance=1.0)
+    slab = SceneObject("slab", box((2.0, 0.2, 2.0)), glass, Transform(position=[0.0, 1.0, 0.0]))
+    loss = _glass_loss([slab], np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]] * 2), 1e-6)
+    sigma = float(np.mean(-np.log([0.5, 0.6, 0.7])))
+    assert loss == pytest.approx([1.0 - (1.0 - 0.04) ** 2 * np.exp(-sigma * 0.2), 0.0], abs=1e-6)
