@@ -64,6 +64,12 @@ def test_splatted_caustics_are_the_same_in_every_worker(tmp_path, technique):
     one = caustica.batch("caustic-sphere", tmp_path / "one", 4, **kwargs)
     two = caustica.batch("caustic-sphere", tmp_path / "two", 4, workers=2, **kwargs)
     assert all("error" not in r for r in one + two) and one[0]["technique"] == two[0]["technique"]
+    # Each worker's first frame, and only that one, is marked as the warm-up (its ms holds the shaders' compile).
+    assert [r["warmup"] for r in one] == [True, False, False, False]
+    firsts = {}
+    for r in sorted(two, key=lambda r: r["time"]):
+        firsts.setdefault(r["worker"], r["index"])
+    assert {r["index"] for r in two if r["warmup"]} == set(firsts.values())
     for a, b in zip(one, two):
         assert np.array_equal(pixels(tmp_path / "one", a), pixels(tmp_path / "two", b))
 
@@ -348,6 +354,10 @@ BAD_SWEEPS = [
     ("[objects.spere]\nior = 1.4\n", "no object 'spere'", "did you mean 'sphere'"),
     ("[objects.sphere]\nior = { uniform = [1.2, 20] }\n", "objects.sphere.ior = 20", "ior"),
     ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
+    # An exporter's dotted name (Blender's Sphere.001) unquoted: TOML reads a table '001' in object 'Sphere'.
+    ("[objects.sphere.001]\nior = 1.4\n", "read as object 'sphere' with a table '001'", '[objects."sphere.001"]'),
+    # A relative image path is resolved against the sweep file's folder, and the error says so.
+    ("[environment]\nimage = 'studio.exr'\n", "studio.exr': environment file not found", "relative to the sweep file"),
 ]
 
 

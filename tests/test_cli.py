@@ -174,6 +174,30 @@ def test_real_process_exit_code_and_no_traceback(tmp_path):
     assert_one_line_error(2, result.stderr, "missing.toml")
 
 
+def test_python_dash_m_caustica_is_the_command(tmp_path):
+    """``python -m caustica`` runs the same command line as the ``caustica`` script (it had no __main__)."""
+    import caustica
+
+    version = subprocess.run([sys.executable, "-m", "caustica", "--version"], capture_output=True, text=True)
+    assert version.returncode == 0 and version.stdout.strip() == f"caustica {caustica.__version__}", version.stderr
+    bad = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "missing.toml"),
+                          "-o", str(tmp_path / "o.png")], capture_output=True, text=True)
+    assert_one_line_error(bad.returncode, bad.stderr, "missing.toml")
+
+
+def test_presets_lists_each_with_its_whole_first_paragraph(capsys):
+    """One line per preset, its description whole (a wrapped docstring's first line stopped mid-sentence,
+    'aberration-lens ... (red/green/blue) from an'), the names in one column."""
+    from caustica.scene.presets import PRESETS
+
+    code, out, _ = run_cli(["presets"], capsys)
+    lines = out.splitlines()
+    assert code == 0 and len(lines) == len(PRESETS)
+    starts = {len(line) - len(line[len(line.split()[0]):].lstrip()) for line in lines}
+    assert len(starts) == 1, starts  # every description starts in the same column
+    assert all(line.rstrip().endswith(".") for line in lines), [line for line in lines if not line.endswith(".")]
+
+
 def test_missing_egl_names_apt_packages(monkeypatch):
     import moderngl
 

@@ -56,6 +56,15 @@ def test_wheel_metadata_has_version_urls_and_classifiers(wheel):
     assert "Classifier: Topic :: Multimedia :: Graphics :: 3D Rendering" in metadata
 
 
+def test_wheel_has_the_command_and_python_dash_m(wheel):
+    """The ``caustica`` script's entry point and ``caustica/__main__.py`` (``python -m caustica``) ship."""
+    with zipfile.ZipFile(wheel) as archive:
+        names = archive.namelist()
+        entry_points = next(archive.read(n).decode() for n in names if n.endswith(".dist-info/entry_points.txt"))
+    assert "caustica/__main__.py" in names
+    assert "caustica = caustica.cli:main" in entry_points
+
+
 RENDER_FROM_WHEEL = """
 import sys
 from pathlib import Path

@@ -759,9 +759,11 @@ def cmd_graph(args) -> int:
 def cmd_presets(args) -> int:
     from .scene.presets import PRESETS
 
+    width = max(map(len, PRESETS))
     for name, make in sorted(PRESETS.items()):
-        doc = (make.__doc__ or "").strip().splitlines()
-        _say(f"{name:16s} {doc[0] if doc else ''}")
+        # The docstring's first paragraph, whole: a wrapped first line alone stops mid-sentence.
+        paragraph = (make.__doc__ or "").strip().split("\n\n")[0]
+        _say(f"{name:{width}s} {' '.join(paragraph.split())}")
     return 0
 
 

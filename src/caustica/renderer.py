@@ -15,7 +15,7 @@ from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import ANTIALIAS_MODES, resolved
 from .scene import Scene, rules
-from .scene.scene import check_scene
+from .scene.scene import check_scene, recentred
 from .techniques.base import check_spp, get_technique
 
 
@@ -109,6 +109,7 @@ class Renderer:
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
+        scene, shift = recentred(scene)  # float32 on the GPU and in Embree: far scenes render moved to the origin
         camera = self.camera_for(scene)
         self._check_size(camera.size, spp, tech.uses_gl)
         check_spp(tech, spp)
@@ -128,6 +129,9 @@ class Renderer:
             layers = raster_layers(buffers, names, scene, camera, supersampling_factor(spp))
         else:
             layers = traced_layers(scene, camera, int(spp), names, tech, parameters)
+        if "flow_point" in layers and shift.any():  # world points of the moved scene, back in the caller's
+            landed = layers["flow_object"][..., None] >= 0
+            layers["flow_point"] = np.where(landed, layers["flow_point"] - shift, 0.0).astype(layers["flow_point"].dtype)
         return (image, layers), (time.perf_counter() - start) * 1000.0
 
     def resolve(self, tech, scene: Scene, camera, parameters, spp: int = 1):
@@ -146,7 +150,10 @@ class Renderer:
         """Run a rasterized technique's graph (a planner's resolved first) at the supersampled size
         (``supersampling_factor(spp)`` times ``camera``'s) and return its frame, whose channels stay lent
         until ``frame.give_back()`` (``keep``: the channels wanted afterwards; None keeps all).
-        ``pass_ms`` holds the per-pass milliseconds when ``profile_passes``."""
+        ``pass_ms`` holds the per-pass milliseconds when ``profile_passes``. A far scene runs moved to the
+        origin as in :meth:`render_timed` (the frame's scene and camera are the moved ones)."""
+        scene, shift = recentred(scene)
+        camera = camera.translated(shift) if shift.any() else camera
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         return self._run_frame(tech, scene, camera, parameters, spp, keep)
 

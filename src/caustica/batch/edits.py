@@ -108,7 +108,9 @@ def _environment_image(spec: str, base_dir: Path):
     """A procedural environment by name, else an image file relative to the sweep."""
     from ..scene.environment import PROCEDURAL_ENVIRONMENTS, environment_option
 
-    return environment_option(spec if spec in PROCEDURAL_ENVIRONMENTS else str(base_dir / spec))
+    if spec in PROCEDURAL_ENVIRONMENTS:
+        return environment_option(spec)
+    return environment_option(str(base_dir / spec), relative_to="the sweep file's folder")
 
 
 def _replace(part, fields: dict, where: str, what: str | None = None):

@@ -27,6 +27,7 @@ class FrameWorker:
         # The EGL device index of this process's context (batch/devices.py): None for CPU techniques.
         self.device = int(os.environ.get(ENV, 0)) if self.uses_gl else None
         self._where: str | None = None
+        self._first = True  # the next frame is this worker's first: it compiles shaders, fills caches
 
     def render(self, index: int) -> dict:
         """Frame ``index``'s manifest row: its values, files, sizes and times, or its error.
@@ -65,8 +66,9 @@ class FrameWorker:
 
             write_labels(out / files["labels"], layers, job.labels_format)
         plan = renderer.last_plan
+        first, self._first = self._first, False
         return {"files": files, "sizes": {k: (out / v).stat().st_size for k, v in files.items()},
-                "ms": round(ms, 3), "write_ms": round((time.perf_counter() - wrote) * 1000.0, 3),
+                "ms": round(ms, 3), "warmup": first, "write_ms": round((time.perf_counter() - wrote) * 1000.0, 3),
                 "renderer": self._renderer_name(), "technique": plan.technique if plan is not None else job.technique}
 
     def _renderer_name(self) -> str:

@@ -127,6 +127,7 @@ def parse_sweep(data: dict, base_dir=".", name: str = "sweep") -> Sweep:
         variations += _table(_sub(data, table, name), table, keys, name)
     for kind, keys in (("objects", OBJECT_KEYS), ("lights", LIGHT_KEYS)):
         for item, entries in _sub(data, kind, name).items():
+            _dotted_name(entries, kind, item, keys, name)
             variations += _table(entries, f"{kind}.{item}", keys, name)
     check_output(settings.get("output", DEFAULT_OUTPUT))
     return Sweep(scene, str(base_dir), settings, tuple(variations))
@@ -137,6 +138,15 @@ def _known(data, keys, name: str, where: str) -> None:
         if key not in keys:
             raise SceneError(f"{name}: unknown key {short(key)} in {where}{closest_name(str(key), keys)}; "
                              f"allowed keys: {', '.join(keys)}")
+
+
+def _dotted_name(entries: dict, kind: str, item: str, keys, name: str) -> None:
+    """TOML reads [objects.Sphere.001] (an exporter's name, Blender's) as object 'Sphere' with a table
+    '001': say how to quote the name rather than call '001' an unknown key."""
+    for key, value in entries.items():
+        if key not in keys and isinstance(value, dict):
+            raise SceneError(f"{name}: [{kind}.{item}.{key}] is read as {kind[:-1]} {item!r} with a table {key!r}; "
+                             f"a name with a dot goes in quotes: [{kind}.\"{item}.{key}\"]")
 
 
 def _sub(data: dict, key: str, name: str) -> dict:

@@ -12,7 +12,7 @@ from ..cache import LruCache
 from ..scene.codes import CASTER_MIRROR, CASTER_NONE, CASTER_SOLID, CASTER_SURFACE
 
 __all__ = ["MAX_CASTERS", "CASTER_NONE", "CASTER_MIRROR", "CASTER_SOLID", "CASTER_SURFACE", "casters", "caster_code",
-           "nearly_closed"]
+           "nearly_closed", "length_unit", "half_diagonal"]
 
 MAX_CASTERS = 32
 # A glass mesh with holes whose net vector area is under this fraction of its area is a solid to the photons.
@@ -22,6 +22,21 @@ _NEARLY_CLOSED = LruCache(256)  # mesh content hash -> nearly_closed
 def casters(scene) -> list:
     """The objects that make caustics (glass and mirrors), at most MAX_CASTERS, in scene order."""
     return [o for o in scene.objects if o.material.kind in ("glass", "mirror")][:MAX_CASTERS]
+
+
+def half_diagonal(objects) -> float:
+    """Half the diagonal of the objects' joint world bounding box (0 for none)."""
+    if not objects:
+        return 0.0
+    boxes = np.stack([o.world_mesh().bounds for o in objects])
+    return float(0.5 * np.linalg.norm(boxes[:, 1].max(axis=0) - boxes[:, 0].min(axis=0)))
+
+
+def length_unit(scene) -> float:
+    """The casters' bounding radius (the scene's without casters), the photon shaders' ``length_unit``:
+    their surface offsets and convergence tolerances are fractions of it. They were absolute (1e-4 scene
+    units), which lost the caustic of a ball 10^-4 the size of caustic-sphere's."""
+    return half_diagonal(casters(scene)) or half_diagonal(scene.objects) or 1.0
 
 
 def caster_code(obj) -> int:

@@ -7,7 +7,8 @@ centre towards the object's centre by a parallel projection (fig. 12-13). The
 rectangle lies through the object's centre (``rect_offset`` moves it towards R,
 fig. 17's RECT'_k), perpendicular to the axis from R's centre to the object, a
 square of the object's bounding radius; a planar object (a floor, a wall) is
-its own rectangle, with its normal as the axis, so its texture is exact.
+its own rectangle, with its normal as the axis, so its texture is exact; so is
+a thin slab (a table top modelled as a box, SLAB_RATIO), by its face towards R.
 
 The parallel projection is a pinhole ``distance_factor`` bounding radii behind
 the rectangle (1/distance_factor rad at most from parallel; 1.1 degrees with
@@ -41,6 +42,7 @@ from .surfaces import ShadeSurfaces
 
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
 MAX_PLANES = 8
+SLAB_RATIO = 0.1  # a diffuse object at most this thick for its width is its own rectangle (its near face)
 MAX_PLANE_TEXTURES = 4  # textured planes with their own texture (units 26..29); more take the mean colour
 FIRST_PLANE_TEXTURE_UNIT = 26  # after ShadeSurfaces' albedo texture (passes/surfaces.py ALBEDO_UNIT, 25)
 IMPOSTOR_UNIT = 24  # the atlas: after ShadeSurfaces' environment, inputs, shadow and caustic maps
@@ -117,18 +119,46 @@ def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(u, axis)
 
 
+def slab_rectangle(obj, reflector_center: np.ndarray):
+    """(centre, unit normal away from the reflector, half_u, half_v, thickness) of the face towards
+    ``reflector_center`` when the world mesh is flat or a thin slab (a floor, a table top, a wall as a box
+    at most SLAB_RATIO as thick as it is wide), else None. Also None when the reflector's centre lies
+    within the slab's thickness (it would see its sides)."""
+    vertices = obj.world_mesh().vertices.astype(np.float64)
+    center = vertices.mean(axis=0)
+    _, s, vt = np.linalg.svd(vertices - center, full_matrices=False)
+    if len(s) < 3:
+        return None
+    u, v, n = vt[0], vt[1], vt[2]
+    a, b, c = ((vertices - center) @ axis for axis in (u, v, n))
+    width, thickness = min(np.ptp(a), np.ptp(b)), float(np.ptp(c))
+    if thickness > SLAB_RATIO * width:
+        return None
+    side = float(np.dot(reflector_center - center, n))
+    if c.min() <= side <= c.max() and thickness > 0.0:
+        return None
+    if side > 0.0:
+        n, c = -n, -c
+    # The face nearest the reflector: the smallest depth along n (which points away from it).
+    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v + c.min() * n
+    return center, n, 0.5 * np.ptp(a) * u, 0.5 * np.ptp(b) * v, thickness
+
+
 def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect_offset: float = 0.0,
                   distance_factor: float = 50.0, merged=()) -> Impostor:
     """The rectangle of ``obj`` seen from ``reflector_center`` and the camera of its texture (2.2.1);
     ``merged``: the (world index, object) pairs of coplanar diffuse patches that share it (merge_planes)."""
     center, radius = object_sphere(obj)
-    plane = planar_rectangle(obj) if obj.material.kind == "diffuse" else None
-    if merged:
-        plane = _flat_patch(np.concatenate([o.world_mesh().vertices for _, o in [(index, obj), *merged]]).astype(np.float64))
+    plane = slab_rectangle(obj, reflector_center) if obj.material.kind == "diffuse" else None
+    thickness = 0.0
+    flat = _flat_patch(np.concatenate([o.world_mesh().vertices for _, o in [(index, obj), *merged]]).astype(np.float64)) \
+        if merged else None
+    if flat is not None:  # coplanar flat patches: one rectangle over their union, its normal away from the reflector
+        rect_center, normal, half_u, half_v = flat
+        plane = (rect_center, normal if np.dot(rect_center - reflector_center, normal) >= 0.0 else -normal,
+                 half_u, half_v, 0.0)
     if plane is not None:
-        rect_center, axis, half_u, half_v = plane
-        if np.dot(rect_center - reflector_center, axis) < 0.0:
-            axis = -axis
+        rect_center, axis, half_u, half_v, thickness = plane
         radius = float(np.linalg.norm(half_u + half_v)) + 1e-9
         center = rect_center
         # Keep the texture square in texels but as large as the plane (never degenerate).
@@ -145,7 +175,9 @@ def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect
     camera = aimed_camera(origin, rect_center, half_v, float(np.linalg.norm(half_u)), float(np.linalg.norm(half_v)),
                           max(distance - 3.0 * radius, 1e-3 * distance), distance + 3.0 * radius, (size, size))
     depth = float(np.dot(center - origin, axis))
-    slab = (depth - 0.01 * radius, depth + 0.01 * radius) if plane is not None else (depth - radius, depth + radius)
+    # A slab's texture holds its near face: its depth range is that face's, out to the far one.
+    slab = ((depth - 0.01 * radius, depth + thickness + 0.01 * radius) if plane is not None
+            else (depth - radius, depth + radius))
     return Impostor(index, rect_center, axis, half_u, half_v, radius, origin, slab, camera, plane is not None,
                     others=tuple(i for i, _ in merged))
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
-from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters
+from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import dispatch_photons
 from .light_views import LightView, bind_views
@@ -75,6 +75,7 @@ class RefractFromLight(Pass):
         defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
         program = gpu.shaders.program("passes/image_space.vert", "passes/photon_refract.frag", defines)
         view.bind(program)
+        set_uniform(program, "length_unit", length_unit(scene))
         bind_samplers(program, ("back_position", "back_normal"), back)
         # Nearest surface per texel: refractors and mirrors make photons, everything else occludes.
         ctx.enable(moderngl.DEPTH_TEST)
@@ -137,7 +138,8 @@ class LandPhotons(Pass):
             set_uniform(program, "caster_sigma", sigmas)
             set_uniform(program, "iterations", self.iterations)
             set_uniform(program, "estimator", ESTIMATOR_NEWTON)
-            set_uniform(program, "fallback_distance", float(0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0))))
+            set_uniform(program, "fallback_distance", half_diagonal(scene.objects))
+            set_uniform(program, "length_unit", length_unit(scene))
             bind_views(program, [view])
             names = ["photon_flux"] + [f"photon_{kind}{c}" for c in range(channels) for kind in ("origin", "direction")]
             bind_samplers(program, names + ["receiver_position"], (*exits, receivers[0]))

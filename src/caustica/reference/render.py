@@ -79,6 +79,7 @@ import numpy as np
 from ..cache import cache_dir, load_array, slug, store_array
 from ..errors import ReferenceUnavailableError, first_line
 from ..progress import progress as progress_display
+from ..scene.scene import recentred
 from .mitsuba_export import has_absorbing_glass, has_dispersion, image_hash, mesh_file_hash, scene_to_mitsuba
 
 REFERENCE_VERSION = "1"
@@ -326,7 +327,8 @@ def render_reference(
         raise ValueError(f"samples per pixel {spp} must be at least 1")
     mi = mitsuba_module(variant)
     active = mi.variant()
-    camera = camera if camera is not None else scene.camera
+    scene, shift = recentred(scene)  # Mitsuba's float32 variants too: a far scene renders moved to the origin
+    camera = camera.translated(shift) if camera is not None else scene.camera
     if size is not None:
         camera = camera.with_size(*size)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()

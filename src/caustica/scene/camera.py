@@ -102,6 +102,11 @@ class Camera:
         return dataclasses.replace(self, position=pivot + turn @ (self.position - pivot),
                                    look_at=pivot + turn @ (self.look_at - pivot), up=turn @ self.up)
 
+    def translated(self, offset: Sequence[float]) -> Camera:
+        """A new camera moved by ``offset``: position and look_at together; this camera is unchanged."""
+        offset = np.asarray(offset, dtype=np.float64)
+        return dataclasses.replace(self, position=self.position + offset, look_at=self.look_at + offset)
+
     def _state(self) -> tuple:
         """The fields as a comparable key."""
         return (np.asarray(self.position).tobytes(), np.asarray(self.look_at).tobytes(), np.asarray(self.up).tobytes(),

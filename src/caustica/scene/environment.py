@@ -268,8 +268,9 @@ def load_environment(path: str | Path) -> Environment:
     return Environment(read_image(path, error=EnvironmentImageError), source=str(path))
 
 
-def environment_option(spec: str) -> Environment:
-    """The environment a command line names: a procedural name or an image file (``--environment``)."""
+def environment_option(spec: str, relative_to: str = "the current directory") -> Environment:
+    """The environment a command line names: a procedural name or an image file (``--environment``);
+    ``relative_to`` says, in the error for a missing file, what a relative path was resolved against."""
     if spec in PROCEDURAL_ENVIRONMENTS:
         return procedural_environment(spec)
     from ..images import READ_SUFFIXES
@@ -280,6 +281,6 @@ def environment_option(spec: str) -> Environment:
             f"environment {short(spec)} is neither a procedural name nor a file{closest_name(spec, PROCEDURAL_ENVIRONMENTS)}; "
             f"give one of {', '.join(PROCEDURAL_ENVIRONMENTS)} or an image file ({', '.join(READ_SUFFIXES)})")
     if not path.is_file():
-        raise EnvironmentImageError(f"environment file not found: {short(spec)}; check the path (relative to the "
-                                    f"current directory) or give one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
+        raise EnvironmentImageError(f"environment file not found: {short(spec)}; check the path (relative to "
+                                    f"{relative_to}) or give one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
     return load_environment(path)

@@ -26,6 +26,7 @@ class SceneObject:
     material: Material
     transform: Transform = field(default_factory=Transform)
     _world: tuple | None = field(default=None, repr=False, compare=False)
+    _translated: tuple | None = field(default=None, repr=False, compare=False)
 
     def world_from_object(self) -> np.ndarray:
         """The transform's 4x4 matrix."""
@@ -58,6 +59,19 @@ class SceneObject:
         if reach > rules.MAX_COORDINATE:
             raise SceneError(f"{where} reaches {reach:.3g} scene units from the origin once scaled and placed, beyond "
                              f"+-{rules.MAX_COORDINATE:g}; lower its scale or move it closer")
+
+    def translated(self, offset) -> "SceneObject":
+        """The object moved by ``offset``, sharing mesh and material; the same object again while neither
+        the offset, the mesh nor the transform changes (the GPU and ray caches then keep what they hold)."""
+        offset = np.asarray(offset, dtype=np.float64)
+        t = self.transform
+        parts = (self.mesh, self.material)
+        values = (self.name, tuple(offset), tuple(t.position), tuple(t.rotation), tuple(t.scale))
+        cached = self._translated
+        if cached is None or any(a is not b for a, b in zip(cached[0], parts)) or cached[1] != values:
+            moved = self.moved(dataclasses.replace(t, position=t.position + offset))
+            cached = self._translated = (parts, values, moved)
+        return cached[2]
 
     def moved(self, transform: Transform) -> "SceneObject":
         """The same mesh and material placed by ``transform``."""
@@ -134,6 +148,14 @@ class Scene:
         raise SceneError(f"object {short(name_or_index)} must be an object's name (a string) or index (an integer)"
                          f"{listing}")
 
+    def translated(self, offset) -> Scene:
+        """A new Scene moved by ``offset`` (three numbers): objects, lights and camera alike, so every image
+        is the same; meshes, materials and the environment (directions only) are shared."""
+        offset = np.asarray(offset, dtype=np.float64)
+        objects = [obj.translated(offset) for obj in self.objects]
+        lights = [_light_moved(light, offset) for light in self.lights]
+        return dataclasses.replace(self, objects=objects, lights=lights, camera=self.camera.translated(offset))
+
     def objects_of(self, kind: str) -> list[SceneObject]:
         """Objects whose material kind is ``kind`` ('diffuse', 'mirror', 'glass')."""
         return [o for o in self.objects if o.material.kind == kind]
@@ -144,6 +166,31 @@ class Scene:
             return np.array([[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]])
         boxes = np.stack([o.world_mesh().bounds for o in self.objects])
         return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+
+FAR_FROM_ORIGIN = 10.0  # scene sizes: a scene whose centre lies farther from the origin is rendered moved to it
+
+
+def recentred(scene: Scene) -> tuple[Scene, np.ndarray]:
+    """(the scene, its shift): a scene whose objects' centre lies more than FAR_FROM_ORIGIN times their size
+    from the origin (a glTF in geographic coordinates, a set placed at x = 1000) moved by a whole-unit
+    shift that brings that centre near the origin, since the GPU and Embree hold coordinates as float32
+    (at 350000 units a step is 0.03: shadow acne, broken refraction). Images do not change otherwise; a
+    world position computed from the moved scene is the original one minus the shift. Others: (scene, 0)."""
+    bounds = scene.bounds()
+    center, size = bounds.mean(axis=0), float(np.linalg.norm(bounds[1] - bounds[0]))
+    if not scene.objects or float(np.abs(center).max()) <= FAR_FROM_ORIGIN * max(size, 1e-30):
+        return scene, np.zeros(3)
+    shift = -np.round(center)
+    return (scene.translated(shift), shift) if shift.any() else (scene, shift)
+
+
+def _light_moved(light, offset: np.ndarray):
+    if isinstance(light, LineLight):
+        return dataclasses.replace(light, start=light.start + offset, end=light.end + offset)
+    if isinstance(light, (PointLight, SpotLight)):
+        return dataclasses.replace(light, position=light.position + offset)
+    return light  # a direction only
 
 
 def _type_name(value) -> str:

@@ -75,7 +75,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..passes.base import Channel, Frame, Pass
-from ..passes.casters import MAX_CASTERS, caster_code, casters
+from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from ..passes.light_space import LightSurfaces, dispatch_photons, landing_chain
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
@@ -148,7 +148,8 @@ class TracePhotons(Pass):
         set_uniform(program, "iterations", self.estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
         set_uniform(program, "estimator", ESTIMATORS[self.estimator[0]])
-        set_uniform(program, "fallback_distance", float(0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0))))
+        set_uniform(program, "fallback_distance", half_diagonal(scene.objects))
+        set_uniform(program, "length_unit", length_unit(scene))
         out = []
         initials = frame.read(self.initial) if self.initial else [None] * len(frame.read("caster_views"))
         for caster_view, front, back, receivers, receiver_view, initial in zip(

@@ -71,7 +71,7 @@ class ImpostorParams(DepthSearchParams):
                        help="recursion: reflectors' impostor textures rendered with impostors (fig. 24g: 1)")
     impostor_iterations: int = param(4, range=(0, 64), paper="Hu and Qin 2.2.2, fig. 16, section 4",
                                      help="depth-correction steps (four or five; 0: the uncorrected lookup)")
-    impostor_tolerance: float = param(1e-3, range=(0.0, MAX_COORDINATE), unit="scene units", paper="Hu and Qin 2.2.2",
+    impostor_tolerance: float = param(1e-4, range=(0.0, MAX_COORDINATE), unit="bounding radii", paper="Hu and Qin 2.2.2",
                                       help="stop once the hit distance moves less than this")
     initial_samples: int = param(8, range=(0, 64), paper="Hu and Qin 2.2.2",
                                  help="points along the ray tried as the seed (0: Prect)")

@@ -83,7 +83,7 @@ uniform float impostor_radius[MAX_IMPOSTORS];             // object's bounding r
 uniform sampler2D impostor_atlas;                         // rgb radiance, a depth from O along w (0: empty)
 uniform ivec2 impostor_cell[MAX_IMPOSTORS];               // texel offset of each rectangle's square in the atlas
 uniform int impostor_size;                                // texels a side of each square
-uniform float impostor_tolerance;                         // stop once t moves less than this (scene units)
+uniform float impostor_tolerance;                         // stop once t moves less than this (bounding radii)
 uniform float impostor_hit_tolerance;                     // final |depth - texel depth| < this * radius
 
 float impostor_depth(int k, vec3 p) { return dot(p - impostor_origin[k], impostor_axis[k]); }
@@ -166,7 +166,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
         last = t; last_pixel = pixel; last_s = s;
         float next = (s.a - o_depth) / dw;
         if (!(next > 0.0)) break;
-        bool done = abs(next - t) < impostor_tolerance;
+        bool done = abs(next - t) < impostor_tolerance * impostor_radius[k];
         t = next;
         s = impostor_texel(k, o + t * d, pixel);
         if (done) break;

@@ -25,6 +25,9 @@ uniform vec3 ls_light_position;
 uniform vec3 ls_light_direction;
 uniform vec3 ls_light_intensity;
 uniform vec2 ls_light_cone;
+// The casters' bounding radius (passes/casters.py, length_unit): the photon passes' offsets and
+// tolerances scale with it, so a scene in millimetres or kilometres makes the same caustics.
+uniform float length_unit;
 
 // Direction light travels from the light to p.
 vec3 light_ray(vec3 p) {
@@ -122,13 +125,13 @@ float estimate_distance(sampler2D tex, int v, vec3 o, vec3 r, float d, int itera
         } else {
             float f = light_distance(x) - s.a;
             if (f < 0.0) lo = max(lo, d); else hi = min(hi, d);
-            float h = 1e-3 * (1.0 + d);
+            float h = 1e-3 * (length_unit + d);
             vec4 s2 = surface_through(tex, v, x + h * r);
             float slope = s2.a > 0.0 ? (light_distance(x + h * r) - s2.a - f) / h : 0.0;
             next = abs(slope) > 1e-6 ? d - f / slope : length(s.xyz - o);
-            if (abs(next - d) < 1e-6 * (1.0 + d)) break;  // converged
+            if (abs(next - d) < 1e-6 * (length_unit + d)) break;  // converged
             bool outside = next < lo || next > hi;
-            bool oscillating = before >= 0.0 && abs(next - before) < 1e-4 * (1.0 + d) && abs(next - d) > 1e-4 * (1.0 + d);
+            bool oscillating = before >= 0.0 && abs(next - before) < 1e-4 * (length_unit + d) && abs(next - d) > 1e-4 * (length_unit + d);
             if ((outside || oscillating) && hi < 1e30) next = 0.5 * (lo + hi);
             else if (outside) next = length(s.xyz - o);
         }
@@ -144,7 +147,7 @@ float estimate_distance(sampler2D tex, int v, vec3 o, vec3 r, float d, int itera
 vec4 land_photon(sampler2D tex, int v, vec3 o, vec3 r, float d0, float fallback, int iterations, int estimator) {
     if (d0 <= 0.0) {
         vec4 s = surface_through(tex, v, o);
-        d0 = s.a > 0.0 ? max(length(s.xyz - o), 1e-4) : fallback;
+        d0 = s.a > 0.0 ? max(length(s.xyz - o), 1e-4 * length_unit) : fallback;
     }
     float d = estimate_distance(tex, v, o, r, d0, iterations, estimator);
     if (d < 0.0) return vec4(0.0);

@@ -38,7 +38,7 @@ uniform float fallback_distance;  // initial guess where no receiver lies behind
 
 // Land a photon leaving o along r on the receivers; returns the landing point (w = 0: lost).
 vec4 land(vec3 o, vec3 r, int index) {
-    float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o, r), 1e-4)
+    float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o, r), 1e-4 * length_unit)
                                                                     : 0.0;
     return land_photon(receiver_position, 1, o, r, d0, fallback_distance, iterations, estimator);
 }
@@ -54,7 +54,7 @@ float past_back(vec3 p, out bool miss) {
 // inside; grow d from d_V until f >= 0, then exit_iterations regula falsi steps (Illinois) on the
 // bracket, bisection where an end misses the silhouette.
 float exit_distance(vec3 p1, vec3 t1, float f0, float dv) {
-    float lo = 0.0, flo = min(f0, -1e-7), hi = max(dv, 1e-3 * (1.0 + length(p1 - ls_light_position)));
+    float lo = 0.0, flo = min(f0, -1e-7), hi = max(dv, 1e-3 * (length_unit + length(p1 - ls_light_position)));
     bool miss_hi;
     float fhi = past_back(p1 + hi * t1, miss_hi);
     for (int i = 0; i < 16 && fhi < 0.0; ++i) {
@@ -107,7 +107,7 @@ void main() {
 
     // Mirror: a single specular bounce.
     if (caster_type[id] == CASTER_MIRROR) {
-        vec4 hit = land(p1 + 1e-4 * n1, reflect(l, n1), first);
+        vec4 hit = land(p1 + 1e-4 * length_unit * n1, reflect(l, n1), first);
         if (hit.w > 0.0) photons[first] = Photon(hit, vec4(flux * caster_color[id], 0.0));
         return;
     }
@@ -139,10 +139,10 @@ void main() {
             if (dot(t2, t2) == 0.0) continue;  // total internal reflection at the exit: dropped
             transmit *= 1.0 - fresnel_dielectric(dot(t1, n2), eta, 1.0);
             inside = d;
-            o = p2 + 1e-4 * n2;
+            o = p2 + 1e-4 * length_unit * n2;
             r = t2;
         } else {
-            o = p1 - 1e-4 * n1;
+            o = p1 - 1e-4 * length_unit * n1;
         }
         vec4 hit = land(o, r, first + c);
         if (hit.w <= 0.0) continue;

@@ -69,7 +69,7 @@ void main() {
         vec3 carried = flux.rgb * mask;
         if (o.w <= 0.0 || all(equal(carried, vec3(0.0)))) continue;
         // Land: from where the first pass landed, or the receiver seen through the exit point.
-        float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o.xyz, r), 1e-4)
+        float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o.xyz, r), 1e-4 * length_unit)
                                                                         : 0.0;
         vec4 hit = land_photon(receiver_position, 0, o.xyz, r, d0, fallback_distance, iterations, estimator);
         if (hit.w <= 0.0) continue;

@@ -99,7 +99,7 @@ vec4 refract_twice(vec3 p1, vec3 l, vec3 n1, float eta, float d_v, float d_n, bo
 #endif
     }
     direction = vec4(normalize(t2), transmit);
-    return vec4(p2 - 1e-4 * facing, 1.0);
+    return vec4(p2 - 1e-4 * length_unit * facing, 1.0);
 }
 
 void main() {
@@ -118,7 +118,7 @@ void main() {
     if (dot(n1, l) > 0.0) n1 = -n1;  // face the light (open meshes seen from below)
 
     if (object_kind == CASTER_MIRROR) {
-        out_origin0 = vec4(p1 + 1e-4 * n1, 1.0);
+        out_origin0 = vec4(p1 + 1e-4 * length_unit * n1, 1.0);
         out_direction0 = vec4(reflect_direction(l, n1), 0.0);
         out_flux = vec4(flux * object_color, 0.0);
         return;
@@ -131,7 +131,7 @@ void main() {
         for (int c = 0; c < CHANNELS; ++c) {
             vec3 t1 = refract_direction(l, n1, 1.0 / object_ior[c]);
             bool entered = dot(t1, t1) > 0.0;
-            origins[c] = entered ? vec4(p1 - 1e-4 * n1, 1.0) : vec4(0.0);
+            origins[c] = entered ? vec4(p1 - 1e-4 * length_unit * n1, 1.0) : vec4(0.0);
             directions[c] = vec4(t1, 0.0);
             float transmit = entered ? 1.0 - fresnel_dielectric(dot(-l, n1), 1.0, object_ior[c]) : 0.0;
             if (CHANNELS == 1) through = vec3(transmit); else through[c] = transmit;
