@@ -6,7 +6,7 @@ all in one run; ``auto``'s margin to the best other technique and its cost over 
 Prints a markdown table with the GL renderer; ``--json`` keeps every figure.
 
     .venv/bin/python bench/bench_auto.py [--presets caustic-sphere,glass-sphere] [--size 128x96]
-        [--spp 4] [--reference-spp 256] [--frames 3] [--json out.json]
+        [--spp 4] [--reference-spp 256] [--frames 3] [--cost-rounds 3] [--json out.json]
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import numpy as np
 
 import caustica
 from caustica.bench.compare import compare
+from caustica.bench.timing import fastest_in_blocks
 
 TECHNIQUES = ["auto", "plain", "env-map", "image-space", "depth-search", "impostors", "per-vertex",
               "depth-search+caustic-mapping", "impostors+caustic-mapping", "per-vertex+caustic-mapping",
@@ -55,6 +56,10 @@ def main(argv=None) -> None:
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--reference-spp", type=int, default=256)
     parser.add_argument("--frames", type=int, default=3)
+    parser.add_argument("--cost-rounds", type=int, default=3,
+                        help="rounds of blocks (a warm-up frame, then --frames frames) of auto and of plain; the last "
+                             "columns are the ratios of their fastest frames, wall clock and process CPU time "
+                             "(0: leave them out)")
     parser.add_argument("--json")
     parser.add_argument("--completed", action="store_true",
                         help="also score against the composite completed with exact's caustics seen via specular "
@@ -84,15 +89,24 @@ def main(argv=None) -> None:
         if args.completed:
             completed_rows.append(_completed_row(preset, scene, result, size))
             log(completed_rows[-1])
+        fastest = ""
+        if args.cost_rounds > 0:
+            with caustica.Renderer(size) as renderer:
+                blocks = fastest_in_blocks(renderer, scene, {"auto": ("auto", {}), "plain": ("plain", {})}, args.spp,
+                                           args.cost_rounds, args.frames)
+            data["fastest_ms"] = blocks
+            fastest = (f" {blocks['auto']['wall'] / blocks['plain']['wall']:.2f} | "
+                       f"{blocks['auto']['cpu'] / blocks['plain']['cpu']:.2f} |")
         rows.append(f"| {preset} | {caustica.plan(scene).technique} | {psnr['auto']:.1f} | "
                     f"{regions['refractor']:.1f} / {regions['caustic']:.1f} / {regions['rest']:.1f} | "
                     f"{caustic_relmse:.3f} | {best} {others[best]:.1f} | {psnr['auto'] - others[best]:+.1f} | "
-                    f"{auto_ms / plain_ms:.2f} |")
+                    f"{auto_ms / plain_ms:.2f} |{fastest}")
         log(rows[-1])
     print(f"{args.size}, {args.spp} spp, Mitsuba reference {args.reference_spp} spp, GL: {renderer_name}\n")
     print("| preset | auto plans | auto PSNR all | refractor / caustic / rest | caustic relMSE | best other | "
-          "auto - best (dB) | auto ms / plain ms |")
-    print("|---|---|---|---|---|---|---|---|")
+          "auto - best (dB) | auto ms / plain ms |"
+          + (" auto / plain fastest, wall | fastest, CPU |" if args.cost_rounds > 0 else ""))
+    print("|---|---|---|---|---|---|---|---|" + ("---|---|" if args.cost_rounds > 0 else ""))
     print("\n".join(rows))
     if completed_rows:
         print("\nAgainst the completed reference (composite + exact's caustics seen through glass and in mirrors):\n")

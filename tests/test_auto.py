@@ -267,3 +267,101 @@ def _obj_of(mesh, path):
     lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in mesh.faces]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+# ---- what the plan leaves out where it buys nothing (issue 19: auto's cost) ---------------------------------
+
+
+def lens_before_a_chart(size=(64, 48)) -> Scene:
+    """A thin lens before a flat chart of tiles under the sky-checker sky, no lights: the sun (travelling
+    towards +z) lights the chart's back, and the lens sends its light towards the camera; the tiles lie in one
+    plane, so no opaque object hides any of the sky from a diffuse surface."""
+    from caustica.scene.presets_per_vertex import test_chart
+    from caustica.scene.shapes import biconvex_lens
+
+    lens = SceneObject("lens", biconvex_lens(0.3, 0.08, 0.01, 48, 12), Glass(ior=1.5))
+    camera = Camera(position=[0.05, -0.03, 0.8], look_at=[0.0, 0.0, -0.3], fov_y=36.0, size=size)
+    return Scene(camera=camera, objects=[lens, *test_chart(center=(0.0, 0.0, -0.6), size=0.9, cells=6)],
+                 environment=procedural_environment("sky-checker"))
+
+
+def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
+    """A caustic map changes no pixel of the lens before the chart, and the lobes next to none (the lens dims a
+    sliver of the chart's sky by its 8 % Fresnel loss: 0.3 % of the sky's light, under LOBE_SHARE): the plan has
+    neither, says why, and its image is the one rendered with the caustic map, and within 0.1 % on average of
+    the one with the lobes."""
+    from caustica.passes.environment_lights import lobe_occlusion
+    from caustica.techniques.auto import LOBE_SHARE
+
+    scene = lens_before_a_chart()
+    assert 0.0 < lobe_occlusion(scene) < LOBE_SHARE
+    chosen = plan(scene)
+    assert chosen.technique == "impostors"
+    assert "no caustics" in chosen.describe()
+    with Renderer() as renderer:
+        image = renderer.render(scene, "auto")
+        assert renderer.last_plan.technique == "impostors"
+        lobes = renderer.render(scene, "auto", environment_lobes=16)  # given by name: honoured
+        caustics = renderer.render(scene, "impostors+caustic-mapping", **chosen.params)
+    assert np.abs(image - lobes).mean() < 1e-3 * image.mean() and not np.array_equal(image, lobes)
+    assert np.array_equal(image, caustics)
+
+
+def test_lobes_are_kept_where_an_opaque_object_hides_sky():
+    """A box on the table hides part of the sky from it: the share (8 %) is well above LOBE_SHARE and the plan keeps
+    the lobes (the environment is the only light); the glass ball alone dims the table's sky by 0.7 %."""
+    from caustica.passes.environment_lights import lobe_occlusion
+    from caustica.techniques.auto import LOBE_SHARE, _occluded_ambient
+
+    block = SceneObject("block", box((0.5, 0.5, 0.5)), Diffuse(color=[0.5, 0.5, 0.5]),
+                        Transform(position=[-0.4, 0.25, 0]))
+    scene = scene_of([marble(), table(), block])
+    assert lobe_occlusion(scene) > 5 * LOBE_SHARE and _occluded_ambient(scene)
+    alone = scene_of([marble(), table()])
+    assert 0.0 < lobe_occlusion(alone) < LOBE_SHARE and not _occluded_ambient(alone)
+
+
+def test_exit_shares_of_a_ball_have_the_closed_form():
+    """In a ball every internal angle is the refraction angle, so the light that entered leaves at exit k with
+    share (1 - F) F^k, F the Fresnel reflectance at that angle (equal to the entry's): per pixel from the
+    analytic hit, averaged over the ball's pixels."""
+    from caustica.raytrace.optics import fresnel_dielectric
+    from caustica.raytrace.paths import exit_shares
+
+    ior, radius = 1.5, 0.6
+    ball = SceneObject("ball", sphere(radius, 4), Glass(ior=ior))
+    camera = Camera(position=[0.0, 0.0, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=30.0, size=(64, 64))
+    scene = Scene(camera=camera, objects=[ball], environment=procedural_environment("sky-checker"))
+    origin, direction = (a[:, :, 0].reshape(-1, 3) for a in camera.primary_rays())
+    b = np.einsum("ij,ij->i", origin, direction)
+    disc = b * b - (np.einsum("ij,ij->i", origin, origin) - radius**2)
+    hit = disc > 0
+    t = -b[hit] - np.sqrt(disc[hit])
+    normal = (origin[hit] + t[:, None] * direction[hit]) / radius
+    cos_i = -np.einsum("ij,ij->i", direction[hit], normal)
+    f = fresnel_dielectric(cos_i, 1.0, ior)
+    expected = [float(((1 - f) * f**k).mean()) for k in range(3)]
+    assert exit_shares(scene, camera, 3) == pytest.approx(expected, rel=0.02, abs=2e-4)
+
+
+def test_internal_bounces_are_followed_where_they_carry_light():
+    """balanced follows the second internal bounce in a ball (1.2 percent of its glass pixels' light) and not
+    in a thin lens (0.05 percent), and says so; high follows every bounce of its quality."""
+    ball = plan(scene_of([marble()]))
+    assert ball.params["internal_bounces"] == 2 and not ball.notes
+    lens = plan(lens_before_a_chart())
+    assert lens.params["internal_bounces"] == 1
+    assert any("internal bounce" in note for note in lens.notes)
+    assert plan(lens_before_a_chart(), "high").params["internal_bounces"] == 4
+
+
+def test_glass_takes_its_fresnel_loss_and_absorption_from_a_lobe():
+    """A ray through a glass slab 0.2 thick at normal incidence keeps (1 - F0)^2 exp(-sigma 0.2), F0 = ((n - 1) /
+    (n + 1))^2 at each interface and sigma the absorption coefficient's mean; a ray beside it loses nothing."""
+    from caustica.passes.environment_lights import _glass_loss
+
+    glass = Glass(ior=1.5, absorption_color=[0.5, 0.6, 0.7], absorption_distance=1.0)
+    slab = SceneObject("slab", box((2.0, 0.2, 2.0)), glass, Transform(position=[0.0, 1.0, 0.0]))
+    loss = _glass_loss([slab], np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]] * 2), 1e-6)
+    sigma = float(np.mean(-np.log([0.5, 0.6, 0.7])))
+    assert loss == pytest.approx([1.0 - (1.0 - 0.04) ** 2 * np.exp(-sigma * 0.2), 0.0], abs=1e-6)

@@ -79,6 +79,21 @@ def test_bench_writes_json_with_every_column(tmp_path, capsys):
     assert plot.stat().st_size > 1000
 
 
+class FakeRenderer:
+    """Stands in for a Renderer in the timing helpers' tests: records its calls; the n-th timed frame of a
+    technique takes frames[technique][n] ms."""
+
+    def __init__(self, frames: dict):
+        self.frames, self.calls = frames, []
+
+    def render(self, scene, technique, spp, **params):
+        self.calls.append(("warm-up", technique))
+
+    def render_timed(self, scene, technique, spp, **params):
+        self.calls.append(("timed", technique))
+        return None, self.frames[technique][sum(c == ("timed", technique) for c in self.calls) - 1]
+
+
 def test_timed_in_turns_takes_the_median_of_same_round_ratios():
     """Frames of each variant alternate round by round after one warm-up each, and a ratio is the
     median of each round's frame over the baseline's in that round (here 1, not the 1.5 that a ratio
@@ -87,23 +102,27 @@ def test_timed_in_turns_takes_the_median_of_same_round_ratios():
 
     frames = {"base": [10.0, 40.0, 20.0], "other": [30.0, 40.0, 20.0]}  # ms per round
 
-    class FakeRenderer:
-        def __init__(self):
-            self.calls = []
-
-        def render(self, scene, technique, spp, **params):
-            self.calls.append(("warm-up", technique))
-
-        def render_timed(self, scene, technique, spp, **params):
-            self.calls.append(("timed", technique))
-            return None, frames[technique][sum(c == ("timed", technique) for c in self.calls) - 1]
-
-    renderer = FakeRenderer()
+    renderer = FakeRenderer(frames)
     timed = timed_in_turns(renderer, None, {"base": ("base", {}), "other": ("other", {"k": 1})}, 1, 3, "base")
     assert renderer.calls == [("warm-up", "base"), ("warm-up", "other")] + [("timed", "base"), ("timed", "other")] * 3
     assert timed["other"]["ratio"] == pytest.approx(1.0) and timed["base"]["ratio"] == pytest.approx(1.0)
     assert timed["other"]["ms"] == 30.0 and timed["other"]["fastest"] == 20.0
 
+
+
+def test_fastest_in_blocks_warms_each_block_and_keeps_the_fastest_frame():
+    """Each round runs a variant's warm-up frame, untimed (it refills the passes the other variant's frame
+    evicted), then its frames; the answer is each variant's fastest timed frame, never a warm-up's."""
+    from caustica.bench.timing import fastest_in_blocks
+
+    frames = {"a": [9.0, 7.0, 8.0, 6.5], "b": [3.0, 2.0, 4.0, 5.0]}
+
+    renderer = FakeRenderer(frames)
+    fastest = fastest_in_blocks(renderer, None, {"a": ("a", {}), "b": ("b", {})}, 1, rounds=2, frames=2)
+    block = lambda t: [("warm-up", t), ("timed", t), ("timed", t)]  # noqa: E731
+    assert renderer.calls == (block("a") + block("b")) * 2
+    assert {name: f["wall"] for name, f in fastest.items()} == {"a": 6.5, "b": 2.0}
+    assert all(0.0 <= f["cpu"] < 1000.0 for f in fastest.values())  # the fake renders cost no CPU to speak of
 
 def _old_to_rgb8(image, exposure=0.0):
     """The contact sheet's own encoder before it used images.to_srgb8 (kept here to prove nothing moved)."""

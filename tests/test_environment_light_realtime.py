@@ -303,3 +303,23 @@ def test_blocked_sky_shows_the_occluders_bounce(renderer):
     added = (images[0.8] - images[0.0])[strip].mean(axis=-1)
     assert added.mean() == pytest.approx(expected.mean(), rel=0.06)
     assert images[0.0][strip].mean() < 0.6 * ALBEDO  # the wall blocks about half the sky
+
+
+def test_lobes_given_by_name_shade_a_lit_scene_too(renderer):
+    """With a light of its own auto leaves the lobes off by default, but ``environment_lobes`` given by name is
+    honoured: under the slab of the test above, shadowed from a point light right over it, the constant sky
+    reaches the centre only below 11 degrees (radiance 0.8 * 0.037, the light adding nothing there) with the
+    lobes, and unoccluded (the albedo, 0.8) without."""
+    from caustica.scene import PointLight
+
+    slab = SceneObject("slab", box((3.0, 0.05, 3.0)), Diffuse([0.5] * 3), Transform(position=[0.0, 0.325, 0.0]))
+    light = PointLight(position=[0.0, 3.0, 0.0], intensity=[5.0] * 3)
+    scene = floor_scene([slab], Environment(np.ones((128, 256, 3), np.float32)), lights=[light])
+    scene.camera = Camera(position=[0.0, 0.15, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=40.0, size=SIZE)
+    hit = floor_hits(scene.camera)
+    centre = np.abs(hit[..., [0, 2]]).max(axis=-1) < 0.5
+    assert centre.sum() > 20
+    default = renderer.render(scene, "auto")
+    assert default[centre].mean() == pytest.approx(ALBEDO, rel=0.05)
+    assert renderer.render(scene, "auto", environment_lobes=0)[centre].mean() == pytest.approx(ALBEDO, rel=0.05)
+    assert renderer.render(scene, "auto", environment_lobes=16)[centre].mean() < 0.15 * ALBEDO

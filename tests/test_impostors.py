@@ -345,3 +345,41 @@ def test_table_top_box_is_seen_through_glass_like_a_plane(renderer):
         exact = renderer.render(scene, "exact", spp=1)
         scores[name] = _masked_psnr(renderer.render(scene, "impostors"), exact, mask)
     assert scores["box"] > 21.0 and scores["box"] > scores["plane"] - 1.0, scores
+
+
+def _tiled_wall(tiles=2):
+    """The wall of the test above as tiles x tiles coplanar objects."""
+    side = 6.0 / tiles
+    return [SceneObject(f"tile-{i}-{j}", plane((side, side)), Diffuse(color=[0.6, 0.3 + 0.1 * i, 0.3 + 0.1 * j]),
+                        Transform(position=[(i + 0.5) * side - 3.0, (j + 0.5) * side - 3.0, -1.5], rotation=[90.0, 0.0, 0.0]))
+            for i in range(tiles) for j in range(tiles)]
+
+
+def test_coplanar_tiles_share_one_rectangle():
+    from caustica.passes.impostors import coplanar_groups
+
+    floor = SceneObject("floor", plane((6.0, 6.0)), Diffuse(color=[0.6] * 3), Transform(position=[0.0, -1.0, 0.0]))
+    scene = _scene([_ball(1.5, (0.0, 0.0, 0.0)), *_tiled_wall(), floor, _box()])
+    assert coplanar_groups(scene, [1, 5, 2, 3, 6, 4]) == [[1, 2, 3, 4], [5], [6]]
+
+
+def test_merged_planes_hit_points_agree_with_exact(renderer):
+    """merge_planes: the four tiles of a wall behind a glass ball are one rectangle, whose lookups land where
+    Embree's exact paths do (the bounds of the single wall's test above), for a quarter of the lookups."""
+    scene = _scene([_ball(1.5, (0.0, 0.0, 0.0)), *_tiled_wall()])
+    scene.camera = Camera(position=[0.0, 0.3, 3.5], look_at=[0.0, 0.0, 0.0], fov_y=30.0, size=(96, 96))
+    hits, valid = renderer.exit_directions(scene, "impostors", write_hits=True, merge_planes=True)
+    origins, dirs = scene.camera.primary_rays(1)
+    ray_scene = ray_scene_for(scene)
+    paths = follow_refraction(ray_scene, scene, origins.reshape(-1, 3), dirs.reshape(-1, 3))
+    exact = ray_scene.intersect(paths.position, paths.direction, tnear=1e-4)
+    ok = (paths.valid & (exact.object_index >= 1) & (paths.interfaces == 2)).reshape(96, 96)
+    both = ok & valid
+    assert both.sum() > 0.9 * ok.sum() > 1000
+    error = np.linalg.norm(hits - exact.position.reshape(96, 96, 3), axis=-1)[both]
+    assert error.mean() < 0.01 and np.percentile(error, 95) < 0.03, (error.mean(), np.percentile(error, 95))
+
+
+def test_impostor_caustics_refuses_merged_planes(renderer):
+    with pytest.raises(TechniqueError, match="merge_planes.*leave it false"):
+        renderer.render(_scene([_ball(), _floor()], size=32), "impostor-caustics", merge_planes=True)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import statistics
+import time
 
 from ..progress import progress
 from ..techniques import get_technique
@@ -47,3 +48,23 @@ def timed_in_turns(renderer, scene, variants: dict, spp: int, rounds: int, basel
             progress(round_index)
     return {name: {"ms": statistics.median(t), "fastest": min(t),
                    "ratio": statistics.median(a / b for a, b in zip(t, times[baseline]))} for name, t in times.items()}
+
+
+def fastest_in_blocks(renderer, scene, variants: dict, spp: int, rounds: int, frames: int = 3) -> dict:
+    """{name: {"wall": fastest ms, "cpu": fastest process CPU ms}} of GPU technique variants timed in blocks:
+    per round, each variant's warm-up frame (which refills the passes it caches across frames, since another
+    variant's frame evicts them) and then ``frames`` frames. The fastest frame is the least disturbed by other
+    work on shared cores: the steady per-frame cost of each variant, for ratios between them. The process's CPU
+    time (every llvmpipe thread's) hardly grows with other processes' load, unlike the wall clock, which waits
+    for cores. ``variants`` maps a name to (technique, params)."""
+    fastest = {name: {"wall": float("inf"), "cpu": float("inf")} for name in variants}
+    for _ in range(max(1, rounds)):
+        for name, (technique, params) in variants.items():
+            renderer.render(scene, technique, spp, **params)
+            for _ in range(max(1, frames)):
+                cpu = time.process_time()
+                wall = renderer.render_timed(scene, technique, spp, **params)[1]
+                cpu = (time.process_time() - cpu) * 1000.0
+                best = fastest[name]
+                best["wall"], best["cpu"] = min(best["wall"], wall), min(best["cpu"], cpu)
+    return fastest

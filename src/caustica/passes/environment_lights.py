@@ -260,3 +260,86 @@ def bind_environment_shadows(program, shadows: EnvironmentShadows, unit: int) ->
     if shadows.glass is not None:
         shadows.glass.use(unit + 1)
         set_uniform(program, "env_glass_atlas", unit + 1)
+
+
+LOBE_POINTS = 2048  # points on the diffuse surfaces where lobe_occlusion tries the lobes
+
+
+def lobe_occlusion(scene, count: int = LOBES) -> float:
+    """The share of the lobes' irradiance (sun taken out, as the frame does) that other objects block on the
+    scene's diffuse surfaces (glass by what it does not transmit, _glass_loss): the mean over LOBE_POINTS area-sampled points of the faces the camera can see (a
+    closed mesh's outside, an open sheet's side towards the camera) of sum_k blocked_k cos_k E_k / sum_k cos_k
+    E_k, with exact rays (Embree) towards each lobe. Where nothing blocks a
+    lobe and the scene has no floor (scene_floor, whose bounce replaces the ground's light), the lobes change
+    no pixel: 0 means they would cost a frame for nothing (auto's planner skips them then). Cached on the
+    scene by its state and the camera's position."""
+    from ..cache import scene_state_key
+
+    key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects), int(count),
+           np.asarray(scene.camera.position, np.float64).tobytes())
+    cache = getattr(scene, "_lobe_occlusion_cache", None)
+    if cache is None or cache[0] != key:
+        cache = (key, _lobe_occlusion(scene, int(count)))
+        scene._lobe_occlusion_cache = cache
+    return cache[1]
+
+
+def _lobe_occlusion(scene, count: int) -> float:
+    from ..raytrace.embree_scene import RayScene
+
+    diffuse = [o.world_mesh() for o in scene.objects if o.material.kind == "diffuse"]
+    glass = [o for o in scene.objects if o.material.kind == "glass"]
+    opaque = [o.world_mesh() for o in scene.objects if o.material.kind != "glass"]
+    if not diffuse or not count:
+        return 0.0
+    lobes = environment_lobes(scene.environment, environment_sun(scene.environment).light is not None, count)
+    # Area-sampled points on the diffuse triangles (seeded: the plan is the same every time).
+    triangles = np.concatenate([m.vertices[m.faces].astype(np.float64) for m in diffuse])
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    # The faces the camera can see: an open sheet (a floor, a chart) from either side, a closed mesh's outside.
+    open_sheet = np.concatenate([np.full(len(m.faces), m.is_open()) for m in diffuse])
+    towards = np.einsum("ij,ij->i", cross, scene.camera.position - triangles.mean(axis=1)) > 0.0
+    cross = np.where((open_sheet & ~towards)[:, None], -cross, cross)
+    area = np.where(open_sheet | towards, np.linalg.norm(cross, axis=1), 0.0)
+    if not area.sum() > 0.0:
+        return 0.0
+    rng = np.random.default_rng(0)
+    face = rng.choice(len(triangles), LOBE_POINTS, p=area / area.sum())
+    a, b = rng.random((2, LOBE_POINTS))
+    a, b = np.where(a + b > 1.0, 1.0 - a, a), np.where(a + b > 1.0, 1.0 - b, b)
+    t = triangles[face]
+    points = t[:, 0] + a[:, None] * (t[:, 1] - t[:, 0]) + b[:, None] * (t[:, 2] - t[:, 0])
+    normals = cross[face] / np.maximum(area[face], 1e-300)[:, None]
+    # Each lobe's share at each point, and whether an object stops the ray towards it.
+    weight = np.clip(-normals @ lobes.directions.T, 0.0, None) * lobes.irradiance.mean(axis=1)  # (points, lobes)
+    lit = weight > 0.0
+    rows, cols = np.nonzero(lit)
+    size = float(np.linalg.norm(np.ptp(scene.bounds(), axis=0)))
+    origins, towards = points[rows] + 1e-5 * size * normals[rows], -lobes.directions[cols]
+    blocked = np.zeros_like(weight)
+    blocked[rows, cols] = RayScene.from_meshes(opaque).occluded(origins, towards, np.inf, tnear=1e-6 * size)
+    if glass:
+        blocked[rows, cols] = np.maximum(blocked[rows, cols], _glass_loss(glass, origins, towards, 1e-6 * size))
+    total = weight.sum(axis=1)
+    share = np.where(total > 0.0, (blocked * weight).sum(axis=1) / np.maximum(total, 1e-300), 0.0)
+    return float(share.mean())
+
+
+def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear: float) -> np.ndarray:
+    """Per ray, the share of a lobe's light the first glass object along it takes (the lobes' glass atlas dims
+    them so): 1 - (1 - F0)^2 exp(-sigma chord), F0 the normal-incidence reflectance of each of its two
+    interfaces, sigma its mean absorption coefficient, chord the ray's path inside (exact, Embree)."""
+    from ..raytrace.embree_scene import RayScene
+
+    rays = RayScene.from_meshes([o.world_mesh() for o in glass])
+    entry = rays.intersect(origins, directions, tnear)
+    loss = np.zeros(len(origins))
+    if not entry.hit.any():
+        return loss
+    exit_ = rays.intersect(entry.position[entry.hit], directions[entry.hit], tnear)
+    index = entry.object_index[entry.hit]
+    ior = np.array([o.material.ior_rgb[1] for o in glass])[index]
+    sigma = np.array([float(np.mean(o.material.absorption_coefficient)) for o in glass])[index]
+    chord = np.where(exit_.hit, exit_.t, 0.0)
+    loss[entry.hit] = 1.0 - (1.0 - ((ior - 1.0) / (ior + 1.0)) ** 2) ** 2 * np.exp(-sigma * chord)
+    return loss

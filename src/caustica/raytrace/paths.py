@@ -470,6 +470,35 @@ def follow_refraction(
     return result
 
 
+def exit_shares(scene, camera, exits: int) -> np.ndarray:
+    """(exits,) the share of the light refracted into glass at the camera's glass pixels that leaves it at the
+    first, second, ... exit (green channel's IOR; 1 - F at each exit, the reflected F going on inside, TIR
+    reflecting all), averaged over ``camera``'s pixels whose primary ray meets glass: what each internal bounce
+    of depth-search's extension adds to the image. Zeros where no pixel sees glass."""
+    o, d = (a[:, :, 0].reshape(-1, 3) for a in camera.primary_rays())
+    ray_scene = RayScene(scene)
+    materials = Materials.of(scene)
+    ior = materials.ior_rgb[:, 1]
+    hits = ray_scene.intersect(o, d)
+    glass = hits.hit & (materials.kind[hits.object_index] == MATERIAL_GLASS)
+    shares = np.zeros(exits)
+    count = int(glass.sum())
+    if not count:
+        return shares
+    entry = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[hits.object_index[glass]])
+    weight = np.where(entry.tir, 0.0, 1.0)
+    o, d = hits.position[glass], entry.refracted
+    for k in range(exits):
+        # Leave with 1 - F at the next glass surface; carry F on inside (all of it on TIR).
+        hits = ray_scene.intersect(o, d)
+        inside = hits.hit & (materials.kind[hits.object_index] == MATERIAL_GLASS)
+        step = interface(d, hits.normal, hits.geometric_normal, ior[hits.object_index])
+        shares[k] = float((weight * np.where(inside & ~step.tir, 1.0 - step.reflectance, 0.0)).sum()) / count
+        weight = np.where(inside, weight * np.where(step.tir, 1.0, step.reflectance), 0.0)
+        o, d = np.where(inside[:, None], hits.position, o), np.where(inside[:, None], step.reflected, d)
+    return shares
+
+
 def exit_directions(ray_scene: RayScene, scene, origins, dirs, max_interfaces: int = 16):
     """(exit direction (N,3), valid (N,), path length inside glass (N,)) of the refracted branch.
 

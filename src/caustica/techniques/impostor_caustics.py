@@ -89,6 +89,12 @@ class ImpostorCausticsParams(ImpostorParams):
     filter_s: float | None = param(None, kind="float", range=(0.0, 1e6), ends="(]", paper="Hu and Qin 3.2",
                                    special={None: "1 / sum of the weights, energy conserving"}, help="caustic filter scale")
 
+    def __post_init__(self):
+        super().__post_init__()
+        if self.merge_planes:
+            raise ValueError("merge_planes: impostor-caustics keeps one rectangle per receiver (its caustic texture's); "
+                             "leave it false")
+
 
 def filter_weights(k: int) -> np.ndarray:
     """The (2k+1)^2 weights sqrt(1 + 2k^2 - (i^2 + j^2)) of the caustic texture filter."""
