@@ -339,6 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan = sub.add_parser("plan", help="what auto renders a scene with: each object's technique, parameters and why")
     plan.add_argument("scene", help="a .toml scene file or a preset name")
     plan.add_argument("--quality", choices=QUALITIES, default="balanced", help="draft, balanced (default) or high")
+    plan.add_argument("--size", type=_size, help="the image size WxH it plans for (default: the scene camera's; "
+                                                 "the caustic map follows it)")
     plan.add_argument("--json", action="store_true", help="the plan as JSON")
     graph = sub.add_parser("graph", help="a technique's render graph: passes, channels, formats, caching")
     graph.add_argument("name", help="a technique (or view+caustics)")
@@ -706,7 +708,7 @@ def cmd_plan(args) -> int:
     from . import load_scene
     from .techniques.auto import plan
 
-    chosen = plan(load_scene(args.scene), args.quality)
+    chosen = plan(load_scene(args.scene), args.quality, args.size)
     _say(chosen.to_json() if args.json else chosen.describe())
     return 0
 

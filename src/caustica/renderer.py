@@ -142,7 +142,9 @@ class Renderer:
             self._check_frame(candidate, scene, camera, values, spp)
             return self.frame_ms(candidate, scene, camera, values, int(spp))
 
-        resolved, values = tech.for_scene(scene, parameters, measured)
+        k = supersampling_factor(spp)
+        frame_size = (camera.size[0] * k, camera.size[1] * k)
+        resolved, values = tech.for_scene(scene, parameters, measured, frame_size=frame_size)
         self.last_plan = getattr(tech, "plan_used", None)
         return resolved, values
 

@@ -37,6 +37,7 @@ QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels
     "high": (4, 1024, 1024, 2048),
 }
 CAUSTICS = "caustic-mapping"
+MIN_CAUSTIC_MAP = 256  # the smallest caustic map auto plans (caustic_map_size)
 TABLE = "transport-table"  # the caustics where every caster is glass with a cached table
 
 
@@ -88,8 +89,18 @@ class Plan:
         return json.dumps(asdict(self), indent=2)
 
 
-def plan(scene, quality: str = "balanced") -> Plan:
-    """The technique and parameters ``auto`` uses for ``scene`` at ``quality``, with the reasons."""
+def caustic_map_size(quality_size: int, frame_size) -> int:
+    """The caustic map's texels a side for a frame of ``frame_size`` (width, height) pixels, supersampled:
+    twice the frame's longer side rounded up to a power of two, at least 256 and at most the quality's size.
+    Measured (docs/auto.md, "Caustic maps follow the frame"): at 128^2 a 256 map is as close to exact's
+    caustic as a 512 one, at 256^2 the 512 map is needed; a map rebuild costs in proportion to its texels."""
+    wanted = 1 << int(np.ceil(np.log2(max(2 * max(frame_size), 1))))
+    return int(min(quality_size, max(MIN_CAUSTIC_MAP, wanted)))
+
+
+def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
+    """The technique and parameters ``auto`` uses for ``scene`` at ``quality``, with the reasons;
+    ``frame_size``: the (supersampled) pixels the frame renders, default the scene camera's size."""
     if quality not in QUALITY:
         from ..errors import closest_name
 
@@ -144,7 +155,8 @@ def plan(scene, quality: str = "balanced") -> Plan:
     technique = f"{view}+{caustics_by}" if caustics else view
     params = dict(view_params)
     if caustics:
-        params[f"{caustics_by}.map_size"] = map_size
+        sized = caustic_map_size(map_size, scene.camera.size if frame_size is None else frame_size)
+        params[f"{caustics_by}.map_size"] = sized if caustics_by == CAUSTICS else map_size
     occluded = _occluded_ambient(scene)
     entries = []
     for obj in objects:
@@ -318,16 +330,17 @@ class Auto(Technique):
         params.given = frozenset(own)  # auto's own parameters named by the caller: they win over the plan's rules
         return params
 
-    def for_scene(self, scene, params, frame_ms=None):
+    def for_scene(self, scene, params, frame_ms=None, frame_size=None):
         """The planned technique and its parameters. With a budget, ``frame_ms(technique, params)``
-        (the renderer's measured, cached frame time) picks the highest quality that fits."""
+        (the renderer's measured, cached frame time) picks the highest quality that fits;
+        ``frame_size``: the supersampled pixels of the frame (the caustic map follows it)."""
         if not params.budget_ms:
-            return self._planned(scene, params.quality, params)
+            return self._planned(scene, params.quality, params, frame_size)
         if frame_ms is None:
             raise TechniqueError("auto's budget_ms needs frame times measured by a Renderer; render through one")
         costs = {}
         for quality in ("high", "balanced", "draft"):
-            technique, values = self._planned(scene, quality, params)
+            technique, values = self._planned(scene, quality, params, frame_size)
             costs[quality] = frame_ms(technique, values)
             if costs[quality] <= params.budget_ms:
                 return technique, values
@@ -335,8 +348,8 @@ class Auto(Technique):
                              f"per frame here (draft); give a budget of {costs['draft'] * 1.1:.0f} ms or more, "
                              "or a smaller size")
 
-    def _planned(self, scene, quality: str, params):
-        chosen = self.plan_used = plan(scene, quality)
+    def _planned(self, scene, quality: str, params, frame_size=None):
+        chosen = self.plan_used = plan(scene, quality, frame_size)
         technique = get_technique(chosen.technique)
         overrides = getattr(params, "overrides", {})
         try:

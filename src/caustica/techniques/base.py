@@ -58,9 +58,10 @@ class Technique:
         except (TypeError, ValueError) as exc:
             raise TechniqueError(f"technique '{self.name}': {exc}") from None
 
-    def for_scene(self, scene: "Scene", params, frame_ms=None):
+    def for_scene(self, scene: "Scene", params, frame_ms=None, frame_size=None):
         """The technique and parameters that render ``scene``: itself, or what a planner (``auto``)
-        chooses for it; ``frame_ms(technique, params)``, when given, measures a candidate."""
+        chooses for it; ``frame_ms(technique, params)``, when given, measures a candidate;
+        ``frame_size``: the (supersampled) pixels of the frame it renders."""
         return self, params
 
     def render(self, scene: "Scene", camera: "Camera", params, spp: int) -> np.ndarray:
