@@ -69,6 +69,16 @@ def store_array(path: Path, values: np.ndarray) -> bool:
     return True
 
 
+def kept_on(owner, attribute: str, key, compute):
+    """``compute()``'s value, kept on ``owner`` (a scene, an environment) as ``attribute`` with ``key`` and
+    given back while the key stays equal: one value per owner and attribute, recomputed when the key moves."""
+    kept = getattr(owner, attribute, None)
+    if kept is None or kept[0] != key:
+        kept = (key, compute())
+        setattr(owner, attribute, kept)
+    return kept[1]
+
+
 DIGEST_BYTES = 4096  # arrays larger than this (a texture) are keyed by array_digest, not by their bytes
 
 

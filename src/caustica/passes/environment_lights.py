@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cache import array_digest
+from ..cache import array_digest, kept_on, scene_state_key
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
@@ -44,12 +44,7 @@ class EnvironmentSun:
 
 def environment_sun(environment: Environment) -> EnvironmentSun:
     """The :class:`EnvironmentSun` of ``environment``, cached on it by the image's content."""
-    key = array_digest(environment.image)
-    cache = getattr(environment, "_sun_cache", None)
-    if cache is None or cache[0] != key:
-        cache = (key, _extract_sun(environment))
-        environment._sun_cache = cache
-    return cache[1]
+    return kept_on(environment, "_sun_cache", array_digest(environment.image), lambda: _extract_sun(environment))
 
 
 def _extract_sun(environment: Environment) -> EnvironmentSun:
@@ -98,13 +93,11 @@ class EnvironmentLobes:
 
 def environment_lobes(environment: Environment, sun_taken: bool, count: int = LOBES) -> EnvironmentLobes:
     """The :class:`EnvironmentLobes` of ``environment`` (its rest when ``sun_taken``), cached on it."""
-    key = (array_digest(environment.image), bool(sun_taken), int(count))
-    cache = getattr(environment, "_lobe_cache", None)
-    if cache is None or cache[0] != key:
+    def strata() -> EnvironmentLobes:
         image = environment_light(environment).rest.image if sun_taken else environment.image
-        cache = (key, _strata(image.astype(np.float64), int(count)))
-        environment._lobe_cache = cache
-    return cache[1]
+        return _strata(image.astype(np.float64), int(count))
+
+    return kept_on(environment, "_lobe_cache", (array_digest(environment.image), bool(sun_taken), int(count)), strata)
 
 
 def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
@@ -176,17 +169,15 @@ def floor_bounce_sh(environment: Environment, sun_taken: bool, albedo: np.ndarra
     floor's radiance, albedo / pi times the whole environment's irradiance on an upward normal (sun included).
     A one-bounce interreflection from an unshadowed, infinite floor: what a box's side sees below the horizon is
     the floor lit by the sky, not the environment's ground. Cached on the environment."""
-    key = (array_digest(environment.image), bool(sun_taken), tuple(np.round(albedo, 9)))
-    cache = getattr(environment, "_floor_cache", None)
-    if cache is None or cache[0] != key:
+    def bounced() -> np.ndarray:
         directions, solid_angle = texel_grid(*environment.image.shape[:2])
         up = np.maximum(directions[..., 1], 0.0) * solid_angle
         radiance = albedo / np.pi * np.einsum("hwc,hw->c", environment.image.astype(np.float64), up)
         image = (environment_light(environment).rest.image if sun_taken else environment.image).astype(np.float64)
-        image = np.where((directions[..., 1] < 0.0)[..., None], radiance, image)
-        cache = (key, irradiance_sh_of(image))
-        environment._floor_cache = cache
-    return cache[1]
+        return irradiance_sh_of(np.where((directions[..., 1] < 0.0)[..., None], radiance, image))
+
+    key = (array_digest(environment.image), bool(sun_taken), tuple(np.round(albedo, 9)))
+    return kept_on(environment, "_floor_cache", key, bounced)
 
 
 def mean_albedo(obj) -> np.ndarray:
@@ -273,15 +264,9 @@ def lobe_occlusion(scene, count: int = LOBES) -> float:
     lobe and the scene has no floor (scene_floor, whose bounce replaces the ground's light), the lobes change
     no pixel: 0 means they would cost a frame for nothing (auto's planner skips them then). Cached on the
     scene by its state and the camera's position."""
-    from ..cache import scene_state_key
-
     key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects), int(count),
            np.asarray(scene.camera.position, np.float64).tobytes())
-    cache = getattr(scene, "_lobe_occlusion_cache", None)
-    if cache is None or cache[0] != key:
-        cache = (key, _lobe_occlusion(scene, int(count)))
-        scene._lobe_occlusion_cache = cache
-    return cache[1]
+    return kept_on(scene, "_lobe_occlusion_cache", key, lambda: _lobe_occlusion(scene, int(count)))
 
 
 def _lobe_occlusion(scene, count: int) -> float:
@@ -330,6 +315,7 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
     them so): 1 - (1 - F0)^2 exp(-sigma chord), F0 the normal-incidence reflectance of each of its two
     interfaces, sigma its mean absorption coefficient, chord the ray's path inside (exact, Embree)."""
     from ..raytrace.embree_scene import RayScene
+    from ..raytrace.optics import fresnel_dielectric
 
     rays = RayScene.from_meshes([o.world_mesh() for o in glass])
     entry = rays.intersect(origins, directions, tnear)
@@ -341,5 +327,5 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
     ior = np.array([o.material.ior_rgb[1] for o in glass])[index]
     sigma = np.array([float(np.mean(o.material.absorption_coefficient)) for o in glass])[index]
     chord = np.where(exit_.hit, exit_.t, 0.0)
-    loss[entry.hit] = 1.0 - (1.0 - ((ior - 1.0) / (ior + 1.0)) ** 2) ** 2 * np.exp(-sigma * chord)
+    loss[entry.hit] = 1.0 - (1.0 - fresnel_dielectric(1.0, 1.0, ior)) ** 2 * np.exp(-sigma * chord)
     return loss

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..cache import kept_on
 from ..scene.mesh import Mesh
 from .optics import dot
 
@@ -343,8 +344,4 @@ def ray_scene_for(scene, analytic_spheres: bool = True) -> RayScene:
         (id(o.mesh), o.mesh.content_hash(), o.world_from_object().tobytes(), getattr(o.mesh, "analytic_sphere", None) is not None)
         for o in scene.objects
     )
-    cache = getattr(scene, "_ray_scene_cache", None)
-    if cache is None or cache[0] != key:
-        cache = (key, RayScene(scene, analytic_spheres=analytic_spheres))
-        scene._ray_scene_cache = cache
-    return cache[1]
+    return kept_on(scene, "_ray_scene_cache", key, lambda: RayScene(scene, analytic_spheres=analytic_spheres))

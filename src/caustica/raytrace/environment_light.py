@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cache import array_digest
+from ..cache import array_digest, kept_on
 from ..scene.environment import Environment, uv_to_direction
 
 BRIGHT_RATIO = 10.0  # default threshold of the bright part, in multiples of the mean radiance
@@ -169,10 +169,6 @@ class EnvironmentLight:
 
 def environment_light(environment: Environment, bright: float = BRIGHT_RATIO) -> EnvironmentLight:
     """The :class:`EnvironmentLight` of ``environment``, kept on it for the next call with ``bright``."""
-    cache = getattr(environment, "_light_cache", None)
     key = (bright, array_digest(environment.image))
-    if cache is None or cache[0] != key:
-        cache = (key, EnvironmentLight(environment, bright))
-        environment._light_cache = cache
-    return cache[1]
+    return kept_on(environment, "_light_cache", key, lambda: EnvironmentLight(environment, bright))
 

@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ..cache import state_key
+from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
 from ..passes.environment_lights import LOBES, MAX_LOBES, environment_sun, lobe_occlusion, scene_floor
 from .base import Params, Technique, get_technique, param
@@ -147,8 +147,9 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         view = "env-map"
         why_glass = why_mirror = ""
     casters = glass + mirrors
-    caustics = bool(casters and diffuse and lit) and _caustics_land(scene, lit)
-    unlanded = bool(casters and diffuse and lit) and not caustics
+    lit_casters = bool(casters and diffuse and lit)  # lights, something specular, and receivers
+    caustics = lit_casters and _caustics_land(scene, lit)
+    unlanded = lit_casters and not caustics
     tables_pay, missing = _transport_tables(glass) if caustics and not mirrors else (False, [])
     tabled = tables_pay and not missing
     caustics_by = TABLE if tabled else CAUSTICS
@@ -232,21 +233,19 @@ def _bounces_that_pay(scene, bounces: int, least: float) -> tuple[int, int]:
     on a ball (glass-sphere: 1.8 dB against Mitsuba) and 0.05 percent through spectacle-convex's thin lens
     (0.07 dB), for a quarter of its frame.
     Cached on the scene by its state and camera."""
-    from ..cache import material_state_key, scene_state_key
     from ..raytrace.paths import exit_shares
 
     if bounces <= 0 or least <= 0.0:
         return bounces, 0
-    key = (scene_state_key(scene), material_state_key(scene), scene.camera._state(), int(bounces), float(least))
-    cache = getattr(scene, "_bounce_cache", None)
-    if cache is None or cache[0] != key:
+    def weighed() -> tuple[int, int]:
         shares = exit_shares(scene, scene.camera.with_size(*BOUNCE_VIEW), bounces + 1)
         total = float(shares.sum())
         paying = [k for k in range(1, bounces + 1) if shares[k] >= least * total]
         followed = max(paying, default=0) if total > 0.0 else bounces  # no glass pixel in view: nothing to weigh
-        cache = (key, (followed, bounces - followed))
-        scene._bounce_cache = cache
-    return cache[1]
+        return followed, bounces - followed
+
+    key = (scene_state_key(scene), material_state_key(scene), scene.camera._state(), int(bounces), float(least))
+    return kept_on(scene, "_bounce_cache", key, weighed)
 
 
 # The lobes pay where objects block more than this share of the sky on diffuse surfaces: spectacle-convex's lens
@@ -264,16 +263,14 @@ def _caustics_land(scene, lit: list) -> bool:
     lens sends its light towards the camera. Cached on the scene by its state."""
     from dataclasses import replace
 
-    from ..cache import material_state_key, scene_state_key
     from ..raytrace.photons import trace_photons
 
-    key = (scene_state_key(scene), material_state_key(scene), tuple(state_key(light) for light in lit))
-    cache = getattr(scene, "_caustics_land_cache", None)
-    if cache is None or cache[0] != key:
+    def landed() -> bool:
         hits = trace_photons(replace(scene, lights=list(lit)), count=PLAN_PHOTONS, max_depth=4, branches="transmit")
-        cache = (key, bool(len(hits.position)))
-        scene._caustics_land_cache = cache
-    return cache[1]
+        return bool(len(hits.position))
+
+    key = (scene_state_key(scene), material_state_key(scene), tuple(state_key(light) for light in lit))
+    return kept_on(scene, "_caustics_land_cache", key, landed)
 
 
 def _lights(lit: list, sun) -> str:
