@@ -100,16 +100,29 @@ def planar_rectangle(obj, tolerance: float = 1e-6):
     return _flat_patch(obj.world_mesh().vertices.astype(np.float64), tolerance)
 
 
-def _flat_patch(vertices: np.ndarray, tolerance: float = 1e-6):
-    """planar_rectangle of a set of world points: their plane and the rectangle that bounds them in it."""
+def _principal_frame(vertices: np.ndarray):
+    """(mean, singular values, (u, v, n) the principal axes with n the thinnest, (a, b, c) the points'
+    coordinates along them) of world points; None when they span fewer than three axes."""
     center = vertices.mean(axis=0)
     _, s, vt = np.linalg.svd(vertices - center, full_matrices=False)
-    if len(s) < 3 or s[2] > tolerance * max(s[0], 1e-12):
+    if len(s) < 3:
         return None
-    u, v, n = vt[0], vt[1], vt[2]
-    a, b = (vertices - center) @ u, (vertices - center) @ v
-    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v
+    return center, s, vt, tuple((vertices - center) @ axis for axis in vt)
+
+
+def _face(center, u, v, n, a, b, depth: float):
+    """(centre, n, half_u, half_v): the rectangle bounding coordinates ``a``, ``b`` at ``depth`` along n."""
+    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v + depth * n
     return center, n, 0.5 * (a.max() - a.min()) * u, 0.5 * (b.max() - b.min()) * v
+
+
+def _flat_patch(vertices: np.ndarray, tolerance: float = 1e-6):
+    """planar_rectangle of a set of world points: their plane and the rectangle that bounds them in it."""
+    frame = _principal_frame(vertices)
+    if frame is None or frame[1][2] > tolerance * max(frame[1][0], 1e-12):
+        return None
+    center, _, (u, v, n), (a, b, _) = frame
+    return _face(center, u, v, n, a, b, 0.0)
 
 
 def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -124,13 +137,10 @@ def slab_rectangle(obj, reflector_center: np.ndarray):
     ``reflector_center`` when the world mesh is flat or a thin slab (a floor, a table top, a wall as a box
     at most SLAB_RATIO as thick as it is wide), else None. Also None when the reflector's centre lies
     within the slab's thickness (it would see its sides)."""
-    vertices = obj.world_mesh().vertices.astype(np.float64)
-    center = vertices.mean(axis=0)
-    _, s, vt = np.linalg.svd(vertices - center, full_matrices=False)
-    if len(s) < 3:
+    frame = _principal_frame(obj.world_mesh().vertices.astype(np.float64))
+    if frame is None:
         return None
-    u, v, n = vt[0], vt[1], vt[2]
-    a, b, c = ((vertices - center) @ axis for axis in (u, v, n))
+    center, _, (u, v, n), (a, b, c) = frame
     width, thickness = min(np.ptp(a), np.ptp(b)), float(np.ptp(c))
     if thickness > SLAB_RATIO * width:
         return None
@@ -140,8 +150,7 @@ def slab_rectangle(obj, reflector_center: np.ndarray):
     if side > 0.0:
         n, c = -n, -c
     # The face nearest the reflector: the smallest depth along n (which points away from it).
-    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v + c.min() * n
-    return center, n, 0.5 * np.ptp(a) * u, 0.5 * np.ptp(b) * v, thickness
+    return (*_face(center, u, v, n, a, b, c.min()), thickness)
 
 
 def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect_offset: float = 0.0,
