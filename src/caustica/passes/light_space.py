@@ -301,7 +301,7 @@ class SplatPhotons(Pass):
                 out.append(None)
                 continue
             # One Photons, or the levels of an adaptive map (each level's footprints from its own grid).
-            levels = list(photons) if isinstance(photons, (list, tuple)) else [photons]
+            levels = listed(photons)
             with ExitStack() as stack:
                 footprints = [None if level.grid is None else stack.enter_context(
                     frame.scoped(self._footprints(frame, view, level))) for level in levels]
@@ -404,9 +404,9 @@ class ResolveCausticMaps(Pass):
 
 
 
-def listed(passes) -> list:
-    """A pass or a list of passes, as a list."""
-    return list(passes) if isinstance(passes, (list, tuple)) else [passes]
+def listed(items) -> list:
+    """One item (a pass, a light's Photons) or a list of them (passes, an adaptive map's levels), as a list."""
+    return list(items) if isinstance(items, (list, tuple)) else [items]
 
 
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,

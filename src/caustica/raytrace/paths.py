@@ -43,7 +43,7 @@ from ..scene.codes import MATERIAL_CODES, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATE
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.mesh import Mesh
 from ..scene.textures import sample_texture, texture_of
-from .embree_scene import RayScene
+from .embree_scene import RayScene, ray_scene_for
 from .environment_light import cosine_directions, rotated_pattern
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
@@ -476,7 +476,7 @@ def exit_shares(scene, camera, exits: int) -> np.ndarray:
     reflecting all), averaged over ``camera``'s pixels whose primary ray meets glass: what each internal bounce
     of depth-search's extension adds to the image. Zeros where no pixel sees glass."""
     o, d = (a[:, :, 0].reshape(-1, 3) for a in camera.primary_rays())
-    ray_scene = RayScene(scene)
+    ray_scene = ray_scene_for(scene)
     materials = Materials.of(scene)
     ior = materials.ior_rgb[:, 1]
     hits = ray_scene.intersect(o, d)

@@ -95,7 +95,7 @@ from ..passes.base import Channel, Frame, Pass
 from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from ..gpu.shaders import run_compute
 from ..passes.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
-                                  landing_chain)
+                                  landing_chain, listed)
 from ..passes.light_views import bind_views
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .base import param
@@ -344,7 +344,7 @@ class CountPhotons(Pass):
 
     def run(self, frame: Frame) -> None:
         frame.write("photon_counts", [None if photons is None else
-                                      [level.live(frame) for level in (photons if isinstance(photons, list) else [photons])]
+                                      [level.live(frame) for level in listed(photons)]
                                       for photons in frame.read(self.photons)])
 
 
