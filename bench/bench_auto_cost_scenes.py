@@ -14,6 +14,7 @@ fastest frames over plain's (bench/timing.fastest_in_blocks: wall clock and proc
 from __future__ import annotations
 
 import argparse
+import sys
 
 import caustica
 from caustica.bench.compare import reference_image
@@ -22,6 +23,9 @@ from caustica.metrics import compare_images, region_masks
 from caustica.scene import Camera, Diffuse, Glass, Scene, SceneObject, Transform, procedural_environment
 from caustica.scene.presets_per_vertex import test_chart
 from caustica.scene.shapes import biconvex_lens, box, plane, sphere
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from bench_exact_caustics import print_table  # noqa: E402
 
 
 def lens_before_chart() -> Scene:
@@ -83,10 +87,8 @@ def main(argv=None) -> None:
                             f"{fastest[name]['wall'] / fastest['plain']['wall']:.2f} | "
                             f"{fastest[name]['cpu'] / fastest['plain']['cpu']:.2f} |")
                 print(rows[-1], flush=True)
-    print(f"\n4 spp, Mitsuba reference {args.reference_spp} spp, GL: {gl}\n")
-    print("| scene | variant | plan | PSNR all / glass (dB) | x plain, wall | x plain, CPU |")
-    print("|---|---|---|---|---|---|")
-    print("\n".join(rows))
+    print_table(f"\n4 spp, Mitsuba reference {args.reference_spp} spp, GL: {gl}",
+                ["scene", "variant", "plan", "PSNR all / glass (dB)", "x plain, wall", "x plain, CPU"], rows)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from unittest import mock
 import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from bench_exact_caustics import print_table  # noqa: E402
 from bench_exact_environment import mixed_scene, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import timed_render  # noqa: E402
@@ -111,10 +112,8 @@ def main(argv=None) -> None:
             rows.append(f"| {scene.name} | {label} | {region_cells(image, reference, masks)} | {ms:.0f} | "
                         f"{ms / plain_ms:.2f} |")
             print(rows[-1], file=sys.stderr, flush=True)
-    print(f"{args.size}, auto 1 spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged\n")
-    print("| scene | auto | glass PSNR | caustic PSNR | diffuse PSNR | PSNR all | ms | x plain |")
-    print("|---|---|---|---|---|---|---|---|")
-    print("\n".join(rows))
+    print_table(f"{args.size}, auto 1 spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged",
+                ["scene", "auto", "glass PSNR", "caustic PSNR", "diffuse PSNR", "PSNR all", "ms", "x plain"], rows)
 
 
 if __name__ == "__main__":
