@@ -90,10 +90,10 @@ def load_scenes(names, log=print) -> tuple[dict, dict]:
 
 def missing_table(scene) -> str | None:
     """The first glass object of ``scene`` with no cached transport table, or None."""
-    from caustica.transport.runtime import has_cached_table
+    from caustica.transport.runtime import has_cached_table, table_mesh
 
     return next((o.name for o in scene.objects if o.material.kind == "glass"
-                 and not has_cached_table(o.mesh, o.material.ior)), None)
+                 and not has_cached_table(table_mesh(o.mesh), o.material.ior)), None)
 
 
 def measure(renderer, scene, technique: str, warmup: int, frames: int) -> dict:

@@ -169,7 +169,10 @@ def prism_oracle():
     return scene, centroids, hits.flux.sum(axis=0)
 
 
-@pytest.mark.parametrize("technique", TECHNIQUES)
+PRISM_TECHNIQUES = (*TECHNIQUES, "transport-table")
+
+
+@pytest.mark.parametrize("technique", PRISM_TECHNIQUES)
 def test_dispersion_separates_the_channels_as_the_prism_does(keeper, prism_oracle, technique):
     scene, exact, _ = prism_oracle
     # The oracle: the prism bends the beam towards +X onto the floor; blue (deviated most) lands nearest
@@ -181,19 +184,25 @@ def test_dispersion_separates_the_channels_as_the_prism_does(keeper, prism_oracl
     e = contract_irradiance(data, caustic.clip_from_world, scene.lights[0], points)
     x = (e * points[:, :1]).sum(axis=0) / e.sum(axis=0)
     assert x[0] > x[1] > x[2], x
-    # Measured red-to-blue separations: 0.10 (caustic-mapping), 0.09 (photon-splats) against the oracle's
-    # 0.07; both within a factor 2.
+    # Measured red-to-blue separations: 0.10 (caustic-mapping), 0.09 (photon-splats), 0.071 (transport-table:
+    # a table per channel's IOR) against the oracle's 0.07; all within a factor 2. transport-table made no
+    # caustic here before its table was made for a finer copy of the prism (runtime.table_mesh).
     assert 0.5 < (x[0] - x[2]) / (exact[0, 0] - exact[2, 0]) < 2.0
 
 
-@pytest.mark.parametrize("technique", TECHNIQUES)
+PRISM_FLUX_BOUNDS = {"caustic-mapping": 0.05, "photon-splats": 0.05, "transport-table": 0.08}
+
+
+@pytest.mark.parametrize("technique", PRISM_TECHNIQUES)
 def test_prism_flux_per_channel_matches_the_photon_trace(keeper, prism_oracle, technique):
     """Each channel's flux on the floor equals the traced photons' (both carry (1 - F1)(1 - F2) of the
-    light's flux through the prism). Measured: 0.985 of the oracle in every channel for both techniques
-    (0.97 at map_size 256 and 1024); an earlier estimate that point-sampled the floor on a coarse grid
-    had aliased the thin dispersed lines into +-50 percent per channel."""
+    light's flux through the prism). Measured: 0.985 of the oracle in every channel for caustic-mapping and
+    photon-splats (0.97 at map_size 256 and 1024), 0.960 for transport-table (0.952 with faces split to
+    1/32 of the diagonal instead of 1/64: the spot's falloff sampled at face centroids, as its spot-cone
+    test finds); an earlier estimate that point-sampled the floor on a coarse grid had aliased the thin
+    dispersed lines into +-50 percent per channel."""
     scene, _, exact_flux = prism_oracle
     data, caustic = map_data(keeper, scene, technique)
     ratio = floor_flux(data, caustic.clip_from_world, scene.lights[0].position) / exact_flux
-    assert np.all(np.abs(ratio - 1.0) < 0.05), ratio
+    assert np.all(np.abs(ratio - 1.0) < PRISM_FLUX_BOUNDS[technique]), ratio
     assert np.ptp(ratio) < 0.01, ratio  # no channel gains or loses against the others

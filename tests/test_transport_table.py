@@ -294,3 +294,51 @@ def test_light_reflected_totally_and_leaking_out_of_an_open_mesh_is_invalid():
     paths = follow_refraction(RayScene(scene), scene, origin, grazing, 8, start_inside=True)
     assert paths.interfaces[0] == 1 and paths.transmittance[0] == 1.0  # the total reflection, then nothing
     assert not paths.valid[0]
+
+
+def _area(mesh) -> float:
+    v = mesh.vertices.astype(np.float64)
+    a, b, c = (v[mesh.faces[:, k]] for k in range(3))
+    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+
+def test_table_mesh_splits_large_flat_faces_only():
+    """Flat faces (equal vertex normals) are split until their edges are at most TABLE_EDGE of the
+    diagonal, with the same surface, bounds and normals; a smooth mesh is the table's mesh as it is."""
+    from caustica.scene.shapes import box
+    from caustica.transport.runtime import TABLE_EDGE, table_mesh
+
+    block = box((0.6, 0.6, 1.2))
+    fine = table_mesh(block)
+    assert len(block.vertices) == 24 and len(fine.vertices) > 100 * len(block.vertices)
+    assert table_mesh(block) is fine  # kept by geometry
+    assert abs(_area(fine) - _area(block)) < 1e-5 * _area(block)
+    assert np.allclose(fine.bounds, block.bounds)
+    v = fine.vertices.astype(np.float64)
+    longest = max(np.linalg.norm(v[fine.faces[:, k]] - v[fine.faces[:, (k + 1) % 3]], axis=1).max() for k in range(3))
+    assert longest <= TABLE_EDGE * np.linalg.norm(np.ptp(block.vertices, axis=0)) + 1e-6
+    # Every new vertex lies on its face's plane with that face's normal: each normal is one of the six.
+    axes = np.unique(np.round(fine.normals, 6), axis=0)
+    assert len(axes) == 6
+    ball = sphere(1.0, 4)
+    assert table_mesh(ball) is ball
+
+
+def test_dispersive_glass_has_a_table_per_channel():
+    """Dispersive glass: one exit-ray set per channel's IOR, each carrying its channel alone; the red rays
+    (lowest IOR) bend less than the blue."""
+    from caustica.passes.lights import light_samples
+    from caustica.transport.runtime import object_exit_rays
+
+    glass = sc.SceneObject("ball", sphere(0.5, 3), sc.Glass(ior=1.6, abbe=20.0), Transform(position=[0.0, 1.0, 0.0]))
+    scene = sc.Scene(objects=[glass], lights=[sc.DirectionalLight(direction=[0.3, -1.0, 0.0], intensity=[1.0] * 3)])
+    channels = object_exit_rays(glass, light_samples(scene)[0], 33, progress=False)
+    assert len(channels) == 3
+    for c, rays in enumerate(channels):
+        assert rays.weight[:, c].max() > 0 and np.all(np.delete(rays.weight, c, axis=1) == 0)
+    incoming = normalize(np.array([0.3, -1.0, 0.0]))
+    lit = channels[0].weight[:, 0] > 0.5
+    deviation = [np.degrees(np.arccos(np.clip(rays.direction[lit] @ incoming, -1, 1))).mean() for rays in channels]
+    assert deviation[0] < deviation[1] < deviation[2], deviation
+    plain = sc.SceneObject("ball", glass.mesh, sc.Glass(ior=1.6), glass.transform)
+    assert len(object_exit_rays(plain, light_samples(scene)[0], 33, progress=False)) == 1

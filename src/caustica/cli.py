@@ -664,14 +664,14 @@ def cmd_precompute(args) -> int:
     from .scene.mesh import load_mesh
     from .transport.compress import quantization_errors, quantize, save_table
     from .transport.precompute import DirectionGrid, precompute_table
-    from .transport.runtime import table_path
+    from .transport.runtime import table_mesh, table_path
 
     output = _check_output(args.output, (".npz",)) if args.output is not None else None
     try:
         DirectionGrid.of_count(args.directions)
     except ValueError as exc:
         raise CausticaError(f"--directions: {exc}") from None
-    mesh = load_mesh(args.mesh)
+    mesh = table_mesh(load_mesh(args.mesh))  # large flat faces split, as renders look the table up
     table = precompute_table(mesh, args.ior, args.directions, args.max_depth)
     q = quantize(table)
     cached = table_path(mesh, args.ior, args.directions, args.max_depth)

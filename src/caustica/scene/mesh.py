@@ -247,6 +247,22 @@ def check_positions(vertices: np.ndarray, label: str) -> np.ndarray:
     return bounds
 
 
+def split_at_midpoints(faces: np.ndarray, vertex_count: int, selected: np.ndarray | None = None):
+    """(edges (E, 2), faces): each ``selected`` face (default every one) split into four at its edges'
+    midpoints, a midpoint shared by the faces that share its edge; new vertex ``vertex_count + k`` is the
+    midpoint of ``edges[k]``, whose attributes the caller computes. Unselected faces come first, unchanged."""
+    faces = np.asarray(faces)
+    chosen = faces if selected is None else faces[selected]
+    ends = np.sort(chosen[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    edges, edge_of = np.unique(ends, axis=0, return_inverse=True)
+    mid = vertex_count + edge_of.reshape(-1, 3)
+    a, b, c = chosen.T
+    ab, bc, ca = mid.T
+    kept = faces[:0] if selected is None else faces[~selected]
+    split = [np.stack(f, axis=1) for f in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]
+    return edges, np.concatenate([kept, *split]).astype(faces.dtype)
+
+
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted smooth vertex normals."""
     v = np.asarray(vertices, dtype=np.float64)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import short
 from . import rules
-from .mesh import Mesh
+from .mesh import Mesh, split_at_midpoints
 
 
 MAX_WAVE_SAMPLES = 1 << 24  # grid vertices times waves of a water surface (each a float64 in a few arrays)
@@ -138,13 +138,8 @@ def sphere(radius: float = 1.0, subdivisions: int = 4) -> Mesh:
     vertices = _unit(vertices)
     for _ in range(subdivisions):
         # Split every edge once at its midpoint (shared by both faces), four triangles per face.
-        edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        unique_edges, edge_of = np.unique(edges, axis=0, return_inverse=True)
-        mid = len(vertices) + edge_of.reshape(-1, 3)
-        vertices = np.concatenate([vertices, _unit(vertices[unique_edges].mean(axis=1))])
-        a, b, c = faces.T
-        ab, bc, ca = mid.T
-        faces = np.concatenate([np.stack(f, axis=1) for f in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+        edges, faces = split_at_midpoints(faces, len(vertices))
+        vertices = np.concatenate([vertices, _unit(vertices[edges].mean(axis=1))])
     return Mesh(vertices * radius, vertices, faces, name="sphere", analytic_sphere=(np.zeros(3), float(radius)))
 
 

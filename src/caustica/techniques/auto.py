@@ -291,9 +291,9 @@ def _concave(obj, camera) -> bool:
 def _has_table(obj) -> bool:
     """Whether a light transport table at the default settings is cached for this glass object (one IOR:
     dispersive glass keeps caustic mapping, which splits the channels)."""
-    from ..transport.runtime import has_cached_table
+    from ..transport.runtime import has_cached_table, table_mesh
 
-    return obj.material.abbe is None and has_cached_table(obj.mesh, obj.material.ior)
+    return obj.material.abbe is None and has_cached_table(table_mesh(obj.mesh), obj.material.ior)
 
 
 def _transport_tables(glass: list) -> tuple[bool, list[str]]:

@@ -27,7 +27,10 @@ refraction through the same table (5.3) is the view technique
 Differs from the paper: caustics land on the receiver surfaces (exact
 intersection of the volumes' edge rays with Embree) instead of on sample
 planes with sliced object images (5.2), so any receiver shape works (the
-sample planes themselves are ``caustica.transport.sample_planes``). Limits:
+sample planes themselves are ``caustica.transport.sample_planes``); the table is
+made for a copy of the mesh with its large flat faces split (a prism's or a
+block's vertices all lie on its edges, where entering light meets the next
+face at once), and dispersive glass has a table per channel's IOR. Limits:
 see ``caustica.transport.runtime``.
 """
 from __future__ import annotations
@@ -83,7 +86,7 @@ class TransportTableParams(TableParams):
 
 def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
     """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays)."""
-    from ..transport.runtime import caustic_photons, exit_rays, receiver_scene, table_for
+    from ..transport.runtime import caustic_photons, object_exit_rays, receiver_scene, table_mesh
 
     glass = [o for o in scene.objects if o.material.kind == "glass"]
     receivers = [o for o in scene.objects if o.material.kind == "diffuse"]
@@ -93,13 +96,19 @@ def scene_photons(scene, sample, params: TransportTableParams, progress: bool = 
     positions, fluxes, stats = [], [], {}
     budget = max(1, params.photon_budget // len(glass))
     for obj in glass:
-        table = table_for(obj.mesh, obj.material.ior, params.directions, params.max_depth, params.quantized, progress)
-        rays = exit_rays(obj, table, sample)
-        photons = caustic_photons(rays, obj.mesh.faces, ray_scene, budget)
-        positions.append(photons.position[photons.landed])
-        fluxes.append(photons.flux[photons.landed])
-        stats[obj.name] = photons.stats
+        channels = object_exit_rays(obj, sample, params.directions, params.max_depth, params.quantized, progress)
+        for rays in channels:
+            photons = caustic_photons(rays, table_mesh(obj.mesh).faces, ray_scene, budget // len(channels))
+            positions.append(photons.position[photons.landed])
+            fluxes.append(photons.flux[photons.landed])
+            stats.setdefault(obj.name, []).append(photons.stats)
+    stats = {name: _summed(found) for name, found in stats.items()}
     return np.concatenate(positions), np.concatenate(fluxes), stats
+
+
+def _summed(stats: list[dict]) -> dict:
+    """One object's photon statistics over its channels' tables (counts and per-channel fluxes added)."""
+    return {key: np.sum([one[key] for one in stats], axis=0).tolist() for key in stats[0]}
 
 
 class TransportPhotons(Pass):

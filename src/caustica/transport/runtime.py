@@ -31,10 +31,11 @@ spot; a line light is N point samples):
 
 Limits: only the refracted branch (Fresnel-reflected light is not splatted,
 as in the paper); light blocked between the light and the glass by other
-objects, and light refracted by two glass objects in a row, are ignored; one
-IOR per object (no dispersion); the absorption length is the straight
-distance from P_i to x_out (exact for two interfaces, short for internal
-reflections).
+objects, and light refracted by two glass objects in a row, are ignored; the
+absorption length is the straight distance from P_i to x_out (exact for two
+interfaces, short for internal reflections). Ours: large flat faces are split
+for the table (:func:`table_mesh`), and dispersive glass has a table per
+channel's IOR (:func:`object_exit_rays`).
 """
 from __future__ import annotations
 
@@ -47,11 +48,47 @@ from ..cache import LruCache, atomic_write_bytes, cache_dir
 from ..raytrace.embree_scene import RayScene
 from ..raytrace.optics import dot, normalize
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
+from ..scene.mesh import Mesh, split_at_midpoints
 from .compress import TransportTableError, dequantize, load_table, quantize, table_bytes
 from .precompute import DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, precompute_table, tangent_frames
 
 MAX_SUBDIVISION = 256
 _TABLES: LruCache = LruCache(8)  # the tables most recently used
+TABLE_EDGE = 1.0 / 64  # flat faces are split until their edges are at most this fraction of the mesh's diagonal
+TABLE_VERTICES = 1 << 17  # ... while the mesh stays under this many vertices
+_TABLE_MESHES: LruCache = LruCache(16)
+
+
+def table_mesh(mesh: Mesh) -> Mesh:
+    """The mesh a caustics table is made for: ``mesh`` itself, or, where it has large flat faces (a box, a
+    prism, low-poly glass), a copy with those faces split at their midpoints until their edges are at most
+    TABLE_EDGE of the diagonal. The paper tabulates finely tessellated objects (4): a flat face's vertices lie
+    on its edges, where entering light meets the next face at once, so a prism's own table holds almost no
+    valid sample. Faces whose vertex normals differ (a smooth surface) are kept: splitting them adds no shape."""
+    key = mesh.geometry_hash()
+    found = _TABLE_MESHES.get(key)
+    if found is None:
+        found = _TABLE_MESHES[key] = _split_flat_faces(mesh)
+    return found
+
+
+def _split_flat_faces(mesh: Mesh) -> Mesh:
+    vertices, normals = mesh.vertices.astype(np.float64), normalize(mesh.normals.astype(np.float64))
+    faces = np.asarray(mesh.faces, np.int64)
+    longest = TABLE_EDGE * float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    while True:
+        corners, bent = vertices[faces], normals[faces]
+        edge = np.max([np.linalg.norm(corners[:, k] - corners[:, (k + 1) % 3], axis=1) for k in range(3)], axis=0)
+        flat = (dot(bent[:, 0], bent[:, 1]) > 1.0 - 1e-6) & (dot(bent[:, 0], bent[:, 2]) > 1.0 - 1e-6)
+        selected = flat & (edge > longest)
+        if not selected.any() or len(vertices) + 3 * int(selected.sum()) > TABLE_VERTICES:
+            break
+        edges, faces = split_at_midpoints(faces, len(vertices), selected)
+        vertices = np.concatenate([vertices, vertices[edges].mean(axis=1)])
+        normals = np.concatenate([normals, normalize(normals[edges].sum(axis=1))])
+    if len(vertices) == len(mesh.vertices):
+        return mesh
+    return Mesh(vertices.astype(np.float32), normals.astype(np.float32), faces.astype(np.int32), name=mesh.name)
 
 
 # Tables -----------------------------------------------------------------------
@@ -182,9 +219,27 @@ class ExitRays:
     face_flux: np.ndarray  # (F, 3) E S entering each lit face (0 for unlit ones)
 
 
+def object_exit_rays(obj, sample, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH,
+                     quantized: bool = True, progress: bool = True) -> list[ExitRays]:
+    """The exit rays of glass ``obj`` lit by ``sample`` from the tables of its :func:`table_mesh`: one set, or
+    for dispersive glass one per channel, each from the table of that channel's IOR and carrying that channel
+    alone (the paper's table holds one IOR)."""
+    material, mesh = obj.material, table_mesh(obj.mesh)
+    if material.abbe is None:
+        groups = [(float(material.ior), np.ones(3))]
+    else:
+        groups = [(float(ior), np.eye(3)[c]) for c, ior in enumerate(material.ior_rgb)]
+    out = []
+    for ior, channel in groups:
+        rays = exit_rays(obj, table_for(mesh, ior, directions, max_depth, quantized, progress), sample)
+        out.append(ExitRays(rays.origin, rays.direction, rays.weight * channel, rays.face_flux))
+    return out
+
+
 def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
-    """Look the table up for ``obj`` (rigid transform) lit by ``sample`` (section 5.1)."""
-    mesh = obj.mesh
+    """Look the table up for ``obj`` (rigid transform) lit by ``sample`` (section 5.1); the table is its
+    :func:`table_mesh`'s."""
+    mesh = table_mesh(obj.mesh)
     m = np.asarray(obj.world_from_object(), dtype=np.float64)
     a, t = m[:3, :3], m[:3, 3]
     world = mesh.vertices.astype(np.float64) @ a.T + t

@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..raytrace.optics import normalize
-from .runtime import ExitRays, exit_rays, receiver_scene, subdivision_barycentrics, table_for
+from .runtime import ExitRays, object_exit_rays, receiver_scene, subdivision_barycentrics, table_mesh
 
 MAX_SUBDIVISION = 32  # a volume's slice is drawn with at most 32^2 sub-triangles
 
@@ -150,10 +150,9 @@ def sample_plane_maps(scene, light_index: int, planes, directions: int = 129, ma
     maps = [np.zeros((p.rows, p.cols, 3)) for p in planes]
     for sample in _light_samples(scene, light_index):
         for obj in scene.objects_of("glass"):
-            table = table_for(obj.mesh, obj.material.ior, directions, max_depth, quantized, progress=False)
-            rays = exit_rays(obj, table, sample)
-            for out, plane in zip(maps, planes):
-                out += caustics_map(rays, obj.mesh.faces, plane)
+            for rays in object_exit_rays(obj, sample, directions, max_depth, quantized, progress=False):
+                for out, plane in zip(maps, planes):
+                    out += caustics_map(rays, table_mesh(obj.mesh).faces, plane)
     return maps
 
 
