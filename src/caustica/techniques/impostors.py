@@ -40,7 +40,8 @@ distorted; two interfaces per refractor (depth-search's limits). Ours: the
 parallel projection is a pinhole ``distance_factor`` radii away (<= 1.1 degrees
 from parallel at 50); the textures are kept across frames until an object, material,
 light or the environment changes (2.2.1: they need updating only when objects move);
-impostor textures do not show caustics.
+impostor textures show the caustics of a composed caustic technique (``impostors+caustic-mapping``) on the
+objects they stand for, so the floor seen through glass shows its caustic.
 """
 from __future__ import annotations
 
