@@ -383,3 +383,23 @@ def test_merged_planes_hit_points_agree_with_exact(renderer):
 def test_impostor_caustics_refuses_merged_planes(renderer):
     with pytest.raises(TechniqueError, match="merge_planes.*leave it false"):
         renderer.render(_scene([_ball(), _floor()], size=32), "impostor-caustics", merge_planes=True)
+
+
+def test_texture_units_of_the_shading_do_not_overlap():
+    """ShadeSurfaces binds its units once per program (global GL state): the impostor atlas, the albedo
+    texture, the environment lobes' four maps and the nearby planes' textures each need units of their own
+    (the planes once took 26..29, the lobes' units), all below the 80 combined units every GL 4 context has
+    (llvmpipe has 192)."""
+    from caustica.passes import impostors, surfaces
+    from caustica.passes.surfaces import ShadeSurfaces
+
+    ranges = {
+        "lights": range(ShadeSurfaces.FIRST_SHADOW_UNIT, ShadeSurfaces.FIRST_CAUSTIC_UNIT + surfaces.MAX_LIGHTS),
+        "atlas": range(impostors.IMPOSTOR_UNIT, impostors.IMPOSTOR_UNIT + 1),
+        "albedo": range(surfaces.ALBEDO_UNIT, surfaces.ALBEDO_UNIT + 1),
+        "lobes": range(surfaces.ENVIRONMENT_SHADOW_UNIT, surfaces.ENVIRONMENT_SHADOW_UNIT + 4),
+        "planes": range(impostors.FIRST_PLANE_TEXTURE_UNIT, impostors.FIRST_PLANE_TEXTURE_UNIT + impostors.MAX_PLANE_TEXTURES),
+    }
+    used = [unit for units in ranges.values() for unit in units]
+    assert len(used) == len(set(used)), ranges
+    assert max(used) < 80

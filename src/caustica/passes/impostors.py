@@ -43,8 +43,10 @@ from .surfaces import ShadeSurfaces
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
 MAX_PLANES = 8
 SLAB_RATIO = 0.1  # a diffuse object at most this thick for its width is its own rectangle (its near face)
-MAX_PLANE_TEXTURES = 4  # textured planes with their own texture (units 26..29); more take the mean colour
-FIRST_PLANE_TEXTURE_UNIT = 26  # after ShadeSurfaces' albedo texture (passes/surfaces.py ALBEDO_UNIT, 25)
+MAX_PLANE_TEXTURES = 4  # textured planes with their own texture (units 30..33); more take the mean colour
+# After the environment lobes' maps (passes/surfaces.py ENVIRONMENT_SHADOW_UNIT, 26..29), which a frame's shading
+# binds beside the planes (units are global state: the planes bound after the lobes would replace them).
+FIRST_PLANE_TEXTURE_UNIT = 30
 IMPOSTOR_UNIT = 24  # the atlas: after ShadeSurfaces' environment, inputs, shadow and caustic maps
 NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
 
