@@ -298,8 +298,8 @@ def _volume_fit(reflector: Reflector, scene, p, n, eye, camera_up, params) -> Ca
     """``fit(vertices)``: the view volume of those of the reflector's vertices (3.2, 3.3, 4.3), from
     its lines at the time of the call (a refined mirror has more)."""
     bounds = scene.bounds()
-    principal = principal_directions(p, n, eye - p.mean(axis=0))[0] if len(p) >= 3 else np.zeros((2, 3))
     camera_up = np.asarray(camera_up, dtype=np.float64)
+    principal = _principal_axes(p, n, eye, camera_up)
     up, extra = {"principal": (principal[0], ()), "camera": (camera_up, ()),
                  "auto": (principal[0], (camera_up,))}[params.up]  # the other principal direction: the same box turned
 
@@ -315,6 +315,22 @@ def _volume_fit(reflector: Reflector, scene, p, n, eye, camera_up, params) -> Ca
                                viewpoint_lines=green.subset(vertices))
 
     return fit
+
+
+UMBILIC = 1e-3  # principal curvatures this close (times the mirror's size) leave the principal directions undefined
+
+
+def _principal_axes(p: np.ndarray, n: np.ndarray, eye: np.ndarray, camera_up: np.ndarray) -> np.ndarray:
+    """The mirror's principal directions (4.3), or, where they are undefined (a sphere's or a plane's curvature
+    is the same in every direction), the camera's up and its perpendicular: the least-squares fit's
+    eigenvectors are then its round-off, and a frustum turned by them changed with the scene's unit."""
+    if len(p) < 3:
+        return np.zeros((2, 3))
+    directions, curvature = principal_directions(p, n, eye - p.mean(axis=0))
+    size = float(np.linalg.norm(np.ptp(p, axis=0)))
+    if abs(float(curvature[1] - curvature[0])) * size > UMBILIC:
+        return directions
+    return np.stack([camera_up, np.cross(camera_up, normalize(n.mean(axis=0)))])
 
 
 def _texture_coordinates(reflector: Reflector) -> None:
