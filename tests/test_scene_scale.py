@@ -24,6 +24,14 @@ def scaled(scene, s: float):
     return dataclasses.replace(scene, objects=objects, lights=lights, camera=camera)
 
 
+def psnr_against_unscaled(renderer, preset: str, technique: str, s: float) -> float:
+    """PSNR of ``preset`` at 96x96 scaled by ``s`` against the same render unscaled."""
+    scene = load_scene(preset)
+    scene.camera = scene.camera.with_size(96, 96)
+    reference = renderer.render(scene, technique)
+    return caustica.metrics.psnr_linear(renderer.render(scaled(scene, s), technique), reference)
+
+
 # Measured on llvmpipe, 96x96, PSNR of caustic-sphere scaled by s against s = 1 (depth-search alone:
 # 50.1 dB at every s): caustic-mapping at s = 1e-4 28.9 dB before (the caustic gone), 1e-3 38.4, 1e-2 49.5;
 # after 50.0, 50.1, 50.1; at s = 100 and 1000 53.8 dB before and after. photon-splats: 24.9 and 37.2 dB
@@ -31,10 +39,7 @@ def scaled(scene, s: float):
 @pytest.mark.parametrize("technique", ["depth-search+caustic-mapping", "depth-search+photon-splats"])
 @pytest.mark.parametrize("s", [1e-4, 1e-3, 1e3])
 def test_caustics_do_not_depend_on_the_unit(renderer, technique, s):
-    scene = load_scene("caustic-sphere")
-    scene.camera = scene.camera.with_size(96, 96)
-    reference = renderer.render(scene, technique)
-    psnr = caustica.metrics.psnr_linear(renderer.render(scaled(scene, s), technique), reference)
+    psnr = psnr_against_unscaled(renderer, "caustic-sphere", technique, s)
     assert psnr > 45.0, psnr
 
 
@@ -44,10 +49,7 @@ def test_caustics_do_not_depend_on_the_unit(renderer, technique, s):
 # at 100, where the fixed tolerance was already fine).
 @pytest.mark.parametrize("s", [1e-3, 1e-2])
 def test_impostor_correction_does_not_depend_on_the_unit(renderer, s):
-    scene = load_scene("mirror-concave")
-    scene.camera = scene.camera.with_size(96, 96)
-    reference = renderer.render(scene, "impostors")
-    psnr = caustica.metrics.psnr_linear(renderer.render(scaled(scene, s), "impostors"), reference)
+    psnr = psnr_against_unscaled(renderer, "mirror-concave", "impostors", s)
     assert psnr > 42.0, psnr
 
 
@@ -57,8 +59,5 @@ def test_impostor_correction_does_not_depend_on_the_unit(renderer, s):
 # of the principal direction's and the camera's, Kakimoto et al. 4.3) turned with the unit.
 @pytest.mark.parametrize("s", [10.0, 100.0])
 def test_per_vertex_frustum_does_not_turn_with_the_unit(renderer, s):
-    scene = load_scene("mirror-concave")
-    scene.camera = scene.camera.with_size(96, 96)
-    reference = renderer.render(scene, "per-vertex")
-    psnr = caustica.metrics.psnr_linear(renderer.render(scaled(scene, s), "per-vertex"), reference)
+    psnr = psnr_against_unscaled(renderer, "mirror-concave", "per-vertex", s)
     assert psnr > 45.0, psnr
