@@ -6,7 +6,8 @@ samples per pixel with bilinear (point) environment lookups, a box filter of the
 aliasing alone, not the technique's error against ground truth), on the presets and on a twin of each
 with the camera orbited by 35 degrees and raised (scenes the filters were not tuned on). Costs are ms
 per frame in the same run (ctx.finish() and wall clock; the fastest of 3 rounds in which the ways take turns),
-relative to 1 spp with bilinear lookups. ``--cost-only`` skips the reference and the errors (for larger sizes).
+relative to 1 spp with bilinear lookups. ``--cost-only`` skips the reference and the errors (for larger sizes)
+and gives the process's CPU time too (every llvmpipe thread's; it hardly grows with other processes' load).
 
     .venv/bin/python bench/bench_antialias.py [--presets a,b] [--size 192x144] [--technique auto] [--cost-only]
 """
@@ -48,16 +49,20 @@ def orbited(scene, degrees: float, lift: float):
 
 
 def fastest_costs(renderer, scene, technique, rounds: int = 3, frames: int = 2) -> dict:
-    """{way name: fastest ms} over ``rounds`` rounds in which each way (WAYS) renders a warm-up frame and then
-    ``frames`` timed ones, the ways in turns, so that load on shared cores, which drifts over seconds, hits
-    them alike (bench/timing.py's fastest_in_blocks, with the environment filter switched per way)."""
-    fastest = {name: float("inf") for name, *_ in WAYS}
+    """{way name: (fastest wall ms, fastest process CPU ms)} over ``rounds`` rounds in which each way (WAYS)
+    renders a warm-up frame and then ``frames`` timed ones, the ways in turns, so that load on shared cores,
+    which drifts over seconds, hits them alike (bench/timing.py's fastest_in_blocks, with the environment
+    filter switched per way)."""
+    fastest = {name: [float("inf"), float("inf")] for name, *_ in WAYS}
     for _ in range(rounds):
         for name, spp, antialias, environment_filter in WAYS:
             scene.environment.filter = environment_filter
             renderer.render(scene, technique, spp, antialias=antialias)
             for _ in range(frames):
-                fastest[name] = min(fastest[name], renderer.render_timed(scene, technique, spp, antialias=antialias)[1])
+                cpu = time.process_time()
+                wall = renderer.render_timed(scene, technique, spp, antialias=antialias)[1]
+                cpu = (time.process_time() - cpu) * 1000.0
+                fastest[name] = [min(fastest[name][0], wall), min(fastest[name][1], cpu)]
     return fastest
 
 
@@ -83,15 +88,15 @@ def main(argv=None) -> None:
                 if variant == "orbited":
                     scene = orbited(scene, 35.0, 0.15)
                 costs = fastest_costs(renderer, scene, args.technique)
-                base_ms = costs[WAYS[0][0]]
+                base_ms, base_cpu = costs[WAYS[0][0]]
                 scene.environment.filter = "bilinear"
                 reference = None if args.cost_only else renderer.render(scene, args.technique, 64)
                 cells = []
                 for name, spp, antialias, environment_filter in WAYS:
-                    ratio = costs[name] / base_ms
+                    ratio, cpu_ratio = costs[name][0] / base_ms, costs[name][1] / base_cpu
                     if reference is None:
-                        totals[name].append((0.0, 0.0, ratio))
-                        cells.append(f"{ratio:.2f}")
+                        totals[name].append((cpu_ratio, 0.0, ratio))
+                        cells.append(f"{ratio:.2f} / {cpu_ratio:.2f}")
                         continue
                     scene.environment.filter = environment_filter
                     image = renderer.render(scene, args.technique, spp, antialias=antialias)
@@ -102,13 +107,13 @@ def main(argv=None) -> None:
                 print(rows[-1], file=sys.stderr, flush=True)
     against = "" if args.cost_only else ", against its own 64 spp (8 x 8) image with bilinear environment lookups"
     print(f"{args.size}, technique {args.technique}{against}; GL: {gl}\n")
-    print("cells: ms relative to 1 spp\n" if args.cost_only else "cells: PSNR linear / PSNR sRGB (dB) / ms relative to 1 spp\n")
+    print("cells: wall ms / process CPU ms relative to 1 spp\n" if args.cost_only else "cells: PSNR linear / PSNR sRGB (dB) / ms relative to 1 spp\n")
     print("| scene | " + " | ".join(name for name, *_ in WAYS) + " | 1 spp ms |")
     print("|---|" + "---|" * (len(WAYS) + 1))
     print("\n".join(rows))
     means = [np.mean(np.array(v), axis=0) for v in totals.values()]
     if args.cost_only:
-        print("| mean | " + " | ".join(f"{m[2]:.2f}" for m in means) + " | |")
+        print("| mean | " + " | ".join(f"{m[2]:.2f} / {m[0]:.2f}" for m in means) + " | |")
     else:
         print("| mean | " + " | ".join(f"{m[0]:.1f} / {m[1]:.1f} / {m[2]:.2f}" for m in means) + " | |")
 

@@ -163,3 +163,24 @@ def test_cpu_techniques_ignore_it():
     scene = caustica.load_scene("glass-sphere")
     with Renderer((24, 18)) as renderer:
         assert np.array_equal(renderer.render(scene, "exact", 1), renderer.render(scene, "exact", 1, antialias="msaa"))
+
+
+def test_cli_renders_with_msaa_and_refuses_without_multisampling(tmp_path, capsys, monkeypatch):
+    """``caustica render --antialias msaa`` writes the msaa image; without multisampling: one line, exit 2."""
+    import moderngl
+
+    from caustica.images import read_image
+    from test_cli import assert_one_line_error, run_cli
+
+    out = tmp_path / "door.exr"
+    code, _, _ = run_cli(["render", "door-mirror", "-o", out, "--size", "48x40", "--frames", "1", "--technique",
+                          "env-map", "--antialias", "msaa"], capsys)
+    assert code == 0
+    with Renderer((48, 40)) as renderer:
+        expected = renderer.render(caustica.load_scene("door-mirror"), "env-map", 1, antialias="msaa")
+    assert np.allclose(read_image(out), expected, atol=1e-3)
+    monkeypatch.setattr(moderngl.Context, "max_samples", property(lambda ctx: 2))
+    code, _, err = run_cli(["render", "door-mirror", "-o", tmp_path / "no.png", "--size", "48x40", "--antialias",
+                            "msaa"], capsys)
+    assert_one_line_error(code, err, "antialias 'msaa' needs 4 samples per pixel", "use antialias 'edge' or spp 4")
+    assert not (tmp_path / "no.png").exists()

@@ -2,7 +2,7 @@
 
 After Chajed, Lefohn and Luebke, "Subpixel Reconstruction Antialiasing for Deferred Shading" (I3D 2011),
 section 3. The technique's graph shades each pixel once, at its centre, as at 1 spp. Afterwards every
-object is drawn twice more with a trivial shader (labels.frag: object id and view depth), at the pixel
+object is drawn twice more with a trivial shader (labels.frag with ID_DEPTH: object id, view depth), at the pixel
 centres and into a multisampled target, whose samples give each pixel its true geometric coverage: a
 CPU or GPU rasterizer runs that shader once per pixel (llvmpipe included), so the multisampled draw costs
 about what a single-sampled one does. The resolve (shaders/passes/subpixel_resolve.frag) gives each
@@ -38,15 +38,15 @@ def reconstructed(frame: Frame, color, out):
 
     check_multisampling(frame.gpu)
     camera, materials = frame.camera, material_indices(frame.scene)
-    program = {False: label_program(frame, camera)}
-    centres = [frame.texture(camera.size, "rgba32f") for _ in range(2)]
-    samples = [frame.texture(camera.size, "rgba32f", SAMPLES) for _ in range(2)]
-    draw_first_surfaces(frame, camera, centres, program, materials)
-    draw_first_surfaces(frame, camera, samples, program, materials, samples=SAMPLES)
+    program = {False: label_program(frame, camera, {"ID_DEPTH": 1})}
+    centres = frame.texture(camera.size, "rg32f")
+    samples = frame.texture(camera.size, "rg32f", SAMPLES)
+    draw_first_surfaces(frame, camera, [centres], program, materials)
+    draw_first_surfaces(frame, camera, [samples], program, materials, samples=SAMPLES)
     resolve = frame.gpu.shaders.program("passes/fullscreen.vert", "passes/subpixel_resolve.frag",
                                         {"SAMPLES": SAMPLES})
-    for unit, (name, texture) in enumerate(zip(("color", "centre_surface", "centre_ids", "sample_surface",
-                                                "sample_ids"), (color, *centres, *samples))):
+    for unit, (name, texture) in enumerate((("color", color), ("centre_geometry", centres),
+                                            ("sample_geometry", samples))):
         texture.use(unit)
         set_uniform(resolve, name, unit)
     set_uniform(resolve, "depth_tolerance", DEPTH_TOLERANCE)
