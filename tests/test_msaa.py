@@ -65,9 +65,8 @@ def exact_coverage(scene: Scene, samples: int = 64) -> np.ndarray:
                                                          (0.3, 0.2, -0.04)])
 def test_a_straight_edge_resolves_to_its_coverage_within_one_sample(renderer, corner_x, corner_y, slope_x):
     """Each pixel's grey level, read as the fraction (value - background) / (surface - background), is
-    the edge's exact area fraction within 1 / SAMPLES plus a little (four samples place a straight edge
-    to a quarter of the pixel); at 1 spp it is off by up to a whole pixel. Away from the edge nothing
-    changes."""
+    the edge's exact area fraction within 1 / SAMPLES (measured: at most 0.13 to 0.22 over these four
+    edges); at 1 spp it is off by up to half a pixel (0.48 to 0.50). Away from the edge nothing changes."""
     scene = half_plane_scene(corner_x, corner_y, slope_x)
     exact = exact_coverage(scene)
     aliased = renderer.render(scene, "plain", 1)[..., 0]
@@ -78,7 +77,7 @@ def test_a_straight_edge_resolves_to_its_coverage_within_one_sample(renderer, co
     error_before = np.abs(fraction(aliased) - exact)
     error_after = np.abs(fraction(resolved) - exact)
     assert error_before.max() > 0.4
-    assert error_after.max() <= 1.0 / SAMPLES + 0.1, error_after.max()
+    assert error_after.max() <= 1.0 / SAMPLES, error_after.max()
     assert error_after.mean() < 0.5 * error_before.mean()
     # The resolve gives a pixel whole samples: multiples of 1 / SAMPLES of the two colours.
     steps = fraction(resolved) * SAMPLES
