@@ -1,13 +1,15 @@
-"""Benchmark: footprint-filtered environment lookups and post-process edge anti-aliasing against
-k x k supersampling, per scene.
+"""Benchmark: footprint-filtered environment lookups, post-process edge anti-aliasing and multisampled
+outlines (msaa) against k x k supersampling, per scene.
 
 The error of each way of anti-aliasing is measured against the same technique's own image at 8 x 8
 samples per pixel with bilinear (point) environment lookups, a box filter of the pixel (so it is the
 aliasing alone, not the technique's error against ground truth), on the presets and on a twin of each
 with the camera orbited by 35 degrees and raised (scenes the filters were not tuned on). Costs are ms
-per frame in the same run (ctx.finish() and wall clock), relative to 1 spp with bilinear lookups.
+per frame in the same run (ctx.finish() and wall clock; the fastest of 3 rounds in which the ways take turns),
+relative to 1 spp with bilinear lookups. ``--cost-only`` skips the reference and the errors (for larger sizes)
+and gives the process's CPU time too (every llvmpipe thread's; it hardly grows with other processes' load).
 
-    .venv/bin/python bench/bench_antialias.py [--presets a,b] [--size 192x144] [--technique auto]
+    .venv/bin/python bench/bench_antialias.py [--presets a,b] [--size 192x144] [--technique auto] [--cost-only]
 """
 from __future__ import annotations
 
@@ -26,8 +28,10 @@ PRESETS = ["glass-sphere", "caustic-sphere", "tvcg-fig10", "caustics-point", "ca
            "door-mirror", "mirror-concave", "spectacle-convex", "tvcg-fig14", "tvcg-fig24", "caustics-prism"]
 WAYS = [  # (name, spp, antialias, Environment.filter)
     ("1 spp", 1, "none", "bilinear"), ("1 spp footprint", 1, "none", "footprint"),
-    ("1 spp footprint + edge", 1, "edge", "footprint"), ("4 spp", 4, "none", "bilinear"),
-    ("4 spp footprint", 4, "none", "footprint"), ("9 spp", 9, "none", "bilinear"),
+    ("1 spp footprint + edge", 1, "edge", "footprint"), ("1 spp footprint + msaa", 1, "msaa", "footprint"),
+    ("4 spp", 4, "none", "bilinear"), ("4 spp footprint", 4, "none", "footprint"),
+    ("4 spp footprint + msaa", 4, "msaa", "footprint"), ("9 spp", 9, "none", "bilinear"),
+    ("9 spp footprint", 9, "none", "footprint"),
 ]
 
 
@@ -44,13 +48,22 @@ def orbited(scene, degrees: float, lift: float):
     return scene
 
 
-def timed(renderer, scene, technique, spp, antialias, frames=3) -> tuple[np.ndarray, float]:
-    image, times = None, []
-    for _ in range(frames + 1):
-        start = time.perf_counter()
-        image = renderer.render(scene, technique, spp, antialias=antialias)
-        times.append((time.perf_counter() - start) * 1000.0)
-    return image, min(times[1:])
+def fastest_costs(renderer, scene, technique, rounds: int = 3, frames: int = 2) -> dict:
+    """{way name: (fastest wall ms, fastest process CPU ms)} over ``rounds`` rounds in which each way (WAYS)
+    renders a warm-up frame and then ``frames`` timed ones, the ways in turns, so that load on shared cores,
+    which drifts over seconds, hits them alike (bench/timing.py's fastest_in_blocks, with the environment
+    filter switched per way)."""
+    fastest = {name: [float("inf"), float("inf")] for name, *_ in WAYS}
+    for _ in range(rounds):
+        for name, spp, antialias, environment_filter in WAYS:
+            scene.environment.filter = environment_filter
+            renderer.render(scene, technique, spp, antialias=antialias)
+            for _ in range(frames):
+                cpu = time.process_time()
+                wall = renderer.render_timed(scene, technique, spp, antialias=antialias)[1]
+                cpu = (time.process_time() - cpu) * 1000.0
+                fastest[name] = [min(fastest[name][0], wall), min(fastest[name][1], cpu)]
+    return fastest
 
 
 def main(argv=None) -> None:
@@ -58,6 +71,7 @@ def main(argv=None) -> None:
     parser.add_argument("--presets", default=",".join(PRESETS))
     parser.add_argument("--size", default="192x144")
     parser.add_argument("--technique", default="auto")
+    parser.add_argument("--cost-only", action="store_true", help="costs alone (no 64 spp reference, no errors)")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     totals = {name: [] for name, *_ in WAYS}
@@ -73,27 +87,35 @@ def main(argv=None) -> None:
                     break
                 if variant == "orbited":
                     scene = orbited(scene, 35.0, 0.15)
+                costs = fastest_costs(renderer, scene, args.technique)
+                base_ms, base_cpu = costs[WAYS[0][0]]
                 scene.environment.filter = "bilinear"
-                reference = renderer.render(scene, args.technique, 64)
+                reference = None if args.cost_only else renderer.render(scene, args.technique, 64)
                 cells = []
-                base_ms = None
                 for name, spp, antialias, environment_filter in WAYS:
+                    ratio, cpu_ratio = costs[name][0] / base_ms, costs[name][1] / base_cpu
+                    if reference is None:
+                        totals[name].append((cpu_ratio, 0.0, ratio))
+                        cells.append(f"{ratio:.2f} / {cpu_ratio:.2f}")
+                        continue
                     scene.environment.filter = environment_filter
-                    image, ms = timed(renderer, scene, args.technique, spp, antialias)
-                    base_ms = base_ms or ms
+                    image = renderer.render(scene, args.technique, spp, antialias=antialias)
                     lin, srgb = psnr_linear(image, reference), psnr_srgb(image, reference)
-                    totals[name].append((lin, srgb, ms / base_ms))
-                    cells.append(f"{lin:.1f} / {srgb:.1f} / {ms / base_ms:.2f}")
-                rows.append(f"| {preset} ({variant}) | " + " | ".join(cells) + " |")
+                    totals[name].append((lin, srgb, ratio))
+                    cells.append(f"{lin:.1f} / {srgb:.1f} / {ratio:.2f}")
+                rows.append(f"| {preset} ({variant}) | " + " | ".join(cells) + f" | {base_ms:.1f} |")
                 print(rows[-1], file=sys.stderr, flush=True)
-    print(f"{args.size}, technique {args.technique}, against its own 64 spp (8 x 8) image with bilinear "
-          f"environment lookups; GL: {gl}\n")
-    print("cells: PSNR linear / PSNR sRGB (dB) / ms relative to 1 spp\n")
-    print("| scene | " + " | ".join(name for name, *_ in WAYS) + " |")
-    print("|---|" + "---|" * len(WAYS))
+    against = "" if args.cost_only else ", against its own 64 spp (8 x 8) image with bilinear environment lookups"
+    print(f"{args.size}, technique {args.technique}{against}; GL: {gl}\n")
+    print("cells: wall ms / process CPU ms relative to 1 spp\n" if args.cost_only else "cells: PSNR linear / PSNR sRGB (dB) / ms relative to 1 spp\n")
+    print("| scene | " + " | ".join(name for name, *_ in WAYS) + " | 1 spp ms |")
+    print("|---|" + "---|" * (len(WAYS) + 1))
     print("\n".join(rows))
     means = [np.mean(np.array(v), axis=0) for v in totals.values()]
-    print("| mean | " + " | ".join(f"{m[0]:.1f} / {m[1]:.1f} / {m[2]:.2f}" for m in means) + " |")
+    if args.cost_only:
+        print("| mean | " + " | ".join(f"{m[2]:.2f} / {m[0]:.2f}" for m in means) + " | |")
+    else:
+        print("| mean | " + " | ".join(f"{m[0]:.1f} / {m[1]:.1f} / {m[2]:.2f}" for m in means) + " | |")
 
 
 if __name__ == "__main__":

@@ -242,8 +242,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     render.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     render.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
-                        help="none (default) or edge: a post-process blend across edges, about 1.2x the cost of a "
-                             "frame, for jagged outlines at 1 spp (docs/antialiasing.md; --spp is more accurate)")
+                        help="none (default); edge: a post-process blend across edges, about 1.2x the cost of a "
+                             "frame, for jagged outlines at 1 spp; msaa: outlines resolved from 4 geometry samples "
+                             "per pixel, shading once (docs/antialiasing.md; --spp is more accurate)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
     render.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                         help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "

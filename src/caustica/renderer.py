@@ -14,6 +14,7 @@ from .passes.base import Frame
 from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import ANTIALIAS_MODES, resolved
+from .passes.subpixel import check_multisampling
 from .scene import Scene, rules
 from .scene.scene import check_scene, recentred
 from .techniques.base import check_spp, get_technique
@@ -92,8 +93,9 @@ class Renderer:
     def render(self, scene: Scene, technique: str = "auto", spp: int = 1, *, labels=None, antialias: str = "none",
                **params):
         """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
-        techniques`` lists them) or a Technique instance. ``antialias``: ``none`` or ``edge``, a
-        post-process on rasterized images (passes/resolve.py; CPU techniques ignore it). ``labels``: a
+        techniques`` lists them) or a Technique instance. ``antialias``: ``none``, ``edge`` (a
+        post-process) or ``msaa`` (outlines from multisampled coverage) on rasterized images
+        (passes/resolve.py; CPU techniques ignore it). ``labels``: a
         list of names from caustica.labels.LABELS; then ``(image, layers)``, layers a {name: array}
         at the output size (docs/labels.md)."""
         result, _ = self.render_timed(scene, technique, spp, labels=labels, antialias=antialias, **params)
@@ -117,6 +119,8 @@ class Renderer:
         self._check_frame(tech, scene, camera, parameters, spp)
         if names is not None:
             check_technique_gives(tech, names)
+        if antialias == "msaa" and tech.uses_gl:
+            check_multisampling(self.device)
         start = time.perf_counter()
         if tech.uses_gl:
             image, buffers = self._render_graph(tech, scene, camera, parameters, int(spp), antialias, names)

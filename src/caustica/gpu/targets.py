@@ -29,6 +29,7 @@ FRAMEBUFFERS = 256  # framebuffers cached (each costs little; the bound keeps st
 class TargetKey:
     size: tuple[int, int]
     format: str
+    samples: int = 1  # above 1: a multisampled texture (texelFetch by sample; not filtered)
 
 
 class TargetPool:
@@ -42,18 +43,18 @@ class TargetPool:
         self._lent: dict[int, object] = {}  # GL name -> texture handed out and not yet returned
         self._framebuffers: OrderedDict[tuple, object] = OrderedDict()
 
-    def texture(self, size: tuple[int, int], fmt: str):
-        key = TargetKey((int(size[0]), int(size[1])), fmt)
+    def texture(self, size: tuple[int, int], fmt: str, samples: int = 1):
+        key = TargetKey((int(size[0]), int(size[1])), fmt, int(samples))
         free = self._free.get(key)
         if free:
             texture, _ = free.pop()
         elif fmt not in FORMATS:
             raise ValueError(f"unknown render target format '{fmt}'; use one of {', '.join(FORMATS)}")
         elif FORMATS[fmt][1] == "depth":
-            texture = self.ctx.depth_texture(key.size)
+            texture = self.ctx.depth_texture(key.size, samples=key.samples if key.samples > 1 else 0)
         else:
             components, dtype = FORMATS[fmt]
-            texture = self.ctx.texture(key.size, components, dtype=dtype)
+            texture = self.ctx.texture(key.size, components, dtype=dtype, samples=key.samples if key.samples > 1 else 0)
         self._lent[texture.glo] = texture
         return texture
 
@@ -73,7 +74,8 @@ class TargetPool:
         fmt = "depth" if texture.depth else next(
             name for name, (c, d) in FORMATS.items() if c == texture.components and d == texture.dtype
         )
-        self._free.setdefault(TargetKey(tuple(texture.size), fmt), []).append((texture, self.frame))
+        key = TargetKey(tuple(texture.size), fmt, max(1, texture.samples))
+        self._free.setdefault(key, []).append((texture, self.frame))
 
     def end_frame(self) -> None:
         """Count a frame; release free textures that waited more than ``idle_frames`` frames."""
@@ -124,7 +126,8 @@ class TargetPool:
 
 def texture_bytes(texture) -> int:
     """Bytes of a pooled texture's storage."""
-    return texture.width * texture.height * texture.components * BYTES_PER_COMPONENT.get(texture.dtype, 4)
+    return (texture.width * texture.height * texture.components * max(1, texture.samples)
+            * BYTES_PER_COMPONENT.get(texture.dtype, 4))
 
 
 def _same_attachments(fbo, colors: list, depth) -> bool:

@@ -91,9 +91,9 @@ class Frame:
     def write(self, name: str, value) -> None:
         self.channels[name] = value
 
-    def texture(self, size: tuple[int, int], fmt: str):
-        """A pooled render target lent to this frame."""
-        return self.own(self.gpu.targets.texture(size, fmt))
+    def texture(self, size: tuple[int, int], fmt: str, samples: int = 1):
+        """A pooled render target lent to this frame (``samples`` > 1: multisampled)."""
+        return self.own(self.gpu.targets.texture(size, fmt, samples))
 
     def zeroed(self, size: tuple[int, int], fmt: str):
         """A pooled render target cleared to zero, lent to this frame."""
@@ -105,9 +105,9 @@ class Frame:
         self.lent[id(value)] = value
         return value
 
-    def scratch(self, size: tuple[int, int], fmt: str, zeroed: bool = False):
+    def scratch(self, size: tuple[int, int], fmt: str, zeroed: bool = False, samples: int = 1):
         """A pooled target for a ``with`` block alone (a depth buffer under one draw)."""
-        return self.scoped((self.zeroed if zeroed else self.texture)(size, fmt))
+        return self.scoped(self.zeroed(size, fmt) if zeroed else self.texture(size, fmt, samples))
 
     @contextmanager
     def scoped(self, value):

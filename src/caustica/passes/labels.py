@@ -52,18 +52,7 @@ class LabelSurfaces(Pass):
         # One variant for the diffuse receivers, which look the caustics up, one for the rest.
         programs = {receiver: self._program(frame, camera, with_caustics, receiver)
                     for receiver in ((False, True) if with_caustics else (False,))}
-        clip_from_world = camera.clip_from_world()
-        with _drawing(frame, camera.size, targets):
-            for index, obj in enumerate(frame.scene.objects):
-                receiver = with_caustics and obj.material.kind == "diffuse"
-                program = programs[receiver]
-                set_uniform(program, "object_id", float(index + 1))
-                set_uniform(program, "material_id", float(self.materials[index] + 1))
-                set_uniform(program, "glass", float(obj.material.kind == "glass"))
-                if receiver and caustic_maps is None:
-                    bind_receiver_tiles(program, tiles, obj)
-                with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):  # the same nearest surface
-                    draw_objects(frame, program, [obj], clip_from_world)
+        draw_first_surfaces(frame, camera, targets, programs, self.materials, None if caustic_maps is not None else tiles)
         frame.write(SURFACE.name, targets[0])
         frame.write(IDS.name, targets[1])
         if self.caustic:
@@ -78,9 +67,7 @@ class LabelSurfaces(Pass):
         if receiver:
             defines.update({**frame.optional_defines(self), "MAX_LIGHTS": MAX_LIGHTS,
                             "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES})
-        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/labels.frag", defines)
-        set_uniform(program, "camera_position", camera.position.astype("f4"))
-        set_uniform(program, "camera_forward", -camera.view_from_world()[2, :3].astype("f4"))
+        program = label_program(frame, camera, defines)
         if receiver:
             caustic_maps = frame.optional("caustic_maps")
             set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale))
@@ -104,10 +91,39 @@ class LabelSurfaces(Pass):
         return target
 
 
+def label_program(frame: Frame, camera, defines: dict | None = None):
+    """labels.frag (``defines``) with ``camera``'s uniforms set."""
+    program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/labels.frag", defines or {})
+    set_uniform(program, "camera_position", camera.position.astype("f4"))
+    set_uniform(program, "camera_forward", -camera.view_from_world()[2, :3].astype("f4"))
+    return program
+
+
+def draw_first_surfaces(frame: Frame, camera, targets, programs: dict, materials: list, tiles=None,
+                        samples: int = 1) -> None:
+    """Every object's first surface seen by ``camera`` into ``targets`` (labels.frag's surface, ids and
+    caustic; ``samples`` per pixel): ``programs`` maps receiver (a diffuse object looking the caustics up,
+    key True when given) to its program; ``materials`` the objects' material indices; ``tiles`` the caustic
+    tiles bound per receiver (None: caustic maps or none)."""
+    clip_from_world = camera.clip_from_world()
+    with _drawing(frame, camera.size, targets, samples):
+        for index, obj in enumerate(frame.scene.objects):
+            receiver = True in programs and obj.material.kind == "diffuse"
+            program = programs[receiver]
+            set_uniform(program, "object_id", float(index + 1))
+            set_uniform(program, "material_id", float(materials[index] + 1))
+            set_uniform(program, "glass", float(obj.material.kind == "glass"))
+            if receiver and tiles is not None:
+                bind_receiver_tiles(program, tiles, obj)
+            with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):  # the same nearest surface
+                draw_objects(frame, program, [obj], clip_from_world)
+
+
 @contextmanager
-def _drawing(frame: Frame, size, targets):
-    """A framebuffer over ``targets`` with a scratch depth buffer: cleared to 0, depth tested, no culling."""
-    with frame.scratch(size, "depth") as depth:
+def _drawing(frame: Frame, size, targets, samples: int = 1):
+    """A framebuffer over ``targets`` with a scratch depth buffer (``samples`` per pixel): cleared to 0,
+    depth tested, no culling."""
+    with frame.scratch(size, "depth", samples=samples) as depth:
         fbo = frame.gpu.targets.framebuffer(targets, depth)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)

@@ -6,16 +6,22 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
     from .base import Frame
 
-ANTIALIAS_MODES = ("none", "edge")
+ANTIALIAS_MODES = ("none", "edge", "msaa")
 """``none``: pixels as rendered (k x k supersampling with spp > 1); ``edge``: the post-process edge blend
-(docs/antialiasing.md) after the box filter."""
+(docs/antialiasing.md) after the box filter; ``msaa``: the outlines resolved with multisampled geometry
+coverage (passes/subpixel.py) before the box filter."""
 
 EDGE_SEARCH_STEPS = 12  # 29 pixels each way (steps of 1, 2, 4 and 8 pixels)
 
 
 def resolved(frame: Frame, texture, k: int, antialias: str = "none"):
-    """``texture`` (rgba32f, k times the output size) as the output's pixels: averaged over k x k blocks,
-    then edge anti-aliased when ``antialias`` is ``edge``. New textures are lent to ``frame``."""
+    """``texture`` (rgba32f, k times the output size) as the output's pixels: its outlines resolved with
+    multisampled coverage when ``antialias`` is ``msaa``, averaged over k x k blocks, then edge
+    anti-aliased when ``antialias`` is ``edge``. New textures are lent to ``frame``."""
+    if antialias == "msaa":
+        from .subpixel import reconstructed
+
+        texture = reconstructed(frame, texture, frame.texture(texture.size, "rgba32f"))
     if k > 1:
         texture = _fullscreen(frame, texture, "passes/box_downsample.frag", {"K": int(k)}, k)
     if antialias == "edge":
