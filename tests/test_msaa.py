@@ -183,3 +183,29 @@ def test_cli_renders_with_msaa_and_refuses_without_multisampling(tmp_path, capsy
                             "msaa"], capsys)
     assert_one_line_error(code, err, "antialias 'msaa' needs 4 samples per pixel", "use antialias 'edge' or spp 4")
     assert not (tmp_path / "no.png").exists()
+
+
+def test_its_targets_count_in_the_frame_memory_estimate():
+    """msaa adds an rg32f target (8 bytes), a 4-sample one (32) and a 4-sample 32-bit depth buffer (16): 56 bytes
+    a sample (spp 4 at 320x240: 640x480 samples); edge and none add nothing."""
+    from caustica import frame_limits
+
+    for size, spp, samples in (((96, 64), 1, 96 * 64), ((320, 240), 4, 640 * 480)):
+        plain = frame_limits.target_bytes(size, spp)
+        assert frame_limits.target_bytes(size, spp, "msaa") - plain == 56 * samples
+        assert frame_limits.target_bytes(size, spp, "edge") == plain == frame_limits.BYTES_PER_SAMPLE * samples
+
+
+def test_a_frame_that_fits_only_without_msaa_is_refused_with_it(monkeypatch):
+    """The renderer checks the estimate with the frame's antialias mode, before it draws: a budget that holds
+    the frame's targets, its one shadow map (64^2 texels of 8 bytes) and half of msaa's 56 bytes a sample."""
+    from caustica import frame_limits
+
+    scene = caustica.load_scene("glass-sphere")
+    budget = (frame_limits.BYTES_PER_SAMPLE + 28) * SIZE[0] * SIZE[1] + 64 * 64 * 8
+    monkeypatch.setattr(frame_limits, "MEMORY_BUDGET", budget)
+    with Renderer(SIZE) as renderer:
+        assert renderer.render(scene, "plain", shadow_map_size=64).shape == (SIZE[1], SIZE[0], 3)
+        with pytest.raises(RenderOptionError, match=r"^a 96x64 frame at 1 spp \(1x1 samples a pixel\) "
+                                                    r"with msaa needs about .* above the GL memory budget"):
+            renderer.render(scene, "plain", antialias="msaa", shadow_map_size=64)

@@ -3,7 +3,8 @@ texture sides. Pure arithmetic (no GL calls): the renderer passes the GL's limit
 
 The memory figure is an estimate, not an account of every allocation: ``BYTES_PER_SAMPLE`` for the
 camera-sized targets at the supersampled size (colour, depth, normals and the technique's channels,
-a few rgba16f/rgba32f textures) plus, per light sample, each square map a technique's parameters ask
+a few rgba16f/rgba32f textures), with ``antialias="msaa"`` the targets passes/subpixel.py adds (their
+formats' bytes), plus, per light sample, each square map a technique's parameters ask
 for (six faces for point lights: cube maps). Above ``MEMORY_BUDGET`` the frame is refused with the
 figure; on a GPU with more memory raise ``caustica.frame_limits.MEMORY_BUDGET``.
 """
@@ -54,16 +55,35 @@ def light_faces(scene) -> int:
     return max(faces, 1)
 
 
-def check_frame_memory(size: tuple[int, int], spp: int, params, scene, budget: int | None = None) -> None:
+def antialias_bytes(antialias: str) -> int:
+    """Bytes per sample the ``antialias`` mode's own targets add to a frame (``msaa``: passes/subpixel.TARGETS)."""
+    if antialias != "msaa":
+        return 0
+    from .gpu.targets import format_bytes
+    from .passes.subpixel import TARGETS
+
+    return sum(format_bytes(fmt, samples) for fmt, samples in TARGETS)
+
+
+def target_bytes(size: tuple[int, int], spp: int, antialias: str = "none") -> int:
+    """The estimated bytes of a ``size`` frame's camera-sized render targets at ``spp`` with ``antialias``."""
+    width, height = size
+    k = supersampling_factor(spp)
+    return width * height * k * k * (BYTES_PER_SAMPLE + antialias_bytes(antialias))
+
+
+def check_frame_memory(size: tuple[int, int], spp: int, params, scene, budget: int | None = None,
+                       antialias: str = "none") -> None:
     """RenderOptionError when the frame's render targets and maps would need more than the budget."""
     budget = MEMORY_BUDGET if budget is None else budget
     width, height = size
     k = supersampling_factor(spp)
-    targets = width * height * k * k * BYTES_PER_SAMPLE
+    targets = target_bytes(size, spp, antialias)
     if targets > budget:
         raise RenderOptionError(
-            f"a {width}x{height} frame at {spp} spp ({k}x{k} samples a pixel) needs about {_gib(targets)} of render "
-            f"targets, above the GL memory budget of {_gib(budget)}; use a smaller size or fewer samples")
+            f"a {width}x{height} frame at {spp} spp ({k}x{k} samples a pixel){' with msaa' if antialias == 'msaa' else ''} "
+            f"needs about {_gib(targets)} of render targets, above the GL memory budget of {_gib(budget)}; use a "
+            "smaller size or fewer samples")
     faces = light_faces(scene)
     for name, side in _map_sides(params).items():
         maps = side * side * MAP_BYTES_PER_TEXEL[name] * faces

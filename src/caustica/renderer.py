@@ -116,7 +116,7 @@ class Renderer:
         self._check_size(camera.size, spp, tech.uses_gl)
         check_spp(tech, spp)
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
-        self._check_frame(tech, scene, camera, parameters, spp)
+        self._check_frame(tech, scene, camera, parameters, spp, antialias)
         if names is not None:
             check_technique_gives(tech, names)
         if antialias == "msaa" and tech.uses_gl:
@@ -236,10 +236,11 @@ class Renderer:
             self._kept.give_back()
         self._kept, self.channels = None, {}
 
-    def _check_frame(self, tech, scene: Scene, camera, parameters, spp: int) -> None:
-        """A rasterized frame's memory, map sides and environment texture within this GL's limits."""
+    def _check_frame(self, tech, scene: Scene, camera, parameters, spp: int, antialias: str = "none") -> None:
+        """A rasterized frame's memory (``antialias``'s targets included), map sides and environment texture
+        within this GL's limits."""
         if tech.uses_gl:
-            frame_limits.check_frame_memory(camera.size, spp, parameters, scene)
+            frame_limits.check_frame_memory(camera.size, spp, parameters, scene, antialias=antialias)
             frame_limits.check_map_sides(parameters, scene, self.device.max_texture_size)
             frame_limits.check_environment_texture(scene.environment, self.device.max_texture_size)
 

@@ -124,6 +124,12 @@ class TargetPool:
         self._free.clear()
 
 
+def format_bytes(fmt: str, samples: int = 1) -> int:
+    """Bytes a pixel of a target of format ``fmt`` (FORMATS) with ``samples`` samples holds."""
+    components, dtype = FORMATS[fmt]
+    return components * BYTES_PER_COMPONENT[dtype] * max(1, samples)
+
+
 def texture_bytes(texture) -> int:
     """Bytes of a pooled texture's storage."""
     return (texture.width * texture.height * texture.components * max(1, texture.samples)

@@ -20,6 +20,10 @@ from .labels import draw_first_surfaces, label_program
 
 SAMPLES = 4  # geometry samples per pixel (llvmpipe's GL_MAX_SAMPLES is 4)
 DEPTH_TOLERANCE = 0.02  # centres whose depth is this fraction of the sample's within the best match tie
+GEOMETRY = "rg32f"  # what each centre and sample saw: object id, view depth
+# The targets the reconstruction adds to a frame's, as (format, samples): its one-sample scratch depth and its
+# rgba32f output reuse targets of those formats that the technique's graph gave back (frame_limits counts these).
+TARGETS = ((GEOMETRY, 1), (GEOMETRY, SAMPLES), ("depth", SAMPLES))
 
 
 def check_multisampling(gpu) -> None:
@@ -39,8 +43,8 @@ def reconstructed(frame: Frame, color, out):
     check_multisampling(frame.gpu)
     camera, materials = frame.camera, material_indices(frame.scene)
     program = {False: label_program(frame, camera, {"ID_DEPTH": 1})}
-    centres = frame.texture(camera.size, "rg32f")
-    samples = frame.texture(camera.size, "rg32f", SAMPLES)
+    centres = frame.texture(camera.size, GEOMETRY)
+    samples = frame.texture(camera.size, GEOMETRY, SAMPLES)
     draw_first_surfaces(frame, camera, [centres], program, materials)
     draw_first_surfaces(frame, camera, [samples], program, materials, samples=SAMPLES)
     resolve = frame.gpu.shaders.program("passes/fullscreen.vert", "passes/subpixel_resolve.frag",
