@@ -354,6 +354,7 @@ BAD_SWEEPS = [
     ("[objects.spere]\nior = 1.4\n", "no object 'spere'", "did you mean 'sphere'"),
     ("[objects.sphere]\nior = { uniform = [1.2, 20] }\n", "objects.sphere.ior = 20", "ior"),
     ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
+    ("antialias = 'fxaa'\n", "antialias 'fxaa' is unknown", "choose one of none, edge, msaa"),
     # An exporter's dotted name (Blender's Sphere.001) unquoted: TOML reads a table '001' in object 'Sphere'.
     ("[objects.sphere.001]\nior = 1.4\n", "read as object 'sphere' with a table '001'", '[objects."sphere.001"]'),
     # A relative image path is resolved against the sweep file's folder, and the error says so.
@@ -367,6 +368,34 @@ def test_bad_sweep_files_are_one_line_errors(tmp_path, capsys, body, problem, fi
     code, err = run_cli(["batch", str(sweep), "-o", str(tmp_path / "out")], capsys)
     assert code == 2 and err.count("\n") == 1 and err.startswith("caustica: "), err
     assert problem in err and fix in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_antialias_msaa_frames_are_the_renderers(tmp_path):
+    """``antialias`` (argument or sweep setting) renders each frame as ``Renderer.render(..., antialias=...)``
+    does, and is part of the job's description (another value is another job)."""
+    from caustica.images import read_image
+
+    with caustica.Renderer(SIZE) as renderer:
+        scene = caustica.load_scene("door-mirror")
+        expected = renderer.render(scene, "plain", 1, antialias="msaa")
+        assert not np.allclose(expected, renderer.render(scene, "plain", 1), atol=1e-3)  # msaa changes the frame
+    rows = caustica.batch("door-mirror", tmp_path / "api", 1, antialias="msaa", image_format="exr", **FAST)
+    sweep = write_sweep(tmp_path, "scene = 'door-mirror'\nantialias = 'msaa'\nimage_format = 'exr'\n"
+                                  "technique = 'plain'\nsize = [48, 36]\n")
+    swept = caustica.batch(sweep, tmp_path / "sweep")
+    for folder, row in ((tmp_path / "api", rows[0]), (tmp_path / "sweep", swept[0])):
+        assert np.allclose(read_image(folder / row["files"]["image"]), expected, atol=1e-3)
+        assert json.loads((folder / "job.json").read_text())["job"]["antialias"] == "msaa"
+    with pytest.raises(caustica.CausticaError, match="another job"):
+        caustica.batch("door-mirror", tmp_path / "api", 1, antialias="edge", image_format="exr", **FAST)
+
+
+def test_a_bad_antialias_is_refused_before_any_frame(tmp_path, capsys):
+    code, err = run_cli(["batch", "glass-sphere", "-o", str(tmp_path / "out"), "--antialias", "fxaa"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "invalid choice: 'fxaa'" in err and "msaa" in err, err
+    with pytest.raises(caustica.CausticaError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa$"):
+        caustica.batch("glass-sphere", tmp_path / "out", 1, antialias="fxaa")
     assert not (tmp_path / "out").exists()
 
 

@@ -377,6 +377,8 @@ def _batch_parser(sub) -> None:
                        help="turn the camera about its look_at point, +Y up: frame i of N at i * DEG / N degrees")
     batch.add_argument("--size", type=_size, help="image size WxH (default: the sweep's, else the scene camera's)")
     batch.add_argument("--spp", type=SPP, help="samples per pixel, a square (default: the sweep's, else 1)")
+    batch.add_argument("--antialias", choices=ANTIALIAS_MODES,
+                       help="as 'render --antialias' (default: the sweep's, else none)")
     batch.add_argument("-t", "--technique", help="technique name (default: the sweep's, else auto)")
     _labels_options(batch, "per frame")
     batch.add_argument("--workers", type=_integer(1, 256), help="spawned worker processes, one GL context each, "
@@ -518,7 +520,7 @@ def cmd_batch(args) -> int:
     display = ProgressDisplay()
     try:
         rows = batch(args.scene, args.output, args.frames, orbit=args.orbit, size=args.size, spp=args.spp,
-                     technique=args.technique, labels=args.labels, labels_format=args.labels_format,
+                     antialias=args.antialias, technique=args.technique, labels=args.labels, labels_format=args.labels_format,
                      environment=args.environment, camera=args.camera, workers=args.workers, ray=args.ray,
                      devices=args.devices, force=args.force, progress=display)
     finally:

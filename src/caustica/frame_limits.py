@@ -81,8 +81,8 @@ def check_frame_memory(size: tuple[int, int], spp: int, params, scene, budget: i
     targets = target_bytes(size, spp, antialias)
     if targets > budget:
         raise RenderOptionError(
-            f"a {width}x{height} frame at {spp} spp ({k}x{k} samples a pixel){' with msaa' if antialias == 'msaa' else ''} "
-            f"needs about {_gib(targets)} of render targets, above the GL memory budget of {_gib(budget)}; use a "
+            f"a {width}x{height} frame at {spp} spp ({k}x{k} samples a pixel)"
+            f"{' with msaa' if antialias == 'msaa' else ''} needs about {_gib(targets)} of render targets, above the GL memory budget of {_gib(budget)}; use a "
             "smaller size or fewer samples")
     faces = light_faces(scene)
     for name, side in _map_sides(params).items():

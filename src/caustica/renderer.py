@@ -13,7 +13,7 @@ from .labels import check_labels, check_technique_gives, raster_layers, traced_l
 from .passes.base import Frame
 from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
-from .passes.resolve import ANTIALIAS_MODES, resolved
+from .passes.resolve import check_antialias, resolved
 from .passes.subpixel import check_multisampling
 from .scene import Scene, rules
 from .scene.scene import check_scene, recentred
@@ -278,8 +278,3 @@ class Renderer:
         return self.device.info
 
 
-
-def check_antialias(antialias) -> None:
-    """RenderOptionError unless ``antialias`` is one of ANTIALIAS_MODES."""
-    if antialias not in ANTIALIAS_MODES:
-        raise RenderOptionError(f"antialias {antialias!r} is unknown; choose one of {', '.join(ANTIALIAS_MODES)}")

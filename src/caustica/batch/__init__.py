@@ -11,16 +11,17 @@ import types
 
 
 def batch(scene_or_sweep, out_dir, frames: int | None = None, *, orbit: float | None = None, size=None,
-          spp: int | None = None, technique: str | None = None, labels=None, labels_format: str | None = None,
-          image_format: str | None = None, seed: int | None = None, environment: str | None = None,
-          camera: str | None = None, workers: int | None = None, ray: str | None = None, devices=None,
-          force: bool = False, progress=None) -> list[dict]:
+          spp: int | None = None, antialias: str | None = None, technique: str | None = None, labels=None,
+          labels_format: str | None = None, image_format: str | None = None, seed: int | None = None,
+          environment: str | None = None, camera: str | None = None, workers: int | None = None,
+          ray: str | None = None, devices=None, force: bool = False, progress=None) -> list[dict]:
     """Render ``frames`` frames of a scene (preset, file, Scene) or a sweep file into ``out_dir`` and
     return every frame's manifest row. Finished frames of the same job there are kept; ``progress``
     is called with a :class:`caustica.batch.job.Progress` after each frame. Arguments given win over
     the sweep file's settings; ``workers`` spawned processes (default: 1, this process; one per device
     with ``devices``) placed round robin on the EGL devices ``devices`` (indices, e.g. [0, 1]; default:
-    the machine's GPUs), or a Ray cluster (``ray``: an address or 'local') render. Rows of failed
+    the machine's GPUs), or a Ray cluster (``ray``: an address or 'local') render. ``antialias``: as
+    ``Renderer.render``'s (default ``none``). Rows of failed
     frames hold ``error``."""
     from ..errors import CausticaError
     from .devices import placement
@@ -35,7 +36,7 @@ def batch(scene_or_sweep, out_dir, frames: int | None = None, *, orbit: float | 
     if workers is None:
         workers = len(spread) if devices is not None else 1
     job, base = make_job(scene_or_sweep, out_dir, frames=frames, orbit=orbit, size=size, spp=spp,
-                         technique=technique, labels=labels, labels_format=labels_format,
+                         antialias=antialias, technique=technique, labels=labels, labels_format=labels_format,
                          image_format=image_format, seed=seed, environment=environment, camera=camera)
     return run_job(job, base, workers=workers, ray=ray, devices=spread if devices is not None or workers > 1 else None,
                    force=force, progress=progress)

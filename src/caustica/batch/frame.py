@@ -52,10 +52,11 @@ class FrameWorker:
         scene = self.editor.apply(values)
         start = time.perf_counter()
         if job.labels:
-            image, layers = renderer.render(scene, job.technique, job.spp, labels=list(job.labels))
+            image, layers = renderer.render(scene, job.technique, job.spp, labels=list(job.labels),
+                                            antialias=job.antialias)
             ms = (time.perf_counter() - start) * 1000.0
         else:
-            image, ms = renderer.render_timed(scene, job.technique, job.spp)
+            image, ms = renderer.render_timed(scene, job.technique, job.spp, antialias=job.antialias)
         wrote = time.perf_counter()
         files = job.files(index)
         out = Path(job.out_dir)

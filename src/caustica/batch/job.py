@@ -1,8 +1,8 @@
 """A batch job (what to render, as data) and its run: the frame loop, the manifest and resuming.
 
 A job's key hashes everything its images depend on (the scene's content, the sweep, the frame
-count, size, spp, technique, labels and file names), not how it runs (workers, Ray): a run with the
-same key resumes the folder, another is refused there unless ``force``.
+count, size, spp, antialias, technique, labels and file names), not how it runs (workers, Ray): a run
+with the same key resumes the folder, another is refused there unless ``force``.
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ class Job:
     seed: int = 0
     size: tuple | None = None
     spp: int = 1
+    antialias: str = "none"  # passes/resolve.ANTIALIAS_MODES
     technique: str = "auto"
     labels: tuple = ()
     labels_format: str = "exr"
@@ -69,20 +70,25 @@ class Job:
         from ..reference.render import cache_key
 
         camera = scene.camera if self.size is None else scene.camera.with_size(*self.size)
-        return {"scene": cache_key(scene, camera, self.spp, 0, "batch", False), "frames": self.frames,
-                "seed": self.seed, "spp": self.spp, "technique": self.technique, "labels": list(self.labels),
-                "labels_format": self.labels_format, "image_format": self.image_format, "output": self.output,
-                "variations": [[v.key, v.mode, list(v.values)] for v in self.variations]}
+        description = {"scene": cache_key(scene, camera, self.spp, 0, "batch", False), "frames": self.frames,
+                       "seed": self.seed, "spp": self.spp, "technique": self.technique, "labels": list(self.labels),
+                       "labels_format": self.labels_format, "image_format": self.image_format,
+                       "output": self.output, "variations": [[v.key, v.mode, list(v.values)] for v in self.variations]}
+        if self.antialias != "none":  # left out when off: folders of jobs from before the option keep their key
+            description["antialias"] = self.antialias
+        return description
 
 
 def job_key(description: dict) -> str:
     return hashlib.sha1(json.dumps(description, sort_keys=True).encode()).hexdigest()[:20]
 
 
-def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp=None, technique=None, labels=None,
-             labels_format=None, image_format=None, seed=None, environment=None, camera=None):
+def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp=None, antialias=None,
+             technique=None, labels=None, labels_format=None, image_format=None, seed=None, environment=None,
+             camera=None):
     """The Job for a scene (preset, scene file, glTF, Scene) or a sweep file, and its base scene, checked
     up front: SceneError, TechniqueError or OutputError in one line. Arguments given win over the sweep's."""
+    from ..passes.resolve import check_antialias
     from ..scene.scene import Scene
     from .edits import SceneEditor
     from .sweep import Sweep, is_sweep_file, read_sweep
@@ -91,8 +97,8 @@ def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp
     sweep = read_sweep(source) if isinstance(source, (str, Path)) and is_sweep_file(source) else \
         source if isinstance(source, Sweep) else None
     settings = dict(sweep.settings) if sweep else {}
-    given = {"frames": frames, "size": size, "spp": spp, "technique": technique, "labels": labels,
-             "labels_format": labels_format, "image_format": image_format, "seed": seed}
+    given = {"frames": frames, "size": size, "spp": spp, "antialias": antialias, "technique": technique,
+             "labels": labels, "labels_format": labels_format, "image_format": image_format, "seed": seed}
     settings.update({k: v for k, v in given.items() if v is not None})
     variations = list(sweep.variations) if sweep else []
     if orbit is not None:
@@ -106,6 +112,7 @@ def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp
         environment = str(Path(environment).resolve())
     job = Job(scene=scene, out_dir=str(Path(out_dir).resolve()), frames=_frames(settings.get("frames", 1)),
               seed=int(settings.get("seed", 0)), size=_size(settings.get("size")), spp=int(settings.get("spp", 1)),
+              antialias=check_antialias(settings.get("antialias", "none")),
               technique=settings.get("technique", "auto"), labels=_labels(settings.get("labels", ())),
               labels_format=_choice(settings.get("labels_format", "exr"), LABEL_FORMATS, "labels format"),
               image_format=_choice(settings.get("image_format", "png"), IMAGE_FORMATS, "image format"),

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import SceneError, closest_name, first_line, short
 from ..labels import FORMATS as LABEL_FORMATS
+from ..passes.resolve import ANTIALIAS_MODES
 from ..scene.io import _KIND_TEXT, _convert, _read_toml
 
 NUMBER, VEC3, RGB, SCALE, STRING, MATERIAL = "number", "vec3", "rgb", "numbers3", "string", "material"
@@ -27,8 +28,8 @@ IMAGE_FORMATS = ("png", "exr")
 
 # The keys each table of a sweep file takes, and their kinds.
 SETTINGS = {"scene": STRING, "frames": "integer", "seed": "integer", "size": "size", "spp": "integer",
-            "technique": STRING, "labels": "names", "labels_format": STRING, "image_format": STRING,
-            "output": STRING}
+            "antialias": STRING, "technique": STRING, "labels": "names", "labels_format": STRING,
+            "image_format": STRING, "output": STRING}
 TABLES = ("camera", "objects", "environment", "lights")
 CAMERA_KEYS = {"position": VEC3, "look_at": VEC3, "distance": NUMBER, "elevation": NUMBER, "azimuth": NUMBER,
                "fov_y": NUMBER, "orbit": "orbit", "path": "path"}
@@ -180,7 +181,8 @@ def _setting(key: str, kind: str, value, name: str):
         return tuple(value)
     if not isinstance(value, str):
         raise SceneError(f"{name}: {key} must be a string (got {short(value)})")
-    for option, choices in (("labels_format", LABEL_FORMATS), ("image_format", IMAGE_FORMATS)):
+    for option, choices in (("labels_format", LABEL_FORMATS), ("image_format", IMAGE_FORMATS),
+                            ("antialias", ANTIALIAS_MODES)):
         if key == option and value not in choices:
             raise SceneError(f"{name}: {key} {short(value)} is unknown{closest_name(value, choices)}; "
                              f"choose one of {', '.join(choices)}")

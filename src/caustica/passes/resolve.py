@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..errors import RenderOptionError, short
+
 if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
     from .base import Frame
 
@@ -10,6 +12,14 @@ ANTIALIAS_MODES = ("none", "edge", "msaa")
 """``none``: pixels as rendered (k x k supersampling with spp > 1); ``edge``: the post-process edge blend
 (docs/antialiasing.md) after the box filter; ``msaa``: the outlines resolved with multisampled geometry
 coverage (passes/subpixel.py) before the box filter."""
+
+
+def check_antialias(antialias) -> str:
+    """``antialias`` when it is one of ANTIALIAS_MODES; RenderOptionError otherwise."""
+    if antialias not in ANTIALIAS_MODES:
+        raise RenderOptionError(f"antialias {short(antialias)} is unknown; choose one of {', '.join(ANTIALIAS_MODES)}")
+    return antialias
+
 
 EDGE_SEARCH_STEPS = 12  # 29 pixels each way (steps of 1, 2, 4 and 8 pixels)
 
