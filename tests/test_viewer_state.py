@@ -1,6 +1,7 @@
 """The viewer's editing model (``ViewerState``) with no display, no window and no GL context."""
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
@@ -244,6 +245,67 @@ def test_panels_and_spp():
     with pytest.raises(TechniqueError, match="spp 3 is not a square"):
         state.set_spp(3)
     assert state.spp == 4 and state.state_version == 1
+
+
+def test_antialias_is_a_checked_render_setting():
+    """``antialias`` (Renderer.render's modes) is "none" unless asked; a change re-renders (bumps the version),
+    the A key cycles none, edge, msaa; a bad mode is Renderer.render's one-line error, the mode kept."""
+    from caustica.errors import RenderOptionError
+
+    state = state_of("glass-sphere")
+    assert state.antialias == "none" and state_of("glass-sphere", antialias="msaa").antialias == "msaa"
+    state.set_antialias("msaa")
+    assert state.antialias == "msaa" and state.state_version == 1
+    with pytest.raises(RenderOptionError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa$"):
+        state.set_antialias("fxaa")
+    assert state.antialias == "msaa" and state.state_version == 1
+    seen = []
+    for _ in range(3):
+        state.cycle_antialias()
+        seen.append(state.antialias)
+    assert seen == ["none", "edge", "msaa"] and state.state_version == 4
+    with pytest.raises(RenderOptionError, match="antialias 'smaa' is unknown"):
+        state_of("glass-sphere", antialias="smaa")
+
+
+def test_a_bad_antialias_is_refused_before_a_window_opens(monkeypatch):
+    from caustica.errors import RenderOptionError
+    from caustica.viewer import Viewer
+    from caustica.viewer.app import EVENTS
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RenderOptionError, match="antialias 'fxaa' is unknown"):  # not "no display found"
+        Viewer(caustica.load_scene("glass-sphere"), "env-map", antialias="fxaa")
+    viewer = Viewer.__new__(Viewer)
+    viewer.state = state_of("glass-sphere")
+    EVENTS["antialias"](viewer, "edge")
+    assert viewer.antialias == viewer.state.antialias == "edge"
+
+
+@pytest.mark.parametrize("antialias, spp", [("msaa", 1), ("edge", 1), ("msaa", 4)])
+def test_the_live_view_is_the_renderers_antialiased_image(antialias, spp):
+    """The viewer's raster frame with ``antialias`` (a headless device) shows Renderer.render's image of
+    the same view with that mode, resolved to the view's size."""
+    from caustica.gpu.device import GpuDevice
+    from caustica.gpu.readback import read_rgb
+    from caustica.viewer.frames import LiveRenderer
+
+    scene = caustica.load_scene("door-mirror")
+    camera = scene.camera.with_size(48, 36)
+    device = GpuDevice()
+    live = LiveRenderer(device)
+    try:
+        image = live.render("main", scene, camera, "plain", {}, spp, antialias=antialias)
+        shown = read_rgb(image.color)
+        assert image.supersampling == 1 and tuple(image.color.size) == (48, 36)
+        view = dataclasses.replace(scene, camera=camera)
+        expected = live.renderer.render(view, "plain", spp, antialias=antialias)
+        np.testing.assert_allclose(shown, expected, atol=1e-6)
+        assert not np.allclose(expected, live.renderer.render(view, "plain", spp), atol=1e-3)
+    finally:
+        live.release()
+        device.release()
 
 
 def test_the_viewer_reads_and_edits_its_state_under_the_old_names():

@@ -265,6 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="auto: the highest quality whose frame time here fits MS milliseconds (measured, cached)")
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
+    view.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
+                      help="as 'render --antialias' (the A key and the panel switch it)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
     view.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                       help="tone curve after the exposure, of the view and PNG screenshots: clip (default) or filmic "
@@ -277,7 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--script", metavar="FILE",
                       help="a JSON file holding a list of [event, args...] lists, applied in order, one a frame "
                            "([\"wait\", N] takes N frames), e.g. [[\"orbit\", 40, 0], [\"technique\", \"depth-search\"], "
-                           "[\"param\", \"iterations\", 3], [\"wait\", 10], [\"screenshot\", \"a.png\"]]; events: close, "
+                           "[\"param\", \"iterations\", 3], [\"wait\", 10], [\"screenshot\", \"a.png\"]]; events: antialias, close, "
                            "drag_light, exposure, frame, inspect, light, material, object_technique, orbit, overlay, pan, "
                            "panel, param, play, reset, screenshot, screenshot_window, side_by_side, spp, technique, time, "
                            "tonemap, wait, zoom; the window closes once the script and --frames are both done "
@@ -542,7 +544,8 @@ def cmd_view(args) -> int:
     from .viewer import Viewer
 
     viewer = Viewer(scene, args.technique, _with_quality(args), size=args.size, spp=args.spp, exposure=args.exposure,
-                    panel=not args.no_panel, fixed_step=args.frames is not None, tonemap=args.tonemap)
+                    panel=not args.no_panel, fixed_step=args.frames is not None, tonemap=args.tonemap,
+                    antialias=args.antialias)
     try:
         viewer.play(args.play)
         viewer.run(args.frames, script)

@@ -86,6 +86,7 @@ class Viewer:
     technique = _StateField()
     params = _StateField()
     spp = _StateField()
+    antialias = _StateField()
     exposure = _StateField()
     tonemap = _StateField()
     second = _StateField()
@@ -106,10 +107,11 @@ class Viewer:
 
     def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, size=None,
                  spp: int = 1, exposure: float = 0.0, panel: bool = True, overlay: bool = True,
-                 title: str | None = None, fixed_step: bool = False, tonemap: str = "clip"):
-        # Validates the technique, parameters, spp and tone curve before a window opens.
+                 title: str | None = None, fixed_step: bool = False, tonemap: str = "clip",
+                 antialias: str = "none"):
+        # Validates the technique, parameters, spp, tone curve and anti-aliasing before a window opens.
         self.state = ViewerState(scene, technique, params, spp, exposure, panel, overlay,
-                                 viewport=lambda: self.layout()[0][2:], tonemap=tonemap)
+                                 viewport=lambda: self.layout()[0][2:], tonemap=tonemap, antialias=antialias)
         self.profile, self.fixed_step = False, fixed_step
         self.pass_gl_errors: set[str] = set()  # GL errors the technique's passes left (reported, not raised)
         self.frame_index, self.frame_ms = 0, deque(maxlen=60)
@@ -271,7 +273,7 @@ class Viewer:
     def _render(self, slot: str, technique: str, params: dict, camera) -> LiveImage:
         try:
             image = self.live.render(slot, self.scene, camera, technique, params, self.spp, self.profile,
-                                     state_key=(self.state_version, self.time))
+                                     state_key=(self.state_version, self.time), antialias=self.antialias)
         except CausticaError as exc:
             self.error = f"{technique}: {exc}"
             return LiveImage(technique, error=str(exc))
@@ -315,7 +317,7 @@ class Viewer:
         mode = auto_mode(self.inspect, texture) if self.inspect_mode == "auto" else self.inspect_mode
         if mode == "range" and self.inspect_auto and self.frame_index % 10 == 0:
             self.inspect_range = value_range(texture)
-        k = self.main.supersampling if tuple(texture.size) == tuple(self.main.color.size) else 1
+        k = max(1, texture.size[0] // max(1, rect[2]))  # the frame's k x k samples (display letterboxes a misfit)
         self.display.draw(texture, rect, mode, self.exposure, k, self.inspect_range, tonemap=self.tonemap)
 
     def _advance_animation(self) -> None:
@@ -361,6 +363,8 @@ class Viewer:
     set_technique = _forward(ViewerState.set_technique)
     set_param = _forward(ViewerState.set_param)
     set_spp = _forward(ViewerState.set_spp)
+    set_antialias = _forward(ViewerState.set_antialias)
+    cycle_antialias = _forward(ViewerState.cycle_antialias)
     set_material = _forward(ViewerState.set_material)
     object_technique = _forward(ViewerState.object_technique)
     set_object_technique = _forward(ViewerState.set_object_technique)
@@ -550,7 +554,7 @@ def _key_table() -> dict:
     return {
         glfw.KEY_F: Viewer.frame_scene, glfw.KEY_R: Viewer.reset_camera, glfw.KEY_TAB: Viewer.toggle_panel,
         glfw.KEY_P: lambda v: v.play(not v.playing), glfw.KEY_I: _cycle_inspector, glfw.KEY_S: _screenshot_key,
-        glfw.KEY_O: lambda v: setattr(v, "show_overlay", not v.show_overlay),
+        glfw.KEY_O: lambda v: setattr(v, "show_overlay", not v.show_overlay), glfw.KEY_A: Viewer.cycle_antialias,
         glfw.KEY_ESCAPE: lambda v: v.glfw.set_window_should_close(v.window, True),
         glfw.KEY_Q: lambda v: v.glfw.set_window_should_close(v.window, True),
     }
@@ -565,7 +569,7 @@ EVENTS = {
     "inspect": Viewer.set_inspect, "side_by_side": Viewer.set_side_by_side,
     "exposure": lambda v, value: setattr(v, "exposure", float(value)),
     "tonemap": lambda v, value: setattr(v, "tonemap", value),
-    "spp": Viewer.set_spp,
+    "spp": Viewer.set_spp, "antialias": Viewer.set_antialias,
     "overlay": lambda v, on=True: setattr(v, "show_overlay", bool(on)),
     "time": Viewer.set_time, "play": Viewer.play, "panel": lambda v, on=True: on != v.show_panel and v.toggle_panel(),
     "screenshot": Viewer.screenshot, "screenshot_window": Viewer.screenshot_window,

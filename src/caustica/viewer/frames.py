@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import first_line
+from ..passes.resolve import resolved
 from ..renderer import Renderer
 from ..techniques import get_technique
 from ..techniques.raster import RasterTechnique
@@ -135,24 +136,28 @@ class LiveRenderer:
         self._jobs: dict[str, dict] = {}  # slot -> CPU render state (thread, key, result)
 
     def render(self, slot: str, scene, camera, technique: str, params: dict, spp: int = 1,
-               profile: bool = False, state_key=None) -> LiveImage:
-        """The frame of ``technique`` for ``slot`` ('main', 'second'); ``state_key`` names the view for CPU reuse."""
+               profile: bool = False, state_key=None, antialias: str = "none") -> LiveImage:
+        """The frame of ``technique`` for ``slot`` ('main', 'second'); ``state_key`` names the view for CPU reuse;
+        ``antialias`` as ``Renderer.render``'s (CPU techniques ignore it)."""
         tech = get_technique(technique)
         tech, parameters = self.renderer.resolve(tech, scene, camera, tech.make_params(**params), spp)
         if isinstance(tech, RasterTechnique):
-            return self._render_raster(slot, tech, scene, camera, parameters, spp, profile)
+            return self._render_raster(slot, tech, scene, camera, parameters, spp, profile, antialias)
         return self._render_cpu(slot, technique, tech.name, scene, camera, params, spp, state_key)
 
-    def _render_raster(self, slot, tech, scene, camera, parameters, spp, profile) -> LiveImage:
+    def _render_raster(self, slot, tech, scene, camera, parameters, spp, profile, antialias="none") -> LiveImage:
         self._give_back(slot)
         start = time.perf_counter()
         self.renderer.profile_passes = profile
         frame = self._frames[slot] = self.renderer.render_frame(tech, scene, camera, parameters, spp)
+        k = frame.camera.size[0] // camera.size[0]
+        color = frame.read("color")
+        if antialias != "none":  # resolved as Renderer.render resolves it: at the view's size
+            color, k = resolved(frame, color, k, antialias), 1
         if profile:
             self.device.finish()
         elapsed = (time.perf_counter() - start) * 1000.0
-        k = frame.camera.size[0] // camera.size[0]
-        return LiveImage(tech.name, frame.read("color"), k, dict(frame.channels), dict(frame.pass_ms or {}), elapsed)
+        return LiveImage(tech.name, color, k, dict(frame.channels), dict(frame.pass_ms or {}), elapsed)
 
     def _render_cpu(self, slot, technique, resolved, scene, camera, params, spp, state_key) -> LiveImage:
         # Start a worker for a new view (a stale one stops after its stage); show the last image meanwhile.

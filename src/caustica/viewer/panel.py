@@ -11,6 +11,7 @@ import statistics
 import numpy as np
 
 from ..images import TONEMAPS
+from ..passes.resolve import ANTIALIAS_MODES
 from ..techniques import get_technique, technique_names
 from .display import MODES
 from .frames import channel_textures
@@ -26,8 +27,8 @@ LABEL_SPACING = 4.0  # style.item_inner_spacing.x: between a widget and its labe
 WINDOW_PADDING, SCROLLBAR, INDENT = 8.0, 14.0, 21.0  # style.window_padding.x, scrollbar_size, indent_spacing
 MIN_WIDGET_WIDTH = 110.0  # the narrowest a widget gets, at one tree level under a scrollbar
 # Labels of the panel's own widgets whose label sits right of the item width (the parameters' come from them).
-FIXED_LABELS = ("technique", "spp", "exposure", "tonemap", "time", "fov y", "distance", "channel", "view as",
-                "range", "second", "gain", "file")
+FIXED_LABELS = ("technique", "spp", "antialias", "exposure", "tonemap", "time", "fov y", "distance", "channel",
+                "view as", "range", "second", "gain", "file")
 OWN_EDITORS = ("techniques", "technique_params")  # per-object's parameters: edited per object and per technique
 
 
@@ -169,6 +170,9 @@ def draw_panel(viewer) -> None:
     if changed:
         viewer.spp = spp
         viewer.changed()
+    changed, antialias = _combo(imgui, "antialias", viewer.antialias, ANTIALIAS_MODES)
+    if changed:
+        viewer.set_antialias(antialias)
     changed, viewer.exposure = imgui.drag_float("exposure", viewer.exposure, 0.05, -10.0, 10.0, "%.2f")
     changed, tonemap = _combo(imgui, "tonemap", viewer.tonemap, TONEMAPS)
     if changed:

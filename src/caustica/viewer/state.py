@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import CausticaError
 from ..images import TONEMAPS
+from ..passes.resolve import ANTIALIAS_MODES, check_antialias
 from ..scene import Scene
 from ..techniques.base import check_spp, get_technique
 from .display import auto_mode, value_range
@@ -62,10 +63,11 @@ class ViewerState:
 
     def __init__(self, scene: Scene, technique: str = "auto", params: dict | None = None, spp: int = 1,
                  exposure: float = 0.0, panel: bool = True, overlay: bool = True, viewport=None,
-                 tonemap: str = "clip"):
+                 tonemap: str = "clip", antialias: str = "none"):
         chosen = get_technique(technique)
         chosen.make_params(**(params or {}))  # fail on bad input before opening a window
         check_spp(chosen, int(spp))
+        self.antialias = check_antialias(antialias)  # as Renderer.render's (passes/resolve.ANTIALIAS_MODES)
         self.tonemap = tonemap  # the PNG tone curve (images.TONEMAPS) of the views and screenshots; checked
         self.scene = scene
         self.orbit = OrbitCamera(scene.camera)
@@ -184,6 +186,15 @@ class ViewerState:
         check_spp(get_technique(self.technique), int(value))
         self.spp = int(value)
         self.changed()
+
+    def set_antialias(self, value: str) -> None:
+        """Anti-aliasing of both views, as ``Renderer.render``'s (a RenderOptionError for an unknown mode)."""
+        self.antialias = check_antialias(value)
+        self.changed()
+
+    def cycle_antialias(self) -> None:
+        """The next anti-aliasing mode (none, edge, msaa, none...): the A key."""
+        self.set_antialias(ANTIALIAS_MODES[(ANTIALIAS_MODES.index(self.antialias) + 1) % len(ANTIALIAS_MODES)])
 
     def set_side_by_side(self, technique: str | None, difference: bool = False) -> None:
         """Show ``technique`` beside the main one (None: back to one view); ``difference`` shows |a - b| instead."""
