@@ -474,6 +474,22 @@ def test_cli_view_tonemap_filmic_screenshot(display, tmp_path):
     assert np.abs(shot - to_srgb8(reference, 1.0, "filmic").astype(np.int16)).max() <= 1
 
 
+def test_cli_view_antialias_msaa_screenshot_is_the_renderers(display, tmp_path):
+    """``caustica view --antialias msaa``: the view (its EXR screenshot) is Renderer.render's msaa image."""
+    from caustica.images import read_image
+
+    env = {**os.environ, "DISPLAY": display}
+    done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "door-mirror", "-t", "plain", "--frames", "2",
+                           "--size", "96x80", "--antialias", "msaa", "--screenshot", str(tmp_path / "view.exr")],
+                          env=env, check=False, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    with caustica.Renderer((96, 80)) as renderer:
+        scene = caustica.load_scene("door-mirror")
+        reference = renderer.render(scene, "plain", antialias="msaa")
+        assert np.abs(reference - renderer.render(scene, "plain")).max() > 0.05  # msaa changes the frame
+    assert np.abs(read_image(tmp_path / "view.exr") - reference).max() < 1e-3
+
+
 def test_cli_view_bad_tonemap_is_one_line():
     done = subprocess.run([sys.executable, "-m", "caustica.cli", "view", "glass-sphere", "--tonemap", "aces"],
                           check=False, capture_output=True, text=True, timeout=120)
