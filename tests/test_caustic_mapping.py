@@ -216,3 +216,39 @@ def test_parameters_are_validated():
     composite = get_technique("depth-search+caustic-mapping")
     view, caustic = composite.make_params(shadow_map_size=256, map_size=64)
     assert view.shadow_map_size == caustic.shadow_map_size == 256
+
+
+def slab_with_an_opening(hole: float = 0.25) -> sc.SceneObject:
+    """A glass slab 1 x 0.5 x 1 centred 1 above the floor whose bottom face has a ``hole`` x ``hole`` square
+    opening in its middle (a scanned mesh's hole: small against the mesh, so a solid for the caustic passes)."""
+    from caustica.scene.mesh import Mesh
+    from caustica.scene.shapes import box
+
+    shell = box((1.0, 0.5, 1.0))
+    keep = np.ones(len(shell.faces), bool)
+    keep[6:8] = False  # the bottom face (axis y, sign -1) of box()'s six
+    bottom = plane((1.0, 1.0), resolution=8)
+    centre = bottom.vertices[bottom.faces].mean(axis=1)
+    bottom_faces = bottom.faces[(np.abs(centre[:, 0]) > hole / 2) | (np.abs(centre[:, 2]) > hole / 2)][:, ::-1]
+    vertices = np.concatenate([shell.vertices, bottom.vertices - [0.0, 0.25, 0.0]])
+    normals = np.concatenate([shell.normals, -bottom.normals])
+    faces = np.concatenate([shell.faces[keep], bottom_faces + len(shell.vertices)])
+    return sc.SceneObject("slab", Mesh(vertices, normals, faces, name="slab-with-an-opening"), sc.Glass(ior=1.5),
+                          Transform(position=[0.0, 1.0, 0.0]))
+
+
+def test_light_leaves_a_solid_through_its_opening(keeper):
+    # Straight down through the slab: one interface where the light leaves through the opening, E (1 - F0),
+    # two under the glass bottom, E (1 - F0)^2 (F0 = 0.04 at IOR 1.5). The photons over the opening used
+    # to be dropped (no back face behind them): a dark square in the caustic.
+    from caustica.passes.casters import CASTER_SOLID, caster_code
+
+    scene = ball_scene()
+    scene.objects[0] = slab_with_an_opening()
+    assert caster_code(scene.objects[0]) == CASTER_SOLID
+    e, x, z, _ = caustic_map(keeper, scene, map_size=128)
+    f0 = fresnel_dielectric(1.0, 1.0, 1.5)
+    under_opening = (np.abs(x) < 0.09) & (np.abs(z) < 0.09)
+    under_glass = (np.abs(x) > 0.2) & (np.abs(x) < 0.4) & (np.abs(z) < 0.4)
+    assert np.mean(e[under_opening], axis=0) == pytest.approx(np.full(3, E * (1.0 - f0)), rel=0.02)
+    assert np.mean(e[under_glass], axis=0) == pytest.approx(np.full(3, E * (1.0 - f0) ** 2), rel=0.02)

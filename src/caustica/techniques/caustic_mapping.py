@@ -24,7 +24,9 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    normal texture; total internal reflection at the exit drops the photon);
    one interface for open meshes (water surfaces: the photon continues to the
    receiver; a mesh with small holes, a scanned model, is closed:
-   ``casters.caster_code``); a single specular bounce off Mirror objects (reflective caustics).
+   ``casters.caster_code``), and where a closed one's texel, inside its silhouette, has no back
+   face behind it (light leaving through a scanned model's hole: 18 percent of the caustic under the
+   Stanford bunny); a single specular bounce off Mirror objects (reflective caustics).
    Beer-Lambert e^(-sigma_a d) over the inside distance (or, for one surface,
    the distance to the receiver; III-E eq. 7). RGB dispersion: where a glass
    has ``ior_rgb`` that differ, three photons per texel, one per channel.

@@ -105,6 +105,20 @@ float exit_distance(vec3 p1, vec3 t1, float f0, float dv) {
     return miss_hi ? lo : lo - flo * (hi - lo) / (fhi - flo);
 }
 
+// Whether the 3 x 3 texels around s see caster id: s lies inside its silhouette from the light, not on
+// the rim (where the front- and back-face rasterizations may differ by a texel).
+bool inside_silhouette(ivec2 s, int id) {
+    ivec2 size = textureSize(front_normal, 0);
+    for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+            ivec2 q = s + ivec2(i, j);
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) return false;
+            if (int(texelFetch(front_normal, q, 0).w + 0.5) - 1 != id) return false;
+        }
+    }
+    return true;
+}
+
 // Trace the photons of caster texel s (its caster id, front point p1, normal fn) carrying `flux` into
 // photons[first ..]; true where one landed.
 bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
@@ -130,10 +144,13 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
         vec3 transmit = vec3(1.0 - fresnel_dielectric(dot(-l, n1), 1.0, eta));
         vec3 o = p1, r = t1;
         float inside = 0.0;
-        if (caster_type[id] == CASTER_SOLID) {
+        // A solid's opening (a scanned mesh's hole): inside the silhouette, no back face behind the front
+        // face along the light. The light leaves through it as through a single surface.
+        vec4 back = texelFetch(back_position, s, 0);
+        bool opening = caster_type[id] == CASTER_SOLID && back.a <= 0.0;
+        if (opening && !inside_silhouette(s, id)) continue;  // the rim: a back face the rasterizer missed
+        if (caster_type[id] == CASTER_SOLID && !opening) {
             // Exit point: P2 = P1 + d T1, d from d_V refined against the back faces; N2 from the back buffer.
-            vec4 back = texelFetch(back_position, s, 0);
-            if (back.a <= 0.0) continue;
             float dv = max(back.a - front.a, 0.0);
             float d = exit_iterations > 0 ? exit_distance(p1, t1, front.a - back.a, dv) : dv;
             vec3 p2 = p1 + d * t1;
@@ -155,8 +172,8 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
         }
         vec4 hit = land(o, r, first + c);
         if (hit.w <= 0.0) continue;
-        // Beer-Lambert: through the solid, or from a single surface (water) down to the receiver.
-        if (caster_type[id] == CASTER_SURFACE) inside = length(hit.xyz - o);
+        // Beer-Lambert: through the solid, or from a single surface (water, an opening) down to the receiver.
+        if (caster_type[id] == CASTER_SURFACE || opening) inside = length(hit.xyz - o);
         vec3 absorbed = exp(-caster_sigma[id] * inside);
         photons[first + c] = Photon(hit, vec4(flux * transmit * absorbed * mask, 0.0));
         landed = true;
