@@ -50,14 +50,15 @@ def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
     return rows
 
 
-def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, log=print) -> list[dict]:
+def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, repeats=1, log=print) -> list[dict]:
     """Mitsuba's error against time on this machine, one point per spp in 1, 2, 4, ... ``max_spp``: ``seconds``
     of ``mi.render`` on the composite's scenes loaded once and warmed; ``seconds_caustic`` (when ``caustic``,
     an (H, W) mask, is given), only the renders whose weight reaches those pixels (reference/render.py
     LoadedReference: the light tracer and the environment's path, not the lights' path, on purely diffuse
     pixels); ``end_to_end_seconds``, an uncached ``render_reference`` (export, load and every render); and
     ``errors(image)``, a dict. ``seed``: pick one the reference did not use, so its error is not
-    underestimated. ``size`` is (width, height)."""
+    underestimated. ``size`` is (width, height); ``repeats``: LoadedReference.render's (the fastest of
+    that many calls)."""
     from ..reference.render import LoadedReference, render_reference
 
     loaded = LoadedReference(scene, size)
@@ -69,7 +70,7 @@ def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, log=pr
     with steps(len(counts), f"mitsuba {scene.name} time to quality", "spp counts") as bar:
         for spp in counts:
             bar.set_postfix_str(f"{spp} spp")
-            image, seconds = loaded.render(spp, seed=seed)
+            image, seconds = loaded.render(spp, seed=seed, repeats=repeats)
             start = time.perf_counter()
             render_reference(scene, size=size, spp=spp, cache=False, progress=False, seed=seed)
             point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
