@@ -252,3 +252,26 @@ def test_light_leaves_a_solid_through_its_opening(keeper):
     under_glass = (np.abs(x) > 0.2) & (np.abs(x) < 0.4) & (np.abs(z) < 0.4)
     assert np.mean(e[under_opening], axis=0) == pytest.approx(np.full(3, E * (1.0 - f0)), rel=0.02)
     assert np.mean(e[under_glass], axis=0) == pytest.approx(np.full(3, E * (1.0 - f0) ** 2), rel=0.02)
+
+
+def test_photons_leave_through_the_nearest_back_faces(keeper):
+    # The ball over a glass plate 0.1 thick at 0.3 (its top 0.15 under the ball): the light the ball focuses
+    # leaves it through the ball's bottom, crosses the air and passes the plate (4 interfaces). The nearest
+    # back faces follow it out of the ball (then the plate is left out: one caster layer); the farthest
+    # are the plate's bottom, so photons would run on inside "glass" from the ball's top to there and focus
+    # far too tightly. Oracle: the Embree photons (transmitted branches, as the map has), flux within 0.06
+    # and 0.3 of the axis.
+    from caustica.raytrace.photons import trace_photons
+    from caustica.scene.shapes import box
+
+    scene = ball_scene()
+    plate = sc.SceneObject("plate", box((1.6, 0.1, 1.6)), sc.Glass(ior=1.5), Transform(position=[0.0, 0.3, 0.0]))
+    scene.objects = [scene.objects[0], plate, scene.objects[1]]
+    hits = trace_photons(scene, count=400_000, seed=3, branches="transmit", max_depth=4).on(2)
+    r_hits = np.hypot(hits.position[:, 0], hits.position[:, 2])
+    near, x, z, area = caustic_map(keeper, scene, map_size=256)
+    far, *_ = caustic_map(keeper, scene, map_size=256, exit_surface="farthest")
+    for radius, tolerance in ((0.06, 0.2), (0.3, 0.03)):
+        exact = hits.flux[r_hits < radius, 1].sum()
+        assert encircled_flux(near, x, z, area, radius)[1] == pytest.approx(exact, rel=tolerance)
+        assert encircled_flux(far, x, z, area, radius)[1] > 2.0 * exact
