@@ -152,33 +152,43 @@ class LightSurfaces(Pass):
     faces (Wyman's back-face buffer), 'nearest-back' the nearest back faces
     (where light that entered leaves first). Receivers: the diffuse objects'
     front faces; caster fronts: every object (the rest occlude the grid).
+    ``peel`` (a channel of the same kind, same views) keeps only what lies
+    farther from the light than its surface at each texel: with 'front', the
+    glass's second layer of front faces behind its nearest back faces.
     """
 
     reads = ()
 
-    def __init__(self, views: str, channel: str, kinds=("diffuse",), faces: str = "front", coded=("glass", "mirror")):
+    def __init__(self, views: str, channel: str, kinds=("diffuse",), faces: str = "front", coded=("glass", "mirror"),
+                 peel: str | None = None):
         self.views, self.channel, self.kinds, self.faces, self.coded = views, channel, tuple(kinds), faces, tuple(coded)
-        self.reads = (views,)
+        self.peel = peel
+        self.reads = (views,) + ((peel,) if peel else ())
         self.writes = (Channel(channel, "rgba32f x2[light]", f"per light: (position+distance, normal+code) of {faces} "
                                                              f"faces of {'/'.join(self.kinds)} objects"),)
 
     def run(self, frame: Frame) -> None:
-        frame.write(self.channel, [None if v is None else self.render(frame, v) for v in frame.read(self.views)])
+        peels = frame.read(self.peel) if self.peel else [None] * len(frame.read(self.views))
+        frame.write(self.channel, [None if v is None else self.render(frame, v, peel)
+                                   for v, peel in zip(frame.read(self.views), peels)])
 
-    def render(self, frame: Frame, view: LightView):
+    def render(self, frame: Frame, view: LightView, peel=None):
         gpu = frame.gpu
         position, normal = frame.texture(view.atlas_size, "rgba32f"), frame.texture(view.atlas_size, "rgba32f")
         with frame.scratch(view.atlas_size, "depth") as depth:
-            self._draw(frame, view, gpu.targets.framebuffer([position, normal], depth))
+            self._draw(frame, view, gpu.targets.framebuffer([position, normal], depth), peel)
         return position, normal
 
-    def _draw(self, frame: Frame, view: LightView, fbo) -> None:
+    def _draw(self, frame: Frame, view: LightView, fbo, peel=None) -> None:
         gpu, ctx = frame.gpu, frame.gpu.ctx
         fbo.use()
         back, farthest = self.faces != "front", self.faces == "back"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
         program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/caustic_surface.frag",
-                                      {"ALONG_DIRECTION": int(view.sample.type == LIGHT_DIRECTIONAL)})
+                                      {"ALONG_DIRECTION": int(view.sample.type == LIGHT_DIRECTIONAL),
+                                       "PEEL": int(self.peel is not None)})
+        if self.peel is not None:
+            bind_samplers(program, ("peel",), (peel[0],))
         set_uniform(program, "origin", np.asarray(view.sample.position, "f4"))
         set_uniform(program, "direction", np.asarray(view.sample.direction, "f4"))
         ctx.enable(moderngl.DEPTH_TEST)
