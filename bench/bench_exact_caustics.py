@@ -112,11 +112,11 @@ def technique_frames(renderer, scene, spp: int) -> dict:
 
 
 def mitsuba_columns(curve: list[dict], error: float, ms: float) -> str:
-    """Mitsuba's spp, render-only (caustic renders) and end-to-end seconds to reach ``error``, each with its
-    ratio to ``ms``; dashes when the curve does not reach it."""
+    """Mitsuba's spp, render-only (the caustic region's renders) and end-to-end seconds to reach ``error``,
+    each with its ratio to ``ms``; where the curve does not reach it, its last point as lower bounds ("> ")."""
     reached = first_reaching(curve, "caustic_relmse", error)
     point, more = (curve[-1], "> ") if reached is None else (reached, "")
-    render, whole = point["seconds_caustic"], point["end_to_end_seconds"]
+    render, whole = point.get("seconds_caustic", point["seconds"]), point["end_to_end_seconds"]
     return (f"{more}{point['spp']} | {more}{render:.3f} s | {more}{ratio(render, ms)} | {more}{whole:.2f} s | "
             f"{more}{ratio(whole, ms)} |")
 
