@@ -21,7 +21,7 @@ import numpy as np
 
 from bench_exact_caustics import print_table, reference_arguments, scenes
 from caustica.metrics.images import psnr_linear, relmse
-from caustica.metrics.regions import region_masks
+from caustica.metrics.regions import caustic_region
 from caustica.reference.render import render_reference
 from caustica.renderer import Renderer
 from caustica.scene import Camera
@@ -80,7 +80,7 @@ def main(argv=None) -> None:
     for view, scene in views:
         reference = np.mean([render_reference(scene, spp=args.reference_spp, progress=False, seed=k)
                              for k in range(args.seeds)], axis=0)
-        caustic = region_masks(scene)["caustic"]
+        caustic = caustic_region(scene)
         with Renderer(scene.camera.size, keep_channels=True) as renderer:
             gl = renderer.info()["renderer"]
             plain = {rebuild: frame_ms(renderer, scene, "plain", args.spp, rebuild)[0] for rebuild in (True, False)}

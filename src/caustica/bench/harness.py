@@ -50,17 +50,56 @@ def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
     return rows
 
 
-def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
-    """Each technique's relMSE and ms, and Mitsuba's curve on the same machine: per spp, the seconds of
-    ``mi.render`` on the loaded, warmed scenes (``seconds``; ``seconds_caustic``: only the renders the
-    caustic region takes), the end-to-end seconds of an uncached ``render_reference``, and the errors."""
-    from ..metrics import region_masks, relmse
+def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, repeats=1, log=print) -> list[dict]:
+    """Mitsuba's error against time on this machine, one point per spp in 1, 2, 4, ... ``max_spp``: ``seconds``
+    of ``mi.render`` on the composite's scenes loaded once and warmed; ``seconds_caustic`` (when ``caustic``,
+    an (H, W) mask, is given), only the renders whose weight reaches those pixels (reference/render.py
+    LoadedReference: the light tracer and the environment's path, not the lights' path, on purely diffuse
+    pixels); ``end_to_end_seconds``, an uncached ``render_reference`` (export, load and every render); and
+    ``errors(image)``, a dict. ``seed``: pick one the reference did not use, so its error is not
+    underestimated. ``size`` is (width, height); ``repeats``: LoadedReference.render's (the fastest of
+    that many calls)."""
     from ..reference.render import LoadedReference, render_reference
+
+    loaded = LoadedReference(scene, size)
+    caustic_renders = [key for key, weight in loaded.weights.items() if key in loaded.renders
+                       and (np.isscalar(weight) or np.any(np.asarray(weight)[caustic] > 0))] \
+        if caustic is not None and caustic.any() else []
+    curve = []
+    counts = [1 << k for k in range(max_spp.bit_length())]
+    with steps(len(counts), f"mitsuba {scene.name} time to quality", "spp counts") as bar:
+        for spp in counts:
+            bar.set_postfix_str(f"{spp} spp")
+            image, seconds = loaded.render(spp, seed=seed, repeats=repeats)
+            start = time.perf_counter()
+            render_reference(scene, size=size, spp=spp, cache=False, progress=False, seed=seed)
+            point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
+                     **errors(image)}
+            if caustic_renders:
+                point["seconds_caustic"] = sum(seconds[key] for key in caustic_renders)
+            curve.append(point)
+            bar.update()
+            log(f"  mitsuba {spp:4d} spp: render {point['seconds']:7.2f} s (end to end "
+                f"{point['end_to_end_seconds']:.2f} s), "
+                + ", ".join(f"{k} {v:.5f}" for k, v in point.items() if "relmse" in k))
+    return curve
+
+
+def first_reaching(curve: list[dict], key: str, error: float) -> dict | None:
+    """The first point of a :func:`mitsuba_curve` whose ``key`` error is at most ``error``; None if none is."""
+    return next((c for c in curve if c[key] <= error), None)
+
+
+def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
+    """Each technique's relMSE and ms, and Mitsuba's curve on the same machine (:func:`mitsuba_curve`: the
+    caustic region, when the scene has one, timed with only the renders it takes)."""
+    from ..metrics import caustic_region, relmse
+    from ..reference.render import render_reference
 
     reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=None)  # the policy's
     renderer = Renderer((size, size))
     techniques_out = {}
-    caustic = region_masks(scene, renderer.camera_for(scene))["caustic"]
+    caustic = caustic_region(scene, renderer.camera_for(scene))
     regions = {"relmse": None, "caustic_relmse": caustic} if caustic.any() else {"relmse": None}
 
     def errors(image) -> dict:
@@ -69,33 +108,12 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
     for name in techniques:
         image, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
         techniques_out[name] = {"ms": ms, **errors(image)}
-    # Mitsuba timed as its users run it: the scenes loaded once and warmed, mi.render alone, and for the
-    # caustic region only the renders whose weight reaches it (reference/render.py LoadedReference);
-    # "end_to_end_seconds" is also kept: export, load and every render (render_reference).
-    loaded = LoadedReference(scene, (size, size))
-    caustic_renders = [key for key, weight in loaded.weights.items() if key in loaded.renders
-                       and (np.isscalar(weight) or np.any(np.asarray(weight)[caustic] > 0))] if caustic.any() else []
-    curve = []
-    counts = [1 << k for k in range(max_spp.bit_length())]  # 1, 2, 4, ... up to max_spp
-    with steps(len(counts), f"mitsuba {scene.name} time to quality", "spp counts") as bar:
-        for spp in counts:
-            bar.set_postfix_str(f"{spp} spp")
-            # seed 1: samples independent of the reference's, so its error is not underestimated
-            image, seconds = loaded.render(spp, seed=1)
-            start = time.perf_counter()
-            render_reference(scene, size=(size, size), spp=spp, cache=False, progress=False, seed=1)
-            point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
-                     **errors(image)}
-            if caustic_renders:
-                point["seconds_caustic"] = sum(seconds[key] for key in caustic_renders)
-            curve.append(point)
-            bar.update()
-            log(f"  mitsuba {spp:4d} spp: render {point['seconds']:7.2f} s (end to end "
-                f"{point['end_to_end_seconds']:.2f} s), " + ", ".join(f"{k} {curve[-1][k]:.5f}" for k in regions))
+    # seed 1: samples independent of the reference's (seed 0)
+    curve = mitsuba_curve(scene, (size, size), errors, caustic, max_spp, seed=1, log=log)
     for name, entry in techniques_out.items():
         for key in regions:  # whole image, and the caustic region where the scene has one
             suffix = "" if key == "relmse" else "_caustic"
-            reached = next((c for c in curve if c[key] <= entry[key]), None)
+            reached = first_reaching(curve, key, entry[key])
             seconds = reached.get("seconds" + suffix, reached["seconds"]) if reached else None
             entry["mitsuba_spp" + suffix] = reached["spp"] if reached else None
             entry["mitsuba_seconds" + suffix] = seconds

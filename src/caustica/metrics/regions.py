@@ -11,6 +11,9 @@
   sees count, and spot lights only inside their outer cone;
 - ``"rest"``: everything else (other diffuse pixels, mirrors, the background).
 
+:func:`caustic_region` is the caustic region less the pixels partly on glass, where the Mitsuba
+composite lacks light by construction.
+
 The masks are (H, W) bool, row 0 at the top, pairwise disjoint and together
 cover the image.
 """
@@ -85,6 +88,19 @@ def region_masks(scene, camera=None, spp: int = 1) -> dict[str, np.ndarray]:
     votes = np.eye(len(REGIONS), dtype=np.int64)[label].reshape(height, width, samples, len(REGIONS)).sum(axis=2)
     winner = votes.argmax(axis=2)
     return {name: winner == i for i, name in enumerate(REGIONS)}
+
+
+def caustic_region(scene, camera=None) -> np.ndarray:
+    """(H, W) bool: the pixels of ``region_masks``'s caustic region whose whole footprint (the 16 stratified
+    rays of :func:`caustica.reference.render.diffuse_coverage`) first hits a diffuse surface.
+
+    The Mitsuba composite is right by construction only there (reference/render.py): on a pixel partly on
+    glass it draws the glass part's light black in the light tracer and without caustics in ``path``, so a
+    caustic technique is charged for light the reference lacks. Compare caustics on this region."""
+    from ..reference.render import diffuse_coverage
+
+    camera = scene.camera if camera is None else camera
+    return region_masks(scene, camera)["caustic"] & (diffuse_coverage(scene, camera) >= 1.0)
 
 
 def compare_images(image, reference, masks: dict) -> dict[str, dict[str, float]]:

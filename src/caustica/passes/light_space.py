@@ -149,39 +149,50 @@ class LightSurfaces(Pass):
     world xyz + distance to the light (0: empty) and outward world normal +
     object code (index + 1 in ``coded`` for caster objects, 0 for the rest).
     ``faces`` 'front' keeps the nearest front faces, 'back' the farthest back
-    faces (Wyman's back-face buffer). Receivers: the diffuse objects' front
-    faces; caster fronts: every object (the rest occlude the grid).
+    faces (Wyman's back-face buffer), 'nearest-back' the nearest back faces
+    (where light that entered leaves first). Receivers: the diffuse objects'
+    front faces; caster fronts: every object (the rest occlude the grid).
+    ``peel`` (a channel of the same kind, same views) keeps only what lies
+    farther from the light than its surface at each texel: with 'front', the
+    glass's second layer of front faces behind its nearest back faces.
     """
 
     reads = ()
 
-    def __init__(self, views: str, channel: str, kinds=("diffuse",), faces: str = "front", coded=("glass", "mirror")):
+    def __init__(self, views: str, channel: str, kinds=("diffuse",), faces: str = "front", coded=("glass", "mirror"),
+                 peel: str | None = None):
         self.views, self.channel, self.kinds, self.faces, self.coded = views, channel, tuple(kinds), faces, tuple(coded)
-        self.reads = (views,)
+        self.peel = peel
+        self.reads = (views,) + ((peel,) if peel else ())
         self.writes = (Channel(channel, "rgba32f x2[light]", f"per light: (position+distance, normal+code) of {faces} "
                                                              f"faces of {'/'.join(self.kinds)} objects"),)
 
     def run(self, frame: Frame) -> None:
-        frame.write(self.channel, [None if v is None else self.render(frame, v) for v in frame.read(self.views)])
+        peels = frame.read(self.peel) if self.peel else [None] * len(frame.read(self.views))
+        frame.write(self.channel, [None if v is None else self.render(frame, v, peel)
+                                   for v, peel in zip(frame.read(self.views), peels)])
 
-    def render(self, frame: Frame, view: LightView):
+    def render(self, frame: Frame, view: LightView, peel=None):
         gpu = frame.gpu
         position, normal = frame.texture(view.atlas_size, "rgba32f"), frame.texture(view.atlas_size, "rgba32f")
         with frame.scratch(view.atlas_size, "depth") as depth:
-            self._draw(frame, view, gpu.targets.framebuffer([position, normal], depth))
+            self._draw(frame, view, gpu.targets.framebuffer([position, normal], depth), peel)
         return position, normal
 
-    def _draw(self, frame: Frame, view: LightView, fbo) -> None:
+    def _draw(self, frame: Frame, view: LightView, fbo, peel=None) -> None:
         gpu, ctx = frame.gpu, frame.gpu.ctx
         fbo.use()
-        back = self.faces == "back"
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if back else 1.0)
+        back, farthest = self.faces != "front", self.faces == "back"
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
         program = gpu.shaders.program("common/mesh_vertex.glsl", "passes/caustic_surface.frag",
-                                      {"ALONG_DIRECTION": int(view.sample.type == LIGHT_DIRECTIONAL)})
+                                      {"ALONG_DIRECTION": int(view.sample.type == LIGHT_DIRECTIONAL),
+                                       "PEEL": int(self.peel is not None)})
+        if self.peel is not None:
+            bind_samplers(program, ("peel",), (peel[0],))
         set_uniform(program, "origin", np.asarray(view.sample.position, "f4"))
         set_uniform(program, "direction", np.asarray(view.sample.direction, "f4"))
         ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">" if back else "<"
+        ctx.depth_func = ">" if farthest else "<"
         if back:
             ctx.enable(moderngl.CULL_FACE)
             ctx.front_face, ctx.cull_face = "ccw", "front"
@@ -410,11 +421,13 @@ def listed(items) -> list:
 
 
 def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map_size: int, steps: int,
-                  splat: str, splat_radius: float, point_map: str = "frustum", extra: tuple = ()) -> CachedPasses:
+                  splat: str, splat_radius: float, point_map: str = "frustum", extra: tuple = (),
+                  back: str = "back") -> CachedPasses:
     """Photons made from the light, landed twice and splatted into caustic maps (Shah et al. III-B to III-F).
 
     1. III-B: the photon grid's view around the casters (:class:`FitCasterViews`, ``caster_size`` texels
-       a side) and the refractors' farthest back faces in it (``caster_back``, Wyman's back-face buffer).
+       a side) and the refractors' back faces in it (``caster_back``: ``back`` 'back' the farthest, Wyman's
+       back-face buffer, 'nearest-back' the nearest; :class:`LightSurfaces`).
     2. ``makers``: the technique's passes making, in that view, what its photons start from.
     3. The footprint: the photons landed on the receivers of a view over the whole scene
        (:class:`FitCoarseViews`, at most COARSE_MAP_SIZE texels) with at least COARSE_NEWTON_STEPS
@@ -433,7 +446,7 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
     kept = ("caustic_maps", *(c.name for stage in extra for c in stage.writes))
     return CachedPasses(tag, tuple(sorted(vars(params).items())), keep=kept, passes=[
         FitCasterViews(caster_size, point_map=point_map),
-        LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces="back"),
+        LightSurfaces("caster_views", "caster_back", kinds=("glass",), faces=back),
         *makers,
         FitCoarseViews(min(map_size, COARSE_MAP_SIZE)),
         LightSurfaces("coarse_views", "coarse_receivers"),

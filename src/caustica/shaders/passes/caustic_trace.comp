@@ -46,6 +46,11 @@ uniform vec3 caster_color[MAX_CASTERS];  // mirror reflectance
 uniform int channel_count;  // 3: one photon per RGB channel (dispersion), 1: one RGB photon
 uniform int iterations;
 uniform int exit_iterations;
+uniform int second_layer;  // 1: photons leaving through the nearest back faces may enter the glass again
+uniform sampler2D second_position;  // view 0: the glass's front faces behind its nearest back faces
+uniform sampler2D second_normal;
+uniform sampler2D far_position;  // view 0: the glass's farthest back faces
+uniform sampler2D far_normal;
 uniform int estimator;
 uniform float fallback_distance;  // initial guess where no receiver lies behind the photon's origin
 #if ADAPTIVE
@@ -63,32 +68,32 @@ vec4 land(vec3 o, vec3 r, int index) {
     return land_photon(receiver_position, 1, o, r, d0, fallback_distance, iterations, estimator);
 }
 
-// Signed distance of p past the back faces along the light (a miss, outside the silhouette, counts as past).
-float past_back(vec3 p, out bool miss) {
-    vec4 s = surface_through(back_position, 0, p);
+// Signed distance of p past the back faces `tex` along the light (a miss, outside the silhouette, counts as past).
+float past_back(sampler2D tex, vec3 p, out bool miss) {
+    vec4 s = surface_through(tex, 0, p);
     miss = s.a <= 0.0;
     return miss ? 1.0 : light_distance(p) - s.a;
 }
 
-// Wyman's exit distance d_V, refined against the back faces: f(d) = past_back(P1 + d T1) is negative
+// Wyman's exit distance d_V, refined against the back faces `tex`: f(d) = past_back(P1 + d T1) is negative
 // inside; grow d from d_V until f >= 0, then exit_iterations regula falsi steps (Illinois) on the
 // bracket, bisection where an end misses the silhouette.
-float exit_distance(vec3 p1, vec3 t1, float f0, float dv) {
+float exit_distance(sampler2D tex, vec3 p1, vec3 t1, float f0, float dv) {
     float lo = 0.0, flo = min(f0, -1e-7), hi = max(dv, 1e-3 * (length_unit + length(p1 - ls_light_position)));
     bool miss_hi;
-    float fhi = past_back(p1 + hi * t1, miss_hi);
+    float fhi = past_back(tex, p1 + hi * t1, miss_hi);
     for (int i = 0; i < 16 && fhi < 0.0; ++i) {
         lo = hi;
         flo = fhi;
         hi *= 2.0;
-        fhi = past_back(p1 + hi * t1, miss_hi);
+        fhi = past_back(tex, p1 + hi * t1, miss_hi);
     }
     if (fhi < 0.0) return dv;
     int side = 0;
     for (int k = 0; k < exit_iterations; ++k) {
         float m = miss_hi ? 0.5 * (lo + hi) : lo - flo * (hi - lo) / (fhi - flo);
         bool miss_m;
-        float fm = past_back(p1 + m * t1, miss_m);
+        float fm = past_back(tex, p1 + m * t1, miss_m);
         if (fm < 0.0) {
             lo = m;
             flo = fm;
@@ -103,6 +108,58 @@ float exit_distance(vec3 p1, vec3 t1, float f0, float dv) {
         }
     }
     return miss_hi ? lo : lo - flo * (hi - lo) / (fhi - flo);
+}
+
+// Where a photon leaving the glass at p2 along t2 meets its second layer again (the front faces behind
+// the nearest back faces): the distance along t2, or -1 where it does not (it leaves the far back faces'
+// depth, or the view, first). March SECOND_STEPS steps up to the far back faces' depth at p2, then bisect.
+#define SECOND_STEPS 16
+float second_entry(vec3 p2, vec3 t2) {
+    vec4 far = surface_through(far_position, 0, p2);
+    float reach = far.a - light_distance(p2);
+    if (far.a <= 0.0 || reach <= 0.0) return -1.0;
+    float span = 2.0 * reach, lo = 0.0;
+    for (int k = 1; k <= SECOND_STEPS; ++k) {
+        float d = span * float(k) / float(SECOND_STEPS);
+        vec3 q = p2 + d * t2;
+        vec4 s = surface_through(second_position, 0, q);
+        if (s.a > 0.0 && light_distance(q) >= s.a) {
+            float hi = d;
+            for (int i = 0; i < 10; ++i) {  // bisection on the crossing
+                float m = 0.5 * (lo + hi);
+                vec3 x = p2 + m * t2;
+                vec4 sm = surface_through(second_position, 0, x);
+                if (sm.a > 0.0 && light_distance(x) >= sm.a) hi = m; else lo = m;
+            }
+            return hi;
+        }
+        lo = d;
+    }
+    return -1.0;
+}
+
+// The outward normal of the surface `tex` holds where p projects (that of texel s where p falls outside).
+vec3 surface_normal(sampler2D tex, vec3 p, ivec2 s) {
+    int f;
+    bool in_view;
+    vec2 x = view_pixel(0, p, f, in_view);
+    vec3 n = in_view ? fetch_surface(tex, 0, f, x).xyz : vec3(0.0);
+    if (dot(n, n) < 1e-12) n = texelFetch(tex, s, 0).xyz;
+    return normalize(n);
+}
+
+// Whether the 3 x 3 texels around s see caster id: s lies inside its silhouette from the light, not on
+// the rim (where the front- and back-face rasterizations may differ by a texel).
+bool inside_silhouette(ivec2 s, int id) {
+    ivec2 size = textureSize(front_normal, 0);
+    for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+            ivec2 q = s + ivec2(i, j);
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) return false;
+            if (int(texelFetch(front_normal, q, 0).w + 0.5) - 1 != id) return false;
+        }
+    }
+    return true;
 }
 
 // Trace the photons of caster texel s (its caster id, front point p1, normal fn) carrying `flux` into
@@ -130,12 +187,15 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
         vec3 transmit = vec3(1.0 - fresnel_dielectric(dot(-l, n1), 1.0, eta));
         vec3 o = p1, r = t1;
         float inside = 0.0;
-        if (caster_type[id] == CASTER_SOLID) {
+        // A solid's opening (a scanned mesh's hole): inside the silhouette, no back face behind the front
+        // face along the light. The light leaves through it as through a single surface.
+        vec4 back = texelFetch(back_position, s, 0);
+        bool opening = caster_type[id] == CASTER_SOLID && back.a <= 0.0;
+        if (opening && !inside_silhouette(s, id)) continue;  // the rim: a back face the rasterizer missed
+        if (caster_type[id] == CASTER_SOLID && !opening) {
             // Exit point: P2 = P1 + d T1, d from d_V refined against the back faces; N2 from the back buffer.
-            vec4 back = texelFetch(back_position, s, 0);
-            if (back.a <= 0.0) continue;
             float dv = max(back.a - front.a, 0.0);
-            float d = exit_iterations > 0 ? exit_distance(p1, t1, front.a - back.a, dv) : dv;
+            float d = exit_iterations > 0 ? exit_distance(back_position, p1, t1, front.a - back.a, dv) : dv;
             vec3 p2 = p1 + d * t1;
             int f2;
             bool in2;
@@ -150,13 +210,35 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
             inside = d;
             o = p2 + 1e-4 * length_unit * n2;
             r = t2;
+            // The second layer: in through its front faces, out through the farthest back faces.
+            float gap = second_layer != 0 ? second_entry(o, t2) : -1.0;
+            if (gap > 0.0) {
+                vec3 p3 = o + gap * t2;
+                vec3 n3 = surface_normal(second_normal, p3, s);
+                if (dot(n3, t2) > 0.0) n3 = -n3;  // against the arriving ray
+                vec3 t3 = refract(t2, n3, 1.0 / eta);
+                if (dot(t3, t3) == 0.0) continue;
+                transmit *= 1.0 - fresnel_dielectric(dot(-t2, n3), 1.0, eta);
+                vec4 far3 = surface_through(far_position, 0, p3);
+                float dv3 = max(far3.a - light_distance(p3), 0.0);
+                float d3 = exit_distance(far_position, p3, t3, -max(dv3, 1e-7), dv3);
+                vec3 p4 = p3 + d3 * t3;
+                vec3 n4 = surface_normal(far_normal, p4, s);
+                if (dot(n4, t3) < 0.0) n4 = -n4;  // outward, along the leaving ray
+                vec3 t4 = refract(t3, -n4, eta);
+                if (dot(t4, t4) == 0.0) continue;  // total internal reflection: dropped
+                transmit *= 1.0 - fresnel_dielectric(dot(t3, n4), eta, 1.0);
+                inside += d3;
+                o = p4 + 1e-4 * length_unit * n4;
+                r = t4;
+            }
         } else {
             o = p1 - 1e-4 * length_unit * n1;
         }
         vec4 hit = land(o, r, first + c);
         if (hit.w <= 0.0) continue;
-        // Beer-Lambert: through the solid, or from a single surface (water) down to the receiver.
-        if (caster_type[id] == CASTER_SURFACE) inside = length(hit.xyz - o);
+        // Beer-Lambert: through the solid, or from a single surface (water, an opening) down to the receiver.
+        if (caster_type[id] == CASTER_SURFACE || opening) inside = length(hit.xyz - o);
         vec3 absorbed = exp(-caster_sigma[id] * inside);
         photons[first + c] = Photon(hit, vec4(flux * transmit * absorbed * mask, 0.0));
         landed = true;
