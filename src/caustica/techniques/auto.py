@@ -13,7 +13,7 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
   (Shah et al.) is composed with the view technique, or ``transport-table`` (Iwasaki et al.) where
   every caster is glass with a light transport table cached on disk (``caustica precompute``) and
-  some of it is not convex.
+  more than a third of the caustic light crosses other than two glass interfaces (TABLE_SHARE).
 
 ``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes);
 ``budget_ms`` instead takes the highest quality whose frame time, measured on this device at this
@@ -148,9 +148,10 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         why_glass = why_mirror = ""
     casters = glass + mirrors
     lit_casters = bool(casters and diffuse and lit)  # lights, something specular, and receivers
-    caustics = lit_casters and _caustics_land(scene, lit)
+    paths = _caustic_paths(scene, lit) if lit_casters else None
+    caustics = lit_casters and paths.landed
     unlanded = lit_casters and not caustics
-    tables_pay, missing = _transport_tables(glass) if caustics and not mirrors else (False, [])
+    tables_pay, missing = _transport_tables(glass, paths.beyond_two) if caustics and not mirrors else (False, [])
     tabled = tables_pay and not missing
     caustics_by = TABLE if tabled else CAUSTICS
     technique = f"{view}+{caustics_by}" if caustics else view
@@ -193,8 +194,8 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
                      f"{BOUNCE_VIEW[0]}x{BOUNCE_VIEW[1]})")
     if missing:
         notes.append(f"no light transport table is cached for {', '.join(missing)}; 'caustica precompute MESH "
-                     f"--ior N' caches one, and auto then takes the caustics of this non-convex glass from it "
-                     f"({TABLE})")
+                     f"--ior N' caches one, and auto then takes the caustics from it ({TABLE}): "
+                     f"{paths.beyond_two:.0%} of their light crosses other than two glass interfaces")
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
@@ -255,22 +256,35 @@ LOBE_SHARE = 1e-2
 PLAN_PHOTONS = 4096  # photons that decide whether a light's caustic reaches a diffuse surface at all
 
 
-def _caustics_land(scene, lit: list) -> bool:
-    """Whether any of PLAN_PHOTONS photons from the ``lit`` lights (the environment's sun among them), refracted
-    through the glass and reflected off the mirrors (``branches="transmit"``: glass reflects only on TIR, as in
-    caustic mapping), lands on a diffuse surface (raytrace/photons.py, Embree). Where none does, a caustic map
+@dataclass(frozen=True)
+class CausticPaths:
+    """What PLAN_PHOTONS exact photons say of a scene's caustics (:func:`_caustic_paths`)."""
+
+    landed: bool  # one at least reached a diffuse surface
+    beyond_two: float  # the share of the landed flux that crossed other than two glass interfaces
+
+
+def _caustic_paths(scene, lit: list) -> CausticPaths:
+    """PLAN_PHOTONS photons from the ``lit`` lights (the environment's sun among them), refracted through the
+    glass and reflected off the mirrors (``branches="transmit"``: glass reflects only on TIR, as in caustic
+    mapping), traced to the diffuse surfaces (raytrace/photons.py, Embree). Where none lands, a caustic map
     would cost every frame and add no light: on spectacle-convex the sun comes from behind the chart, and the
-    lens sends its light towards the camera. Cached on the scene by its state."""
+    lens sends its light towards the camera. The share of the landed flux on other than two interfaces (one
+    through a scan's hole, three or four through a second lobe, internal reflections) is what caustic mapping's
+    two-interface estimate misses and a transport table follows. Cached on the scene by its state."""
     from dataclasses import replace
 
     from ..raytrace.photons import trace_photons
 
-    def landed() -> bool:
-        hits = trace_photons(replace(scene, lights=list(lit)), count=PLAN_PHOTONS, max_depth=4, branches="transmit")
-        return bool(len(hits.position))
+    def traced() -> CausticPaths:
+        hits = trace_photons(replace(scene, lights=list(lit)), count=PLAN_PHOTONS, max_depth=8, branches="transmit")
+        flux = hits.flux.sum(axis=1)
+        total = float(flux.sum())
+        beyond = float(flux[hits.bounces != 2].sum()) / total if total > 0 else 0.0
+        return CausticPaths(bool(len(hits.position)), beyond)
 
     key = (scene_state_key(scene), material_state_key(scene), tuple(state_key(light) for light in lit))
-    return kept_on(scene, "_caustics_land_cache", key, landed)
+    return kept_on(scene, "_caustic_paths_cache", key, traced)
 
 
 def _lights(lit: list, sun) -> str:
@@ -296,18 +310,21 @@ def _has_table(obj) -> bool:
     return obj.material.abbe is None and has_cached_table(table_mesh(obj.mesh), obj.material.ior)
 
 
-def _transport_tables(glass: list) -> tuple[bool, list[str]]:
+TABLE_SHARE = 1.0 / 3.0  # the share of caustic flux beyond two interfaces from which a transport table pays
+
+
+def _transport_tables(glass: list, beyond_two: float) -> tuple[bool, list[str]]:
     """Whether cached transport tables would give the caustics of ``glass`` better than caustic mapping, and
-    the names of the glass objects that lack one (listed where some solid glass is not convex). They pay where
-    every object is a solid (Iwasaki et al. 4 trace through closed objects; not a water sheet) and one at
-    least is not convex, so that light crosses more than the two interfaces caustic mapping estimates
-    (docs/auto.md: on convex glass caustic mapping's caustics were as accurate or more)."""
+    the names of the glass objects that lack one (listed where they would pay). They pay where every object
+    is a solid (Iwasaki et al. 4 trace through closed objects; not a water sheet) and more than TABLE_SHARE of
+    the caustic flux crosses other than the two interfaces caustic mapping estimates (docs/auto.md, measured
+    on eleven scenes: the knot and a bunny over a floor, 0.62 and 0.35, have the table ahead; a cow, an
+    absorbing bunny, glass rings and balls, 0 to 0.30, caustic mapping)."""
     from ..passes.casters import nearly_closed
 
-    solid = [nearly_closed(o.mesh) for o in glass]
-    bent = [is_solid and not o.mesh.is_convex() for o, is_solid in zip(glass, solid)]
-    missing = [o.name for o in glass if not _has_table(o)] if any(bent) else []
-    return all(solid) and any(bent), missing
+    pays = all(nearly_closed(o.mesh) for o in glass) and beyond_two > TABLE_SHARE
+    missing = [o.name for o in glass if not _has_table(o)] if pays else []
+    return pays, missing
 
 
 class Auto(Technique):
