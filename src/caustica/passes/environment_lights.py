@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cache import array_digest, kept_on, scene_state_key
+from ..cache import LruCache, array_digest, kept_on, material_state_key, scene_state_key
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
@@ -62,12 +62,13 @@ def _extract_sun(environment: Environment) -> EnvironmentSun:
     return EnvironmentSun(light, split.rest.irradiance_sh())
 
 
-def ambient_sh(environment: Environment, samples, shadows=None) -> np.ndarray:
+def ambient_sh(environment: Environment, samples, shadows=None, bake=None) -> np.ndarray:
     """(9, 3) SH irradiance diffuse surfaces take as ambient: the floor's bounce below the horizon where the
-    frame's ``environment_shadows`` hold it (floor_bounce_sh); else the environment's without its sun where
-    the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
-    if shadows is not None and shadows.ambient_sh is not None:
-        return shadows.ambient_sh
+    frame's ``environment_shadows`` or ``environment_bake`` hold it (floor_bounce_sh); else the environment's
+    without its sun where the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+    for held in (shadows, bake):
+        if held is not None and held.ambient_sh is not None:
+            return held.ambient_sh
     if any(getattr(s, "environment", False) for s in samples):
         return environment_sun(environment).rest_sh
     return environment.irradiance_sh()
@@ -195,11 +196,17 @@ def lobe_settings(params) -> tuple[int, int]:
     """(lobes, texels a side of each map) a frame's parameters ask for: the ``environment_lobes`` and
     ``environment_lobe_size`` attributes auto sets on the planned technique's parameters (on the view's of a
     composite's pair), else (0, LOBE_MAP_SIZE)."""
-    first = params[0] if isinstance(params, tuple) and params else params
-    count = int(getattr(first, "environment_lobes", 0) or 0)
+    count = int(_frame_setting(params, "environment_lobes") or 0)
     if not 0 <= count <= MAX_LOBES:
         raise ValueError(f"environment_lobes must be 0 to {MAX_LOBES} (got {count})")
-    return count, int(getattr(first, "environment_lobe_size", LOBE_MAP_SIZE) or LOBE_MAP_SIZE)
+    return count, int(_frame_setting(params, "environment_lobe_size") or LOBE_MAP_SIZE)
+
+
+def _frame_setting(params, name: str):
+    """An attribute auto sets on the planned technique's parameters (on the view's of a composite's pair), or
+    None."""
+    first = params[0] if isinstance(params, tuple) and params else params
+    return getattr(first, name, None)
 
 
 @dataclass
@@ -329,3 +336,60 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
     chord = np.where(exit_.hit, exit_.t, 0.0)
     loss[entry.hit] = 1.0 - (1.0 - fresnel_dielectric(1.0, 1.0, ior)) ** 2 * np.exp(-sigma * chord)
     return loss
+
+
+# The floor's light map: the ambient environment's light baked with exact's rays --------------------------
+
+MAX_BAKE_SIZE = 1024  # texels a side of the floor's light map, at most
+
+_BAKES = LruCache(4)  # the light maps of the scenes rendered last (not the camera: a move bakes nothing)
+
+
+@dataclass
+class EnvironmentBake:
+    """ShadowMaps' ``environment_bake``: the floor's light map (raytrace/environment_bake.py) as an rgba32f
+    texture, its rectangle, and the SH ambient of every other diffuse surface (floor_bounce_sh)."""
+
+    texture: object
+    bake: object  # raytrace.environment_bake.FloorBake
+    ambient_sh: np.ndarray
+
+
+def bake_settings(params) -> int:
+    """Texels a side of the floor's light map the frame's parameters ask for (``environment_bake``, which auto
+    sets on the planned technique's parameters); 0: none."""
+    size = int(_frame_setting(params, "environment_bake") or 0)
+    if not 0 <= size <= MAX_BAKE_SIZE:
+        raise ValueError(f"environment_bake must be 0 to {MAX_BAKE_SIZE} texels (got {size})")
+    return size
+
+
+def floor_bake(scene, sun_taken: bool, size: int, samples: int | None = None):
+    """The FloorBake (raytrace/environment_bake.py) of the scene's floor (scene_floor) under the ambient environment (without its sun
+    where ``sun_taken``), kept for the next frame of the same geometry, materials and environment; None
+    without a floor."""
+    from ..raytrace.environment_bake import BAKE_SAMPLES, bake_floor
+
+    floor = scene_floor(scene)
+    if floor is None:
+        return None
+    samples = BAKE_SAMPLES if samples is None else samples
+    key = (scene_state_key(scene), material_state_key(scene), bool(sun_taken), int(size), int(samples))
+    bake = _BAKES.get(key)
+    if bake is None:
+        sun = environment_sun(scene.environment).light if sun_taken else None
+        ambient = environment_light(scene.environment).rest if sun_taken else scene.environment
+        bake = _BAKES[key] = bake_floor(scene, floor, ambient, sun, size, samples)
+    return bake
+
+
+def bind_environment_bake(program, baked: EnvironmentBake, unit: int) -> None:
+    """Set lighting.glsl's env_bake_* uniforms and bind the light map to texture unit ``unit``."""
+    from ..gpu.meshes import set_uniform
+
+    bake = baked.bake
+    set_uniform(program, "env_bake_rect", np.array([*bake.low, *(1.0 / np.maximum(bake.high - bake.low, 1e-30))],
+                                                   "f4"))
+    set_uniform(program, "env_bake_height", float(bake.height))
+    baked.texture.use(unit)
+    set_uniform(program, "env_bake", unit)

@@ -231,7 +231,8 @@ class BuildImpostors(Pass):
     """
 
     reads = ("light_samples", "shadow_maps")
-    optional = {"caustic_maps": None}  # the textures show the caustics on the objects they stand for
+    # The textures show the caustics on the objects they stand for, and the floor's light map.
+    optional = {"caustic_maps": None, "environment_bake": None}
     writes = (Channel("impostors", "rgba32f + host[reflector]", "per reflector: rectangles and an atlas of their textures "
                                                                      "(radiance, depth)"),)
 
@@ -247,7 +248,7 @@ class BuildImpostors(Pass):
         if "impostors" in frame.channels or "impostor_world" in frame.channels:
             return None
         return (self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors, self.merge_planes,
-                _impostor_state_key(frame.scene), frame.version("caustic_maps"))
+                _impostor_state_key(frame.scene), frame.version("caustic_maps"), frame.version("environment_bake"))
 
     def run(self, frame: Frame) -> None:
         if "impostors" in frame.channels:
@@ -294,7 +295,7 @@ class BuildImpostors(Pass):
         frame.channels.setdefault("impostor_world", world)
         with offscreen_channels(frame, scene_subset(world, [impostor.index, *impostor.others]), impostor.camera,
                                 self.texture_passes(depth), keep=("color", "depth"),
-                                share=("impostor_world", "caustic_maps")) as kept:
+                                share=("impostor_world", "caustic_maps", "environment_bake")) as kept:
             pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
                          into=(impostor.texture, impostor.cell))
 

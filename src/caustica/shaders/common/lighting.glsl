@@ -252,10 +252,45 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 }
 #endif
 
-// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked, plus what
-// the blocked directions show instead (the occluders' bounce, over each stratum's span as irradiance is).
+// The floor's light map (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked one: raytrace/environment_bake.py):
+// the ambient environment's irradiance on the floor's top face, occluded, through glass, with one bounce,
+// over the rectangle x0, z0 (env_bake_rect.xy) with 1 / width, 1 / depth in .zw at height env_bake_height.
+#ifndef ENVIRONMENT_BAKE
+#define ENVIRONMENT_BAKE 0
+#endif
+#if ENVIRONMENT_BAKE
+uniform sampler2D env_bake;
+uniform vec4 env_bake_rect;
+uniform float env_bake_height;
+#endif
+
+// Whether p (normal n) lies on the floor's top face under the light map, and the map's irradiance there.
+bool baked_irradiance(vec3 p, vec3 n, out vec3 e) {
+    e = vec3(0.0);
+#if ENVIRONMENT_BAKE
+    vec2 uv = (p.xz - env_bake_rect.xy) * env_bake_rect.zw;
+    if (n.y > 0.99 && abs(p.y - env_bake_height) <= 1e-3 / max(env_bake_rect.z, env_bake_rect.w)
+        && all(greaterThanEqual(uv, vec2(0.0))) && all(lessThanEqual(uv, vec2(1.0)))) {
+        e = texture(env_bake, uv).rgb;
+        return true;
+    }
+#endif
+    return false;
+}
+
+// The light map's irradiance on the floor, elsewhere the SH's (no lobes: what impostors seen in glass take).
+vec3 baked_or_sh_irradiance(vec3 p, vec3 n) {
+    vec3 e;
+    return baked_irradiance(p, n, e) ? e : ambient_irradiance(n);
+}
+
+// Ambient irradiance at p with normal n: on the floor the light map's; elsewhere the SH's less what the
+// environment's lobes find blocked, plus what the blocked directions show instead (the occluders' bounce, over
+// each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
-    vec3 e = ambient_irradiance(n);
+    vec3 e;
+    if (baked_irradiance(p, n, e)) return e;
+    e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
     vec3 blocked = vec3(0.0), bounce = vec3(0.0);
     for (int k = 0; k < env_lobe_count; ++k) {
