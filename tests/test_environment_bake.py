@@ -149,3 +149,22 @@ def test_auto_reads_the_light_map_on_the_floor(renderer):
     assert strip.sum() > 200
     ratio = image[strip].mean(axis=-1) / (ALBEDO * wall_fraction(hit[..., 0][strip], hit[..., 2][strip]))
     assert np.abs(ratio - 1.0).max() < 0.03
+
+
+def test_glass_shows_the_floor_lit_by_the_light_map(renderer):
+    """Through a clear ball of IOR 1 (auto's impostors, whose textures share the map) the floor beside the black
+    wall shows the same radiance as seen directly, albedo x the wall's unoccluded share: within 3 % per pixel
+    on average 1 % (the impostor texture's resampling); the SH alone gave 27 % more."""
+    ball = sphere(0.6, 5)
+    ball.analytic_sphere = (np.zeros(3), 0.6)
+    scene = floor_scene([black_wall(), SceneObject("ball", ball, Glass(ior=1.0), Transform(position=[0.3, 0.6, 0.0]))])
+    image = renderer.render(scene, "auto")
+    assert renderer.last_plan.technique.startswith("impostors")
+    from caustica.raytrace.embree_scene import ray_scene_for
+
+    origin, direction = (a.reshape(-1, 3) for a in scene.camera.primary_rays(1))
+    through = (ray_scene_for(scene).intersect(origin, direction).object_index == 2).reshape(image.shape[:2])
+    hit = (origin + (-origin[:, 1] / direction[:, 1])[:, None] * direction).reshape(image.shape)
+    assert through.sum() > 80
+    ratio = image[through].mean(axis=-1) / (ALBEDO * wall_fraction(hit[..., 0][through], hit[..., 2][through]))
+    assert np.abs(ratio - 1.0).max() < 0.03 and np.abs(ratio - 1.0).mean() < 0.01

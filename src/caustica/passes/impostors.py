@@ -471,6 +471,7 @@ class NearbyView(Pass):
     """The scene without refractors from the camera, radiance + eye distance (Wyman's nearby-geometry texture)."""
 
     reads = ("light_samples", "shadow_maps")
+    optional = {"environment_bake": None}  # the floor's light map, as the camera's view shows it
     writes = (Channel("nearby_view", "rgba32f", "camera view without refractors: radiance rgb, eye distance a (0: none)"),)
 
     def run(self, frame: Frame) -> None:
@@ -479,7 +480,8 @@ class NearbyView(Pass):
         scene = frame.scene
         keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
         with offscreen_channels(frame, scene_subset(scene, keep), frame.camera,
-                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth")) as kept:
+                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"),
+                                share=("environment_bake",)) as kept:
             packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
                                   np.zeros(3), radial=True)
         frame.write("nearby_view", packed)
