@@ -168,3 +168,21 @@ def test_glass_shows_the_floor_lit_by_the_light_map(renderer):
     assert through.sum() > 80
     ratio = image[through].mean(axis=-1) / (ALBEDO * wall_fraction(hit[..., 0][through], hit[..., 2][through]))
     assert np.abs(ratio - 1.0).max() < 0.03 and np.abs(ratio - 1.0).mean() < 0.01
+
+
+def test_the_map_is_kept_per_scene_state_not_per_camera():
+    """floor_bake keeps the map while geometry, materials and environment stay: a camera move gives the same
+    map back (no bake), a new environment or material bakes again."""
+    import dataclasses
+
+    from caustica.passes.environment_lights import floor_bake
+
+    scene = floor_scene([black_wall()])
+    first = floor_bake(scene, False, 8, samples=16)
+    moved = dataclasses.replace(scene, camera=Camera(position=[3.0, 2.0, 1.0], look_at=[0.0, 0.0, 0.0], size=SIZE))
+    assert floor_bake(moved, False, 8, samples=16) is first
+    dimmer = dataclasses.replace(scene, environment=Environment(np.full((128, 256, 3), 0.5, np.float32)))
+    assert np.allclose(floor_bake(dimmer, False, 8, samples=16).irradiance, 0.5 * first.irradiance, rtol=1e-5)
+    white_wall = dataclasses.replace(black_wall(), material=Diffuse([1.0] * 3))
+    brighter = floor_bake(dataclasses.replace(scene, objects=[scene.objects[0], white_wall]), False, 8, samples=16)
+    assert (brighter.irradiance >= first.irradiance).all() and (brighter.irradiance > first.irradiance).any()
