@@ -387,8 +387,8 @@ class Auto(Technique):
         # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
         view_values.environment_bake = params.environment_bake if "environment_bake" in given or (
             "environment_lobes" not in given and _baked_floor(scene)) else 0
-        # The floor's light map replaces the lobes: with it they changed the other diffuse pixels by -0.7 to +0.7 dB
-        # for up to twice its frame (docs/environment-light.md).
+        # The floor's light map replaces the lobes: with it they changed the other diffuse pixels by -0.4 to +0.7 dB
+        # for twice its frame and more (docs/auto.md).
         view_values.environment_lobes = params.environment_lobes if "environment_lobes" in given or (
             not view_values.environment_bake and _occluded_ambient(scene)) else 0
         for name in ("environment_lobes", "environment_bake"):
