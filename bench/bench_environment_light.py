@@ -116,9 +116,10 @@ def main(argv=None) -> None:
     for scene in scenes(size, not args.no_tinted):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
         start = time.perf_counter()
-        environment_lights.floor_bake(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
-        print(f"{scene.name}: floor light map baked in {time.perf_counter() - start:.1f} s ({BAKE_SIZE}x{BAKE_SIZE} "
-              f"texels, {BAKE_SAMPLES} rays)", file=sys.stderr, flush=True)
+        maps = environment_lights.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
+        print(f"{scene.name}: light maps baked in {time.perf_counter() - start:.1f} s (the floor's {BAKE_SIZE}x"
+              f"{BAKE_SIZE} texels and {len(maps) - 1} box faces', {BAKE_SAMPLES} rays a texel)", file=sys.stderr,
+              flush=True)
         with Renderer() as renderer:
             _, plain_ms = timed_render(renderer, scene, "plain", args.spp, args.frames)
         for label, context, params in states(args.lobes)[-args.last if args.last else 0:]:

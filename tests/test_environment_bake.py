@@ -23,11 +23,7 @@ def floor_scene(objects=(), environment=WHITE) -> Scene:
 
 def texel_centres(bake) -> np.ndarray:
     """(n, n, 2) x, z of each texel's centre."""
-    n = bake.irradiance.shape[0]
-    t = (np.arange(n) + 0.5) / n
-    zz, xx = np.meshgrid(bake.low[1] + t * (bake.high[1] - bake.low[1]), bake.low[0] + t * (bake.high[0] - bake.low[0]),
-                         indexing="ij")
-    return np.stack([xx, zz], axis=-1)
+    return bake.texel_centres()[..., [0, 2]]
 
 
 WALL_HEIGHT, WALL_X, WALL_LENGTH = 2.0, -1.0, 7.6  # a black wall whose face is the plane x = -1
@@ -171,11 +167,14 @@ def test_glass_shows_the_floor_lit_by_the_light_map(renderer):
 
 
 def test_the_map_is_kept_per_scene_state_not_per_camera():
-    """floor_bake keeps the map while geometry, materials and environment stay: a camera move gives the same
-    map back (no bake), a new environment or material bakes again."""
+    """light_maps keeps the maps while geometry, materials and environment stay: a camera move gives the same
+    maps back (no bake), a new environment or material bakes again."""
     import dataclasses
 
-    from caustica.passes.environment_lights import floor_bake
+    from caustica.passes.environment_lights import light_maps
+
+    def floor_bake(scene, sun_taken, size, samples):
+        return light_maps(scene, sun_taken, size, samples)[0]
 
     scene = floor_scene([black_wall()])
     first = floor_bake(scene, False, 8, samples=16)
@@ -186,3 +185,68 @@ def test_the_map_is_kept_per_scene_state_not_per_camera():
     white_wall = dataclasses.replace(black_wall(), material=Diffuse([1.0] * 3))
     brighter = floor_bake(dataclasses.replace(scene, objects=[scene.objects[0], white_wall]), False, 8, samples=16)
     assert (brighter.irradiance >= first.irradiance).all() and (brighter.irradiance > first.irradiance).any()
+
+
+def test_a_box_on_a_black_floor_sees_half_the_sky_on_its_sides():
+    """The faces of a box-shaped object get light maps too (box_faces: any rotation and scale): on a black floor
+    under a constant sky every side texel sees the sky's upper half, irradiance pi / 2, and the top the whole
+    sky, pi, to 0.1 % (the bottom, on the floor, is never seen). The floor is 200 wide: a ray from height y less
+    than y / 100 radians below the horizon passes its edge and sees the ground, which adds at most
+    integral cos(phi) y / 100 dphi = 2 y / 100 to a side texel's irradiance (the mean over the texels below that
+    bound, each at most 3 of the 256 rays, pi / 256 each, above pi / 2)."""
+    from caustica.raytrace.environment_bake import bake_rectangles, box_faces
+
+    floor = SceneObject("floor", plane((200.0, 200.0)), Diffuse([0.0] * 3))
+    block = SceneObject("block", box((0.8, 1.0, 0.5)), Diffuse([0.5] * 3),
+                        Transform(position=[0.3, 0.5, -0.2], rotation=[0.0, 30.0, 0.0]))
+    scene = Scene(camera=Camera(size=SIZE), objects=[floor, block], environment=WHITE)
+    faces = box_faces(block)
+    assert box_faces(floor) is None  # a plane is no box
+    maps = bake_rectangles(scene, faces, (8, 8), WHITE, samples=256)
+    full = open_irradiance(WHITE.image)[0]
+    for light_map in maps:
+        y = light_map.normal[1]
+        if y < -0.5:
+            continue
+        if y > 0.5:
+            assert np.allclose(light_map.irradiance, full, rtol=1e-3)
+            continue
+        excess = light_map.irradiance.mean(axis=-1) - full / 2
+        height = light_map.texel_centres()[..., 1]
+        assert excess.min() > -1e-3 and excess.max() < 3 * np.pi / 256 + 1e-3, light_map.normal
+        assert excess.mean() < 2 * height.mean() / 100
+    # The normals came out of the rotation: the +x face's normal is (cos 30, 0, -sin 30).
+    assert np.allclose(maps[1].normal, [np.cos(np.radians(30)), 0.0, -np.sin(np.radians(30))], atol=1e-9)
+
+
+def test_auto_shades_a_box_face_from_its_light_map(renderer):
+    """A box beside the black wall, its face towards the wall 1.5 away: auto's pixels of that face are albedo /
+    pi times its light map's bilinear value at the pixel's point (the shading finds the face's map and its
+    texel: within 1 %), where the unoccluded SH (with the floor's bounce) is more than 5 % off."""
+    from caustica.passes.environment_lights import light_maps
+    from caustica.raytrace.embree_scene import ray_scene_for
+    from caustica.raytrace.environment_bake import BAKE_SIZE
+
+    block = SceneObject("block", box((0.8, 1.0, 0.8)), Diffuse([0.6] * 3), Transform(position=[0.9, 0.5, 0.0]))
+    scene = floor_scene([black_wall(), block])
+    scene.camera = Camera(position=[-0.6, 2.2, 2.2], look_at=[0.5, 0.5, 0.0], fov_y=40.0, size=SIZE)
+    image = renderer.render(scene, "auto")
+    face = next(m for m in light_maps(scene, False, BAKE_SIZE)[1:] if m.normal[0] < -0.99 and m.origin[0] > 0)
+    origin, direction = (a.reshape(-1, 3) for a in scene.camera.primary_rays(1))
+    hits = ray_scene_for(scene).intersect(origin, direction)
+    st = np.stack([(hits.position - face.origin) @ face.u / (face.u @ face.u),
+                   (hits.position - face.origin) @ face.v / (face.v @ face.v)], axis=-1)
+    on = (hits.object_index == 2) & (hits.geometric_normal[:, 0] < -0.99) & np.all((st > 0.05) & (st < 0.95), axis=1)
+    assert on.sum() > 100
+    rows, columns = face.irradiance.shape[:2]
+    x = np.clip(st[on, 0] * columns, 0.5, columns - 0.5) - 0.5
+    y = np.clip(st[on, 1] * rows, 0.5, rows - 0.5) - 0.5
+    x0, y0 = np.minimum(x.astype(int), columns - 2), np.minimum(y.astype(int), rows - 2)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    e = face.irradiance
+    bilinear = ((e[y0, x0] * (1 - fx) + e[y0, x0 + 1] * fx) * (1 - fy) + (e[y0 + 1, x0] * (1 - fx) + e[y0 + 1, x0 + 1] * fx) * fy)
+    expected = 0.6 / np.pi * bilinear.mean(axis=-1)
+    got = image.reshape(-1, 3)[on].mean(axis=-1)
+    assert np.abs(got / expected - 1.0).max() < 0.01
+    unoccluded = renderer.render(scene, "auto", environment_bake=0, environment_lobes=0).reshape(-1, 3)[on]
+    assert np.abs(unoccluded.mean(axis=-1) / expected - 1.0).mean() > 0.05

@@ -30,9 +30,9 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import (EnvironmentBake, EnvironmentShadows, bake_settings, environment_lobes,
-                                 environment_sun, floor_bake, floor_bounce_sh, lobe_settings, mean_albedo,
-                                 scene_floor)
+from .environment_lights import (EnvironmentBake, EnvironmentShadows, atlas_image, atlas_tiles, bake_settings,
+                                 environment_lobes, environment_sun, floor_bounce_sh, light_maps, lobe_settings,
+                                 mean_albedo, scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -132,17 +132,18 @@ class ShadowMaps(Pass):
         frame.write("environment_bake", self._environment_bake(frame, samples))
 
     def _environment_bake(self, frame: Frame, samples: list[LightSample]):
-        """The floor's light map where the frame's parameters ask for one and the scene has a floor, else None."""
+        """The light maps where the frame's parameters ask for them and the scene has a floor, else None."""
         size = bake_settings(frame.params)
         scene = frame.scene
         sun_taken = any(s.environment for s in samples)
-        bake = floor_bake(scene, sun_taken, size) if size else None
-        if bake is None:
+        maps = light_maps(scene, sun_taken, size) if size else []
+        if not maps:
             return None
-        texture = frame.own(frame.gpu.ctx.texture((size, size), 3, bake.irradiance.tobytes(), dtype="f4"))
+        tiles, shape = atlas_tiles(maps)
+        texture = frame.own(frame.gpu.ctx.texture(shape, 3, atlas_image(maps, tiles, shape).tobytes(), dtype="f4"))
         texture.repeat_x = texture.repeat_y = False
         ground = floor_bounce_sh(scene.environment, sun_taken, mean_albedo(scene_floor(scene)))
-        return EnvironmentBake(texture, bake, ground)
+        return EnvironmentBake(texture, maps, tiles, ground)
 
     def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)

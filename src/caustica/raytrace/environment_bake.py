@@ -7,7 +7,8 @@ floor's share of that light does not depend on the camera, so it is computed onc
 by the shading with one texture fetch: a light map, the oldest precomputation of global illumination
 (Heckbert 1990, "Adaptive radiosity textures for bidirectional ray tracing"; here gathered, not shot).
 
-Each texel of the floor's top rectangle gathers the irradiance of the *ambient* environment (the image
+Each texel of the floor's top rectangle (and of the faces of box-shaped diffuse objects: walls, table tops,
+boxes) gathers the irradiance of the *ambient* environment (the image
 without its sun where the sun is a directional light of its own, which keeps its sharp shadow and its caustic
 map) with ``exact``'s cosine rays (:func:`~caustica.raytrace.paths.cosine_gather`): occluded by every object,
 through glass and off mirrors (the sky's caustic and the glass's tinted shadow) and one bounce of
@@ -36,51 +37,99 @@ from .paths import EnvironmentSampling, Materials, cosine_gather
 
 BAKE_SIZE = 64  # texels a side of the floor's light map
 BAKE_SAMPLES = 256  # cosine rays a texel
+FACE_SIZE = 16  # texels a side of each face of a box's light maps
 
 
 @dataclass(frozen=True)
-class FloorBake:
-    """The irradiance of the ambient environment on a floor's top face (normal +y), per texel of the
-    rectangle ``low`` to ``high`` (x, z) at height ``height``: ``irradiance[j, i]`` at x = low.x + (i + 1/2)
-    (high.x - low.x) / size, z = low.z + (j + 1/2) (high.z - low.z) / size. Radiance is albedo / pi times it."""
+class LightMap:
+    """The irradiance of the ambient environment on a rectangle facing ``normal``: corner ``origin``, edges
+    ``u`` (along the columns) and ``v`` (along the rows), world units; ``irradiance[j, i]`` at origin + (i + 1/2)
+    u / columns + (j + 1/2) v / rows. Radiance is albedo / pi times it (intensity_scale not applied)."""
 
-    low: np.ndarray
-    high: np.ndarray
-    height: float
-    irradiance: np.ndarray  # (size, size, 3) float32, intensity_scale not applied
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    normal: np.ndarray
+    irradiance: np.ndarray  # (rows, columns, 3) float32
+
+    def texel_centres(self) -> np.ndarray:
+        """(rows, columns, 3) world positions of the texels' centres."""
+        rows, columns = self.irradiance.shape[:2]
+        s, t = (np.arange(columns) + 0.5) / columns, (np.arange(rows) + 0.5) / rows
+        return self.origin + s[None, :, None] * self.u + t[:, None, None] * self.v
 
 
-def open_irradiance(image: np.ndarray) -> np.ndarray:
-    """(3,) irradiance an upward normal receives from the whole upper hemisphere of an equirectangular
-    ``image``: sum over texels of radiance cos(theta) solid angle."""
+def open_irradiance(image: np.ndarray, normal=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """(3,) irradiance a surface facing ``normal`` receives from the equirectangular ``image`` with nothing in
+    the way: sum over texels of radiance max(0, cos) solid angle."""
     directions, solid_angle = texel_grid(*image.shape[:2])
-    return np.einsum("hwc,hw->c", image.astype(np.float64), np.maximum(directions[..., 1], 0.0) * solid_angle)
+    cos = np.maximum(directions @ np.asarray(normal, np.float64), 0.0)
+    return np.einsum("hwc,hw->c", image.astype(np.float64), cos * solid_angle)
 
 
 def bake_floor(scene, floor, ambient: Environment, sun=None, size: int = BAKE_SIZE,
-               samples: int = BAKE_SAMPLES) -> FloorBake:
-    """The :class:`FloorBake` of ``floor`` (one of ``scene.objects``) under the ``ambient`` environment;
-    ``sun`` (a DirectionalLight or None) lights the surfaces the rays bounce off, as the scene's lights do."""
-    low3, high3 = floor.world_mesh().bounds
-    low, high = low3[[0, 2]].astype(np.float64), high3[[0, 2]].astype(np.float64)
-    # Texel centres on the floor's top face.
-    t = (np.arange(size) + 0.5) / size
-    zz, xx = np.meshgrid(low[1] + t * (high[1] - low[1]), low[0] + t * (high[0] - low[0]), indexing="ij")
-    points = np.stack([xx.ravel(), np.full(xx.size, float(high3[1])), zz.ravel()], axis=1)
-    up = np.tile([0.0, 1.0, 0.0], (len(points), 1))
+               samples: int = BAKE_SAMPLES) -> LightMap:
+    """The :class:`LightMap` of ``floor``'s top face (one of ``scene.objects``, flat, horizontal) under the
+    ``ambient`` environment; ``sun`` (a DirectionalLight or None) lights the surfaces the rays bounce off, as the
+    scene's lights do."""
+    low, high = floor.world_mesh().bounds.astype(np.float64)
+    origin = np.array([low[0], high[1], low[2]])
+    rectangle = (origin, np.array([high[0] - low[0], 0.0, 0.0]), np.array([0.0, 0.0, high[2] - low[2]]),
+                 np.array([0.0, 1.0, 0.0]))
+    return bake_rectangles(scene, [rectangle], (size, size), ambient, sun, samples, floor.name)[0]
+
+
+def box_faces(obj) -> list[tuple] | None:
+    """The six faces of ``obj`` as rectangles (origin, u, v, outward normal; world units), or None where its mesh
+    is not a box: every vertex at a corner of its bounding box (a box under any rotation, scale, translation)."""
+    mesh = obj.mesh
+    low, high = mesh.vertices.min(axis=0).astype(np.float64), mesh.vertices.max(axis=0).astype(np.float64)
+    tolerance = 1e-6 * max(float(np.linalg.norm(high - low)), 1e-30)
+    at_corner = (np.abs(mesh.vertices - low) <= tolerance) | (np.abs(mesh.vertices - high) <= tolerance)
+    if not at_corner.all() or np.any(high - low <= tolerance):
+        return None
+    world = obj.world_from_object()
+    to_world = lambda p: world[:3, :3] @ p + world[:3, 3]  # noqa: E731
+    normal_from_object = np.linalg.inv(world[:3, :3]).T
+    faces = []
+    for axis in range(3):
+        a, b = [k for k in range(3) if k != axis]
+        for side, corner in ((-1.0, low), (1.0, high)):
+            origin = low.copy()
+            origin[axis] = corner[axis]
+            u, v = np.zeros(3), np.zeros(3)
+            u[a], v[b] = high[a] - low[a], high[b] - low[b]
+            n = np.zeros(3)
+            n[axis] = side
+            n = normal_from_object @ n
+            faces.append((to_world(origin), to_world(origin + u) - to_world(origin),
+                          to_world(origin + v) - to_world(origin), n / np.linalg.norm(n)))
+    return faces
+
+
+def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambient: Environment, sun=None,
+                    samples: int = BAKE_SAMPLES, label: str = "") -> list[LightMap]:
+    """A :class:`LightMap` of ``size`` (columns, rows) per rectangle (origin, u, v, normal) under the ``ambient``
+    environment (see the module docstring), texels inside an object filled from their neighbours."""
+    columns, rows = size
     # The rays see the ambient environment; the surfaces they bounce off are lit by the lights and the sun.
     lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
     rays = ray_scene_for(scene)
     materials = Materials.of(scene)
     sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
-    with progress(len(points), f"baking the environment's light on {floor.name} ({size}x{size}, {samples} rays)",
-                  unit="texels") as bar:
-        shadowed = cosine_gather(rays, lit, points, up, up, sampling, materials, materials.ior_rgb[:, 0],
-                                 less_open=True, done=bar.update)
-    irradiance = open_irradiance(ambient.image) + np.pi * shadowed
-    inside = _inside(rays, points + up * rays.epsilon)
-    irradiance = _fill(irradiance.reshape(size, size, 3), inside.reshape(size, size))
-    return FloorBake(low, high, float(high3[1]), np.maximum(irradiance, 0.0).astype(np.float32))
+    maps = [LightMap(o, u, v, n, np.zeros((rows, columns, 3), np.float32)) for o, u, v, n in rectangles]
+    with progress(len(maps) * rows * columns, f"baking the environment's light on {label} ({len(maps)} x "
+                  f"{columns}x{rows} texels, {samples} rays)", unit="texels") as bar:
+        for k, light_map in enumerate(maps):
+            points = light_map.texel_centres().reshape(-1, 3)
+            normal = np.broadcast_to(light_map.normal, points.shape)
+            shadowed = cosine_gather(rays, lit, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0],
+                                     less_open=True, done=bar.update)
+            irradiance = open_irradiance(ambient.image, light_map.normal) + np.pi * shadowed
+            inside = _inside(rays, points + normal * rays.epsilon)
+            filled = _fill(irradiance.reshape(rows, columns, 3), inside.reshape(rows, columns))
+            maps[k] = replace(light_map, irradiance=np.maximum(filled, 0.0).astype(np.float32))
+    return maps
 
 
 def _inside(rays, origins: np.ndarray) -> np.ndarray:
