@@ -53,7 +53,8 @@ def main(argv=None) -> None:
                             f"{bake_s if params == {} else 0:.1f} |")
                 print(rows[-1], file=sys.stderr, flush=True)
     print_table(f"{args.size}, auto {args.spp} spp, Mitsuba {args.reference_spp} spp, GL: {gl}",
-                ["preset", "plan", "ambient", "all", "refractor", "caustic", "rest", "first frame s (bake, compile)"], rows)
+                ["preset", "plan", "ambient", "all", "refractor", "caustic", "rest", "first frame s (bake, compile)"],
+                rows)
 
 
 if __name__ == "__main__":

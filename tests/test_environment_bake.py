@@ -244,7 +244,8 @@ def test_auto_shades_a_box_face_from_its_light_map(renderer):
     x0, y0 = np.minimum(x.astype(int), columns - 2), np.minimum(y.astype(int), rows - 2)
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
     e = face.irradiance
-    bilinear = ((e[y0, x0] * (1 - fx) + e[y0, x0 + 1] * fx) * (1 - fy) + (e[y0 + 1, x0] * (1 - fx) + e[y0 + 1, x0 + 1] * fx) * fy)
+    bilinear = ((e[y0, x0] * (1 - fx) + e[y0, x0 + 1] * fx) * (1 - fy)
+                + (e[y0 + 1, x0] * (1 - fx) + e[y0 + 1, x0 + 1] * fx) * fy)
     expected = 0.6 / np.pi * bilinear.mean(axis=-1)
     got = image.reshape(-1, 3)[on].mean(axis=-1)
     assert np.abs(got / expected - 1.0).max() < 0.01

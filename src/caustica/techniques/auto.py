@@ -28,9 +28,9 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
-from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, environment_sun, lobe_occlusion,
-                                        scene_floor)
-from ..raytrace.environment_bake import BAKE_SIZE
+from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_BAKED, MAX_LOBES, environment_sun,
+                                        lobe_occlusion, scene_floor)
+from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, box_faces
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -57,9 +57,10 @@ class AutoParams(Params):
                                         "shadowed (one directional shadow map each; docs/environment-light.md), "
                                         "where the plan finds diffuse surfaces that other objects occlude")
     environment_bake: int = param(BAKE_SIZE, range=(0, MAX_BAKE_SIZE), special={0: "none"}, unit="texels",
-                                  help="texels a side of the floor's light map of the environment's light, baked "
-                                       "once per scene state with exact's rays (occlusion, glass, the sky's caustic, "
-                                       "one bounce; docs/environment-light.md), where the scene has a floor")
+                                  help="texels a side of the floor's light map of the environment's light (box "
+                                       "faces get 16), baked once per scene state with exact's rays (occlusion, "
+                                       "glass, the sky's caustic, one bounce; docs/environment-light.md), where the "
+                                       "scene has a floor")
 
 
 @dataclass
@@ -232,10 +233,15 @@ def _occluded_ambient(scene) -> bool:
 
 def _baked(obj, scene) -> str:
     """The plan's reason for the floor's light map, on the floor's entry and the others'."""
-    if obj is scene_floor(scene):
+    floor = scene_floor(scene)
+    baked = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
+    if obj is floor:
         return (f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by "
                 "default) baked with exact's rays: occluded, through glass (the sky's caustic), one bounce "
                 "(docs/environment-light.md)")
+    if obj in baked[: (MAX_BAKED - 1) // 6]:
+        return (f"; the environment's light on its faces from light maps ({FACE_SIZE} texels a side) baked with "
+                "exact's rays, as the floor's")
     return "; the environment's light unoccluded, the floor's bounce for its light from below"
 
 
