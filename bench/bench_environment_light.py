@@ -7,11 +7,13 @@ diffuse) and median ms of ``auto`` in three states: the sun left in the SH (befo
 directional light (part 3, ``environment_lobes=0``), the sun plus ``--lobes`` environment lobes with
 shadow maps of the opaque objects only (part 2 as first built), with the glass's transmittance in them
 (tinted glass shadows), with the floor's bounce for the light from below, and with the occluders' bounce
-where a lobe is blocked (auto now); ``plain`` gives the cost floor (with the sun and no lobes, as it
-renders now).
+where a lobe is blocked, and, auto now, the floor's light map (raytrace/environment_bake.py) in place of the
+lobes; ``plain`` gives the cost floor (with the sun and no lobes, as it renders now). The light map's bake
+time (once per scene state, not in the frame times) is printed per scene.
 ``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
+    .venv/bin/python bench/bench_environment_light.py --cost-rounds 5  # the cost alone, in blocks
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ import argparse
 import contextlib
 import dataclasses
 import sys
+import time
 from unittest import mock
 
 import numpy as np
@@ -27,8 +30,10 @@ sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from bench_exact_caustics import print_table  # noqa: E402
 from bench_exact_environment import mixed_scene, region_cells, seeded_reference  # noqa: E402
 
-from caustica.bench.timing import timed_render  # noqa: E402
+from caustica.bench.timing import fastest_in_blocks, timed_render  # noqa: E402
 from caustica.passes import environment_lights, lights  # noqa: E402
+from caustica.passes.environment_lights import environment_sun  # noqa: E402
+from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
 from caustica.scene import Camera, Diffuse, Glass, SceneObject, Transform  # noqa: E402
 from caustica.scene.shapes import box, sphere  # noqa: E402
@@ -86,7 +91,8 @@ def states(lobes: int):
              {"environment_lobes": lobes}),
             ("+ glass transmits", without(ambient_sh=None, bounce=None), {"environment_lobes": lobes}),
             ("+ floor bounce", without(bounce=None), {"environment_lobes": lobes}),
-            ("+ occluders' bounce (now)", contextlib.nullcontext(), {"environment_lobes": lobes})]
+            ("+ occluders' bounce", contextlib.nullcontext(), {"environment_lobes": lobes}),
+            ("floor light map, no lobes (now)", contextlib.nullcontext(), {})]
 
 
 def main(argv=None) -> None:
@@ -97,23 +103,54 @@ def main(argv=None) -> None:
     parser.add_argument("--lobes", type=int, default=environment_lights.LOBES)
     parser.add_argument("--frames", type=int, default=5)
     parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
+    parser.add_argument("--spp", type=int, default=1, help="auto's and plain's samples a pixel")
+    parser.add_argument("--last", type=int, default=0, help="only the last N states (0: all)")
+    parser.add_argument("--cost-rounds", type=int, default=0,
+                        help="only the cost: auto with the floor's light map and with the lobes over plain, "
+                             "fastest_in_blocks over this many rounds")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
+    if args.cost_rounds:
+        return costs(size, not args.no_tinted, args.lobes, args.cost_rounds)
     rows = []
     for scene in scenes(size, not args.no_tinted):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
+        start = time.perf_counter()
+        maps = environment_lights.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
+        print(f"{scene.name}: light maps baked in {time.perf_counter() - start:.1f} s (the floor's {BAKE_SIZE}x"
+              f"{BAKE_SIZE} texels and {len(maps) - 1} box faces', {BAKE_SAMPLES} rays a texel)", file=sys.stderr,
+              flush=True)
         with Renderer() as renderer:
-            _, plain_ms = timed_render(renderer, scene, "plain", 1, args.frames)
-        for label, context, params in states(args.lobes):
+            _, plain_ms = timed_render(renderer, scene, "plain", args.spp, args.frames)
+        for label, context, params in states(args.lobes)[-args.last if args.last else 0:]:
             # A renderer (and device cache) per state: the states share the scene's cache key, and the
             # shadow maps cached with the sun must not serve the state without it.
             with context, Renderer() as renderer:
-                image, ms = timed_render(renderer, scene, "auto", 1, args.frames, params)
+                image, ms = timed_render(renderer, scene, "auto", args.spp, args.frames, params)
             rows.append(f"| {scene.name} | {label} | {region_cells(image, reference, masks)} | {ms:.0f} | "
                         f"{ms / plain_ms:.2f} |")
             print(rows[-1], file=sys.stderr, flush=True)
-    print_table(f"{args.size}, auto 1 spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged",
+    print_table(f"{args.size}, auto {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged",
                 ["scene", "auto", "glass PSNR", "caustic PSNR", "diffuse PSNR", "PSNR all", "ms", "x plain"], rows)
+
+
+def costs(size, tinted: bool, lobes: int, rounds: int) -> None:
+    """auto's fastest frame (bench/timing.fastest_in_blocks: wall clock and process CPU time, 3 frames a block)
+    over plain's, as planned now (the floor's light map, baked before the timing) and with the lobes instead."""
+    variants = {"light map (now)": ("auto", {}), f"{lobes} lobes": ("auto", {"environment_lobes": lobes}),
+                "plain": ("plain", {})}
+    rows = []
+    with Renderer() as renderer:
+        gl = renderer.info()["renderer"]
+        for scene in scenes(size, tinted):
+            fastest = fastest_in_blocks(renderer, scene, variants, 1, rounds)
+            for name in list(variants)[:-1]:
+                rows.append(f"| {scene.name} | {name} | {fastest[name]['wall']:.1f} | "
+                            f"{fastest[name]['wall'] / fastest['plain']['wall']:.2f} | "
+                            f"{fastest[name]['cpu'] / fastest['plain']['cpu']:.2f} |")
+                print(rows[-1], file=sys.stderr, flush=True)
+    print_table(f"{size[0]}x{size[1]}, 1 spp, fastest of {rounds} rounds x 3 frames, GL: {gl}",
+                ["scene", "auto", "ms", "x plain, wall", "x plain, CPU"], rows)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..cache import array_digest, kept_on, scene_state_key
+from ..cache import LruCache, array_digest, kept_on, material_state_key, scene_state_key
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
@@ -62,12 +62,13 @@ def _extract_sun(environment: Environment) -> EnvironmentSun:
     return EnvironmentSun(light, split.rest.irradiance_sh())
 
 
-def ambient_sh(environment: Environment, samples, shadows=None) -> np.ndarray:
+def ambient_sh(environment: Environment, samples, shadows=None, bake=None) -> np.ndarray:
     """(9, 3) SH irradiance diffuse surfaces take as ambient: the floor's bounce below the horizon where the
-    frame's ``environment_shadows`` hold it (floor_bounce_sh); else the environment's without its sun where
-    the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
-    if shadows is not None and shadows.ambient_sh is not None:
-        return shadows.ambient_sh
+    frame's ``environment_shadows`` or ``environment_bake`` hold it (floor_bounce_sh); else the environment's
+    without its sun where the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+    for held in (shadows, bake):
+        if held is not None and held.ambient_sh is not None:
+            return held.ambient_sh
     if any(getattr(s, "environment", False) for s in samples):
         return environment_sun(environment).rest_sh
     return environment.irradiance_sh()
@@ -195,11 +196,17 @@ def lobe_settings(params) -> tuple[int, int]:
     """(lobes, texels a side of each map) a frame's parameters ask for: the ``environment_lobes`` and
     ``environment_lobe_size`` attributes auto sets on the planned technique's parameters (on the view's of a
     composite's pair), else (0, LOBE_MAP_SIZE)."""
-    first = params[0] if isinstance(params, tuple) and params else params
-    count = int(getattr(first, "environment_lobes", 0) or 0)
+    count = int(_frame_setting(params, "environment_lobes") or 0)
     if not 0 <= count <= MAX_LOBES:
         raise ValueError(f"environment_lobes must be 0 to {MAX_LOBES} (got {count})")
-    return count, int(getattr(first, "environment_lobe_size", LOBE_MAP_SIZE) or LOBE_MAP_SIZE)
+    return count, int(_frame_setting(params, "environment_lobe_size") or LOBE_MAP_SIZE)
+
+
+def _frame_setting(params, name: str):
+    """An attribute auto sets on the planned technique's parameters (on the view's of a composite's pair), or
+    None."""
+    first = params[0] if isinstance(params, tuple) and params else params
+    return getattr(first, name, None)
 
 
 @dataclass
@@ -329,3 +336,105 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
     chord = np.where(exit_.hit, exit_.t, 0.0)
     loss[entry.hit] = 1.0 - (1.0 - fresnel_dielectric(1.0, 1.0, ior)) ** 2 * np.exp(-sigma * chord)
     return loss
+
+
+# The floor's light map: the ambient environment's light baked with exact's rays --------------------------
+
+MAX_BAKE_SIZE = 1024  # texels a side of the floor's light map, at most
+MAX_BAKED = 32  # lighting.glsl's MAX_BAKED: the floor and the faces of the first five box-shaped objects
+
+_BAKES = LruCache(4)  # the light maps of the scenes rendered last (not the camera: a move bakes nothing)
+
+
+@dataclass
+class EnvironmentBake:
+    """ShadowMaps' ``environment_bake``: the light maps (raytrace/environment_bake.py LightMap: the floor's top
+    first, then the faces of box-shaped diffuse objects) as tiles of one rgb32f ``texture`` (``tiles``: x0, y0,
+    columns, rows in texels, per map), and the SH ambient of every other diffuse surface (floor_bounce_sh)."""
+
+    texture: object
+    maps: list
+    tiles: np.ndarray
+    ambient_sh: np.ndarray
+
+
+def bake_settings(params) -> int:
+    """Texels a side of the floor's light map the frame's parameters ask for (``environment_bake``, which auto
+    sets on the planned technique's parameters); 0: none."""
+    size = int(_frame_setting(params, "environment_bake") or 0)
+    if not 0 <= size <= MAX_BAKE_SIZE:
+        raise ValueError(f"environment_bake must be 0 to {MAX_BAKE_SIZE} texels (got {size})")
+    return size
+
+
+def light_maps(scene, sun_taken: bool, size: int, samples: int | None = None) -> list:
+    """The LightMaps (raytrace/environment_bake.py) of the scene's floor (scene_floor, ``size`` texels a side)
+    and of the faces of its other box-shaped diffuse objects (FACE_SIZE a side; up to MAX_BAKED maps in all)
+    under the ambient environment (without its sun where ``sun_taken``), kept for the next frame of the same
+    geometry, materials and environment; [] without a floor."""
+    from ..raytrace.environment_bake import BAKE_SAMPLES, FACE_SIZE, bake_floor, bake_rectangles, box_faces
+
+    floor = scene_floor(scene)
+    if floor is None:
+        return []
+    samples = BAKE_SAMPLES if samples is None else samples
+    key = (scene_state_key(scene), material_state_key(scene), bool(sun_taken), int(size), int(samples))
+    maps = _BAKES.get(key)
+    if maps is None:
+        sun = environment_sun(scene.environment).light if sun_taken else None
+        ambient = environment_light(scene.environment).rest if sun_taken else scene.environment
+        maps = [bake_floor(scene, floor, ambient, sun, size, samples)]
+        boxes = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
+        faces = [face for o in boxes for face in box_faces(o)][: (MAX_BAKED - 1) // 6 * 6]
+        if faces:
+            label = ", ".join(o.name for o in boxes[: len(faces) // 6])
+            maps += bake_rectangles(scene, faces, (FACE_SIZE, FACE_SIZE), ambient, sun, samples, label)
+        _BAKES[key] = maps
+    return maps
+
+
+def atlas_tiles(maps: list) -> tuple[np.ndarray, tuple[int, int]]:
+    """(tiles, (width, height)): where each map lies in one atlas, (x0, y0, columns, rows) in texels: the first
+    at the left, the others in columns to its right, top to bottom."""
+    first_rows, first_columns = maps[0].irradiance.shape[:2]
+    height = max([first_rows] + [m.irradiance.shape[0] for m in maps[1:]])
+    tiles, x, y, column_width = [(0, 0, first_columns, first_rows)], first_columns, 0, 0
+    for light_map in maps[1:]:
+        rows, columns = light_map.irradiance.shape[:2]
+        if y + rows > height:
+            x, y, column_width = x + column_width, 0, 0
+        tiles.append((x, y, columns, rows))
+        y, column_width = y + rows, max(column_width, columns)
+    return np.array(tiles, np.int64), (x + column_width, height)
+
+
+def atlas_image(maps: list, tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(height, width, 3) float32: the maps placed at their tiles."""
+    image = np.zeros((shape[1], shape[0], 3), np.float32)
+    for light_map, (x0, y0, columns, rows) in zip(maps, tiles):
+        image[y0:y0 + rows, x0:x0 + columns] = light_map.irradiance
+    return image
+
+
+def bind_environment_bake(program, baked: EnvironmentBake, unit: int) -> None:
+    """Set lighting.glsl's env_bake_* uniforms and bind the maps' atlas to texture unit ``unit``."""
+    from ..gpu.meshes import set_uniform, write_uniform_array
+
+    count = len(baked.maps)
+    rows = {"env_bake_origin": [m.origin for m in baked.maps],
+            "env_bake_u": [m.u / max(float(m.u @ m.u), 1e-300) for m in baked.maps],
+            "env_bake_v": [m.v / max(float(m.v @ m.v), 1e-300) for m in baked.maps],
+            "env_bake_normal": [m.normal for m in baked.maps]}
+    for name, values in rows.items():
+        padded = np.zeros((MAX_BAKED, 3), "f4")
+        padded[:count] = values
+        write_uniform_array(program, name, padded)
+    tiles = np.zeros((MAX_BAKED, 4), "f4")
+    tiles[:count] = baked.tiles
+    write_uniform_array(program, "env_bake_texels", tiles)
+    slack = np.zeros(MAX_BAKED, "f4")  # how far off its plane a point may lie: 1e-3 of the shorter edge
+    slack[:count] = [1e-3 * min(np.linalg.norm(m.u), np.linalg.norm(m.v)) for m in baked.maps]
+    write_uniform_array(program, "env_bake_slack", slack)
+    set_uniform(program, "env_bake_count", count)
+    baked.texture.use(unit)
+    set_uniform(program, "env_bake", unit)

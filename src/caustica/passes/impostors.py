@@ -233,7 +233,8 @@ class BuildImpostors(Pass):
     """
 
     reads = ("light_samples", "shadow_maps")
-    optional = {"caustic_maps": None}  # the textures show the caustics on the objects they stand for
+    # The textures show the caustics on the objects they stand for, and the floor's light map.
+    optional = {"caustic_maps": None, "environment_bake": None}
     writes = (Channel("impostors", "rgba32f + host[reflector]", "per reflector: rectangles and an atlas of their textures "
                                                                      "(radiance, depth)"),)
 
@@ -249,7 +250,7 @@ class BuildImpostors(Pass):
         if "impostors" in frame.channels or "impostor_world" in frame.channels:
             return None
         return (self.size, self.depth, self.rect_offset, self.distance_factor, self.max_impostors, self.merge_planes,
-                _impostor_state_key(frame.scene), frame.version("caustic_maps"))
+                _impostor_state_key(frame.scene), frame.version("caustic_maps"), frame.version("environment_bake"))
 
     def run(self, frame: Frame) -> None:
         if "impostors" in frame.channels:
@@ -296,7 +297,7 @@ class BuildImpostors(Pass):
         frame.channels.setdefault("impostor_world", world)
         with offscreen_channels(frame, scene_subset(world, [impostor.index, *impostor.others]), impostor.camera,
                                 self.texture_passes(depth), keep=("color", "depth"),
-                                share=("impostor_world", "caustic_maps")) as kept:
+                                share=("impostor_world", "caustic_maps", "environment_bake")) as kept:
             pack_texture(frame, kept["color"], kept["depth"], impostor.camera, impostor.origin, impostor.axis,
                          into=(impostor.texture, impostor.cell))
 
@@ -472,6 +473,7 @@ class NearbyView(Pass):
     """The scene without refractors from the camera, radiance + eye distance (Wyman's nearby-geometry texture)."""
 
     reads = ("light_samples", "shadow_maps")
+    optional = {"environment_bake": None}  # the floor's light map, as the camera's view shows it
     writes = (Channel("nearby_view", "rgba32f", "camera view without refractors: radiance rgb, eye distance a (0: none)"),)
 
     def run(self, frame: Frame) -> None:
@@ -480,7 +482,8 @@ class NearbyView(Pass):
         scene = frame.scene
         keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
         with offscreen_channels(frame, scene_subset(scene, keep), frame.camera,
-                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth")) as kept:
+                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"),
+                                share=("environment_bake",)) as kept:
             packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
                                   np.zeros(3), radial=True)
         frame.write("nearby_view", packed)

@@ -30,8 +30,9 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import (EnvironmentShadows, environment_lobes, environment_sun, floor_bounce_sh,
-                                 lobe_settings, mean_albedo, scene_floor)
+from .environment_lights import (EnvironmentBake, EnvironmentShadows, atlas_image, atlas_tiles, bake_settings,
+                                 environment_lobes, environment_sun, floor_bounce_sh, light_maps, lobe_settings,
+                                 mean_albedo, scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -108,15 +109,19 @@ class ShadowMaps(Pass):
         Channel("shadow_maps", "r32f[light]", "per light sample: distance to the light (6-face atlas for points)"),
         Channel("environment_shadows", "host", "EnvironmentShadows: the environment's lobes and their maps' atlas, "
                                                "or None"),
+        Channel("environment_bake", "host", "EnvironmentBake: the floor's light map of the ambient environment "
+                                            "(rgba32f), or None"),
     )
 
     def __init__(self, size: int = 1024):
         self.size = size
 
     def cache_key(self, frame: Frame):
-        lobes = lobe_settings(frame.params)
-        # The lobes' maps tell glass from opaque objects and hold the glass's IOR and absorption.
-        return self.size, lobes, scene_state_key(frame.scene), material_state_key(frame.scene) if lobes[0] else ()
+        lobes, bake = lobe_settings(frame.params), bake_settings(frame.params)
+        # The lobes' maps and the floor's light map tell glass from opaque objects and hold the glass's IOR and
+        # absorption and the objects' colours.
+        return (self.size, lobes, bake, scene_state_key(frame.scene),
+                material_state_key(frame.scene) if lobes[0] or bake else ())
 
     def run(self, frame: Frame) -> None:
         samples = light_samples(frame.scene)
@@ -124,6 +129,21 @@ class ShadowMaps(Pass):
         frame.write("light_samples", samples)
         frame.write("shadow_maps", maps)
         frame.write("environment_shadows", self._environment_shadows(frame, samples, maps))
+        frame.write("environment_bake", self._environment_bake(frame, samples))
+
+    def _environment_bake(self, frame: Frame, samples: list[LightSample]):
+        """The light maps where the frame's parameters ask for them and the scene has a floor, else None."""
+        size = bake_settings(frame.params)
+        scene = frame.scene
+        sun_taken = any(s.environment for s in samples)
+        maps = light_maps(scene, sun_taken, size) if size else []
+        if not maps:
+            return None
+        tiles, shape = atlas_tiles(maps)
+        texture = frame.own(frame.gpu.ctx.texture(shape, 3, atlas_image(maps, tiles, shape).tobytes(), dtype="f4"))
+        texture.repeat_x = texture.repeat_y = False
+        ground = floor_bounce_sh(scene.environment, sun_taken, mean_albedo(scene_floor(scene)))
+        return EnvironmentBake(texture, maps, tiles, ground)
 
     def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)

@@ -16,13 +16,14 @@ from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
-from .environment_lights import ambient_sh, bind_environment_shadows
+from .environment_lights import ambient_sh, bind_environment_bake, bind_environment_shadows
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
 ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27-29 their glass's, bounce's, nearest distances' (passes/environment_lights.py)
+ENVIRONMENT_BAKE_UNIT = 30  # the floor's light map of the environment (passes/environment_lights.py)
 
 
 class RefractorSurfaces(Pass):
@@ -139,7 +140,7 @@ class ShadeSurfaces(Pass):
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
     # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py).
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES",
-                "environment_shadows": "ENVIRONMENT_SHADOWS"}
+                "environment_shadows": "ENVIRONMENT_SHADOWS", "environment_bake": "ENVIRONMENT_BAKE"}
 
     def __init__(self, *args, options: ShadeOptions | None = None, **overrides):
         """``args``, ``overrides``: ShadeOptions fields (in order, by name), over ``options`` when given.
@@ -328,10 +329,13 @@ class ShadeSurfaces(Pass):
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
         samples = frame.read("light_samples")
         shadows = frame.optional("environment_shadows")
-        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples, shadows).astype("f4"))
+        bake = frame.optional("environment_bake")
+        set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples, shadows, bake).astype("f4"))
         bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
         if shadows is not None:
             bind_environment_shadows(program, shadows, ENVIRONMENT_SHADOW_UNIT)
+        if bake is not None:
+            bind_environment_bake(program, bake, ENVIRONMENT_BAKE_UNIT)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
         elif frame.optional("caustic_tiles") is not None:

@@ -206,18 +206,7 @@ def _environment_radiance(ray_scene, scene, position, normal, geometric_normal, 
     origin = position + geometric_normal * ray_scene.epsilon
     out = np.zeros((len(position), 3))
     if sampling.samples:
-        k = sampling.samples
-        step = max(1, BATCH_SIZE // k)
-        for start in range(0, len(position), step):
-            sl = slice(start, start + step)
-            d = cosine_directions(position[sl], normal[sl], k).reshape(-1, 3)
-            # Below the face (the shading normal tilts past it): mirrored above it.
-            ng = np.repeat(geometric_normal[sl], k, axis=0)
-            d = np.where((dot(d, ng) < 0)[:, None], d - 2.0 * dot(d, ng)[:, None] * ng, d)
-            radiance = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), np.repeat(origin[sl], k, axis=0), d,
-                                    sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
-                                    environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce)
-            out[sl] = albedo[sl] * radiance.reshape(-1, k, 3).mean(axis=1)
+        out += albedo * cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling, materials, ior)
     else:
         out += albedo / np.pi * light.rest.irradiance(normal) * scale
     if sampling.bright_samples and light.has_bright:
@@ -229,6 +218,34 @@ def _environment_radiance(ray_scene, scene, position, normal, geometric_normal, 
         lit[where] = ~ray_scene.occluded(origin[where[0]], d[where], np.inf)
         contribution = np.where(lit, cos / pdf, 0.0)[..., None] * radiance
         out += albedo / np.pi * contribution.mean(axis=1) * scale
+    return out
+
+
+def cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling, materials, ior,
+                  less_open: bool = False, done=None) -> np.ndarray:
+    """Mean radiance (n, 3) of ``sampling.samples`` stratified cosine-weighted rays per point (pi times it is the
+    irradiance), traced through glass and off mirrors; escaping rays read the rest of ``sampling.light``.
+    ``less_open``: each ray less what it would read unblocked (the rest along its direction), so a point
+    nothing shadows gives exactly 0 (a control variate: add the open irradiance back). ``done(points)`` is
+    called after each batch."""
+    k, light = sampling.samples, sampling.light
+    origin = position + geometric_normal * ray_scene.epsilon
+    out = np.zeros((len(position), 3))
+    step = max(1, BATCH_SIZE // k)
+    for start in range(0, len(position), step):
+        sl = slice(start, start + step)
+        d = cosine_directions(position[sl], normal[sl], k).reshape(-1, 3)
+        # Below the face (the shading normal tilts past it): mirrored above it.
+        ng = np.repeat(geometric_normal[sl], k, axis=0)
+        d = np.where((dot(d, ng) < 0)[:, None], d - 2.0 * dot(d, ng)[:, None] * ng, d)
+        radiance = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), np.repeat(origin[sl], k, axis=0), d,
+                                sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
+                                environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce)
+        if less_open:
+            radiance -= light.rest.lookup(d) * scene.intensity_scale
+        out[sl] = radiance.reshape(-1, k, 3).mean(axis=1)
+        if done is not None:
+            done(len(out[sl]))
     return out
 
 

@@ -28,7 +28,9 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
-from ..passes.environment_lights import LOBES, MAX_LOBES, environment_sun, lobe_occlusion, scene_floor
+from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_BAKED, MAX_LOBES, environment_sun,
+                                        lobe_occlusion, scene_floor)
+from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, box_faces
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -54,6 +56,11 @@ class AutoParams(Params):
                                    help="the environment's strata of equal power whose light on diffuse surfaces is "
                                         "shadowed (one directional shadow map each; docs/environment-light.md), "
                                         "where the plan finds diffuse surfaces that other objects occlude")
+    environment_bake: int = param(BAKE_SIZE, range=(0, MAX_BAKE_SIZE), special={0: "none"}, unit="texels",
+                                  help="texels a side of the floor's light map of the environment's light (box "
+                                       "faces get 16), baked once per scene state with exact's rays (occlusion, "
+                                       "glass, the sky's caustic, one bounce; docs/environment-light.md), where the "
+                                       "scene has a floor")
 
 
 @dataclass
@@ -159,7 +166,8 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
     if caustics:
         sized = caustic_map_size(map_size, scene.camera.size if frame_size is None else frame_size)
         params[f"{caustics_by}.map_size"] = sized if caustics_by == CAUSTICS else map_size
-    occluded = _occluded_ambient(scene)
+    baked = _baked_floor(scene)
+    occluded = not baked and _occluded_ambient(scene)
     entries = []
     for obj in objects:
         kind = obj.material.kind
@@ -173,11 +181,13 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
             entries.append(PlanEntry(obj.name, kind, f"{view} + {caustics_by}",
                                      f"diffuse receiver: shadow maps, and caustics from {_lights(lit, sun)} through "
                                      f"{len(casters)} specular object(s) by {how}"
-                                     + (OCCLUDED if occluded else "")))
+                                     + (OCCLUDED if occluded else "") + (_baked(obj, scene) if baked else "")))
         else:
             why = "diffuse: shadow maps and the environment's irradiance"
             if occluded:
                 why += OCCLUDED
+            if baked:
+                why += _baked(obj, scene)
             if not lit:
                 why += " (no light, so no caustics)"
             elif not casters:
@@ -220,6 +230,27 @@ def _occluded_ambient(scene) -> bool:
     return (bool(diffuse) and len(scene.objects) > 1 and not scene.lights
             and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
             and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE))
+
+
+def _baked(obj, scene) -> str:
+    """The plan's reason for the floor's light map, on the floor's entry and the others'."""
+    floor = scene_floor(scene)
+    baked = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
+    if obj is floor:
+        return (f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by "
+                "default) baked with exact's rays: occluded, through glass (the sky's caustic), one bounce "
+                "(docs/environment-light.md)")
+    if obj in baked[: (MAX_BAKED - 1) // 6]:
+        return (f"; the environment's light on its faces from light maps ({FACE_SIZE} texels a side) baked with "
+                "exact's rays, as the floor's")
+    return "; the environment's light unoccluded, the floor's bounce for its light from below"
+
+
+def _baked_floor(scene) -> bool:
+    """Whether the floor's light map pays: a floor (scene_floor) with another object on it to shadow it or
+    focus the sky onto it, under an environment that sheds some light."""
+    return (len(scene.objects) > 1 and scene_floor(scene) is not None
+            and bool(np.any(scene.environment.irradiance_sh()[0] > 0)))
 
 
 # quality -> the least share of the glass pixels' light an internal bounce must carry to be followed (high: all)
@@ -338,7 +369,8 @@ class Auto(Technique):
     def make_params(self, **values):
         """``quality``, ``budget_ms``, and any other parameter for the planned technique (checked once
         the plan is made)."""
-        own = {name: values.pop(name) for name in ("quality", "budget_ms", "environment_lobes") if name in values}
+        own = {name: values.pop(name) for name in ("quality", "budget_ms", "environment_lobes", "environment_bake")
+               if name in values}
         params = super().make_params(**own)
         params.overrides = values  # not a field: what the plan's technique takes depends on the scene
         params.given = frozenset(own)  # auto's own parameters named by the caller: they win over the plan's rules
@@ -374,8 +406,15 @@ class Auto(Technique):
                                  f"see 'caustica techniques {chosen.technique}'") from None
         # Not a field of the planned technique's parameters: ShadowMaps reads it (environment_lights.lobe_settings).
         view_values = values[0] if isinstance(values, tuple) else values  # a composite's: (view, caustics)
-        given = "environment_lobes" in getattr(params, "given", ())
-        view_values.environment_lobes = params.environment_lobes if given or _occluded_ambient(scene) else 0
-        if given:
-            chosen.notes.append(f"environment_lobes={params.environment_lobes} as given (the plan's rule set aside)")
+        given = getattr(params, "given", ())
+        # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
+        view_values.environment_bake = params.environment_bake if "environment_bake" in given or (
+            "environment_lobes" not in given and _baked_floor(scene)) else 0
+        # The floor's light map replaces the lobes: with it they changed the other diffuse pixels by -0.4 to +0.7 dB
+        # for twice its frame and more (docs/auto.md).
+        view_values.environment_lobes = params.environment_lobes if "environment_lobes" in given or (
+            not view_values.environment_bake and _occluded_ambient(scene)) else 0
+        for name in ("environment_lobes", "environment_bake"):
+            if name in given:
+                chosen.notes.append(f"{name}={getattr(params, name)} as given (the plan's rule set aside)")
         return technique, values

@@ -276,7 +276,7 @@ vec3 nearby_radiance(vec3 o, vec3 d) {
     vec3 p = o + best * d;
     vec3 n = dot(plane_normal[hit], d) < 0.0 ? plane_normal[hit] : -plane_normal[hit];
     nearby_hit = vec4(p, 1.0);
-    vec3 e = direct_irradiance(p, n) + ambient_irradiance(n) + caustic_irradiance(p, n);
+    vec3 e = direct_irradiance(p, n) + baked_or_sh_irradiance(p, n) + caustic_irradiance(p, n);
     return plane_albedo(hit, p - plane_center[hit]) / PI * e;
 }
 

@@ -252,10 +252,59 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 }
 #endif
 
-// Ambient irradiance at p with normal n: the SH's less what the environment's lobes find blocked, plus what
-// the blocked directions show instead (the occluders' bounce, over each stratum's span as irradiance is).
+// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py):
+// the ambient environment's irradiance, occluded, through glass, with one bounce, on the floor's top face and
+// the faces of box-shaped objects: rectangle k from env_bake_origin[k] along the edges whose u / |u|^2, v / |v|^2
+// are env_bake_u[k], env_bake_v[k], facing env_bake_normal[k], in the atlas's texels env_bake_texels[k] (x0, y0,
+// columns, rows); a point within env_bake_slack[k] of its plane, facing its way, is on it.
+#ifndef ENVIRONMENT_BAKE
+#define ENVIRONMENT_BAKE 0
+#endif
+#if ENVIRONMENT_BAKE
+#define MAX_BAKED 32
+uniform sampler2D env_bake;
+uniform int env_bake_count;
+uniform vec3 env_bake_origin[MAX_BAKED];
+uniform vec3 env_bake_u[MAX_BAKED];
+uniform vec3 env_bake_v[MAX_BAKED];
+uniform vec3 env_bake_normal[MAX_BAKED];
+uniform vec4 env_bake_texels[MAX_BAKED];
+uniform float env_bake_slack[MAX_BAKED];
+#endif
+
+// Whether p (normal n) lies on a light map's rectangle, and the map's irradiance there (bilinear, clamped to
+// the tile's texel centres).
+bool baked_irradiance(vec3 p, vec3 n, out vec3 e) {
+    e = vec3(0.0);
+#if ENVIRONMENT_BAKE
+    for (int k = 0; k < env_bake_count; ++k) {
+        vec3 d = p - env_bake_origin[k];
+        vec2 st = vec2(dot(d, env_bake_u[k]), dot(d, env_bake_v[k]));
+        if (dot(n, env_bake_normal[k]) > 0.99 && abs(dot(d, env_bake_normal[k])) <= env_bake_slack[k]
+            && all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)))) {
+            vec4 tile = env_bake_texels[k];
+            vec2 texel = tile.xy + clamp(st * tile.zw, vec2(0.5), tile.zw - 0.5);
+            e = texture(env_bake, texel / vec2(textureSize(env_bake, 0))).rgb;
+            return true;
+        }
+    }
+#endif
+    return false;
+}
+
+// The light maps' irradiance where they are, elsewhere the SH's (no lobes: what impostors seen in glass take).
+vec3 baked_or_sh_irradiance(vec3 p, vec3 n) {
+    vec3 e;
+    return baked_irradiance(p, n, e) ? e : ambient_irradiance(n);
+}
+
+// Ambient irradiance at p with normal n: on a light map its own; elsewhere the SH's less what the
+// environment's lobes find blocked, plus what the blocked directions show instead (the occluders' bounce, over
+// each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
-    vec3 e = ambient_irradiance(n);
+    vec3 e;
+    if (baked_irradiance(p, n, e)) return e;
+    e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
     vec3 blocked = vec3(0.0), bounce = vec3(0.0);
     for (int k = 0; k < env_lobe_count; ++k) {

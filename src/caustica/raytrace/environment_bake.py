@@ -1,0 +1,163 @@
+"""A light map of the environment's light on a floor, baked with ``exact``'s rays (issue 23, real time).
+
+The raster techniques light diffuse surfaces with the environment's SH irradiance, unoccluded, or with a
+few lobes' shadow maps (passes/environment_lights.py); neither has the sky's light refracted by glass
+onto the floor (its caustic), and the lobes cost a frame several times plain's. For a static scene the
+floor's share of that light does not depend on the camera, so it is computed once per scene state and read
+by the shading with one texture fetch: a light map, the oldest precomputation of global illumination
+(Heckbert 1990, "Adaptive radiosity textures for bidirectional ray tracing"; here gathered, not shot).
+
+Each texel of the floor's top rectangle (and of the faces of box-shaped diffuse objects: walls, table tops,
+boxes) gathers the irradiance of the *ambient* environment (the image
+without its sun where the sun is a directional light of its own, which keeps its sharp shadow and its caustic
+map) with ``exact``'s cosine rays (:func:`~caustica.raytrace.paths.cosine_gather`): occluded by every object,
+through glass and off mirrors (the sky's caustic and the glass's tinted shadow) and one bounce of
+interreflection, where the bounced surface is lit by the scene's lights, the sun and the ambient
+environment's SH. The rays carry a control variate: each adds what it brings less what the open sky brings
+along it, and the open floor's irradiance is added back in closed form (a sum over the environment's
+texels), so a texel nothing shadows is exact and the noise stays where objects are.
+
+Texels whose centre lies inside an object (under a box resting on the floor: the ray straight up leaves the
+object through its back face) take their nearest outside neighbours' mean, so bilinear filtering at an
+object's foot does not blend in the black of its inside.
+
+Deterministic: the ray patterns are hashed from each texel's position (environment_light.rotated_pattern).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..progress import progress
+from ..scene.environment import Environment, texel_grid
+from .embree_scene import ray_scene_for
+from .environment_light import EnvironmentLight
+from .paths import EnvironmentSampling, Materials, cosine_gather
+
+BAKE_SIZE = 64  # texels a side of the floor's light map
+BAKE_SAMPLES = 256  # cosine rays a texel
+FACE_SIZE = 16  # texels a side of each face of a box's light maps
+
+
+@dataclass(frozen=True)
+class LightMap:
+    """The irradiance of the ambient environment on a rectangle facing ``normal``: corner ``origin``, edges
+    ``u`` (along the columns) and ``v`` (along the rows), world units; ``irradiance[j, i]`` at origin + (i + 1/2)
+    u / columns + (j + 1/2) v / rows. Radiance is albedo / pi times it (intensity_scale not applied)."""
+
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    normal: np.ndarray
+    irradiance: np.ndarray  # (rows, columns, 3) float32
+
+    def texel_centres(self) -> np.ndarray:
+        """(rows, columns, 3) world positions of the texels' centres."""
+        rows, columns = self.irradiance.shape[:2]
+        s, t = (np.arange(columns) + 0.5) / columns, (np.arange(rows) + 0.5) / rows
+        return self.origin + s[None, :, None] * self.u + t[:, None, None] * self.v
+
+
+def open_irradiance(image: np.ndarray, normal=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """(3,) irradiance a surface facing ``normal`` receives from the equirectangular ``image`` with nothing in
+    the way: sum over texels of radiance max(0, cos) solid angle."""
+    directions, solid_angle = texel_grid(*image.shape[:2])
+    cos = np.maximum(directions @ np.asarray(normal, np.float64), 0.0)
+    return np.einsum("hwc,hw->c", image.astype(np.float64), cos * solid_angle)
+
+
+def bake_floor(scene, floor, ambient: Environment, sun=None, size: int = BAKE_SIZE,
+               samples: int = BAKE_SAMPLES) -> LightMap:
+    """The :class:`LightMap` of ``floor``'s top face (one of ``scene.objects``, flat, horizontal) under the
+    ``ambient`` environment; ``sun`` (a DirectionalLight or None) lights the surfaces the rays bounce off, as the
+    scene's lights do."""
+    low, high = floor.world_mesh().bounds.astype(np.float64)
+    origin = np.array([low[0], high[1], low[2]])
+    rectangle = (origin, np.array([high[0] - low[0], 0.0, 0.0]), np.array([0.0, 0.0, high[2] - low[2]]),
+                 np.array([0.0, 1.0, 0.0]))
+    return bake_rectangles(scene, [rectangle], (size, size), ambient, sun, samples, floor.name)[0]
+
+
+def box_faces(obj) -> list[tuple] | None:
+    """The six faces of ``obj`` as rectangles (origin, u, v, outward normal; world units), or None where its mesh
+    is not a box: every vertex at a corner of its bounding box (a box under any rotation, scale, translation)."""
+    mesh = obj.mesh
+    low, high = mesh.vertices.min(axis=0).astype(np.float64), mesh.vertices.max(axis=0).astype(np.float64)
+    tolerance = 1e-6 * max(float(np.linalg.norm(high - low)), 1e-30)
+    at_corner = (np.abs(mesh.vertices - low) <= tolerance) | (np.abs(mesh.vertices - high) <= tolerance)
+    if not at_corner.all() or np.any(high - low <= tolerance):
+        return None
+    world = obj.world_from_object()
+    to_world = lambda p: world[:3, :3] @ p + world[:3, 3]  # noqa: E731
+    normal_from_object = np.linalg.inv(world[:3, :3]).T
+    faces = []
+    for axis in range(3):
+        a, b = [k for k in range(3) if k != axis]
+        for side, corner in ((-1.0, low), (1.0, high)):
+            origin = low.copy()
+            origin[axis] = corner[axis]
+            u, v = np.zeros(3), np.zeros(3)
+            u[a], v[b] = high[a] - low[a], high[b] - low[b]
+            n = np.zeros(3)
+            n[axis] = side
+            n = normal_from_object @ n
+            faces.append((to_world(origin), to_world(origin + u) - to_world(origin),
+                          to_world(origin + v) - to_world(origin), n / np.linalg.norm(n)))
+    return faces
+
+
+def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambient: Environment, sun=None,
+                    samples: int = BAKE_SAMPLES, label: str = "") -> list[LightMap]:
+    """A :class:`LightMap` of ``size`` (columns, rows) per rectangle (origin, u, v, normal) under the ``ambient``
+    environment (see the module docstring), texels inside an object filled from their neighbours."""
+    columns, rows = size
+    # The rays see the ambient environment; the surfaces they bounce off are lit by the lights and the sun.
+    lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
+    rays = ray_scene_for(scene)
+    materials = Materials.of(scene)
+    sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
+    maps = [LightMap(o, u, v, n, np.zeros((rows, columns, 3), np.float32)) for o, u, v, n in rectangles]
+    with progress(len(maps) * rows * columns, f"baking the environment's light on {label} ({len(maps)} x "
+                  f"{columns}x{rows} texels, {samples} rays)", unit="texels") as bar:
+        for k, light_map in enumerate(maps):
+            points = light_map.texel_centres().reshape(-1, 3)
+            normal = np.broadcast_to(light_map.normal, points.shape)
+            shadowed = cosine_gather(rays, lit, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0],
+                                     less_open=True, done=bar.update)
+            irradiance = open_irradiance(ambient.image, light_map.normal) + np.pi * shadowed
+            inside = _inside(rays, points + normal * rays.epsilon)
+            filled = _fill(irradiance.reshape(rows, columns, 3), inside.reshape(rows, columns))
+            maps[k] = replace(light_map, irradiance=np.maximum(filled, 0.0).astype(np.float32))
+    return maps
+
+
+def _inside(rays, origins: np.ndarray) -> np.ndarray:
+    """Whether each origin lies inside a closed object: the ray straight up leaves one through a back face."""
+    up = np.tile([0.0, 1.0, 0.0], (len(origins), 1))
+    hits = rays.intersect(origins, up)
+    return hits.hit & (hits.geometric_normal[:, 1] > 0.0)
+
+
+def _fill(values: np.ndarray, invalid: np.ndarray) -> np.ndarray:
+    """``values`` (n, n, 3) with each ``invalid`` texel replaced, ring by ring from the valid ones, by the mean
+    of its valid 4-neighbours."""
+    values, invalid = values.copy(), invalid.copy()
+    if invalid.all():
+        return values
+    while invalid.any():
+        valid = ~invalid
+        total = np.zeros_like(values)
+        count = np.zeros(invalid.shape)
+        for axis, shift in ((0, 1), (0, -1), (1, 1), (1, -1)):
+            moved_valid = np.roll(valid, shift, axis=axis)
+            moved = np.roll(values, shift, axis=axis)
+            edge = [slice(None)] * 2
+            edge[axis] = 0 if shift == 1 else -1
+            moved_valid[tuple(edge)] = False  # no wrapping around
+            total += np.where(moved_valid[..., None], moved, 0.0)
+            count += moved_valid
+        reached = invalid & (count > 0)
+        values[reached] = total[reached] / count[reached][:, None]
+        invalid &= ~reached
+    return values
