@@ -86,7 +86,7 @@ class TransportTableParams(TableParams):
 
 def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
     """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays)."""
-    from ..transport.runtime import caustic_photons, object_exit_rays, receiver_scene, table_mesh
+    from ..transport.runtime import caustic_photons, object_exit_rays, receiver_scene
 
     glass = [o for o in scene.objects if o.material.kind == "glass"]
     receivers = [o for o in scene.objects if o.material.kind == "diffuse"]
@@ -98,7 +98,7 @@ def scene_photons(scene, sample, params: TransportTableParams, progress: bool = 
     for obj in glass:
         channels = object_exit_rays(obj, sample, params.directions, params.max_depth, params.quantized, progress)
         for rays in channels:
-            photons = caustic_photons(rays, table_mesh(obj.mesh).faces, ray_scene, budget // len(channels))
+            photons = caustic_photons(rays, ray_scene, max(1, budget // len(channels)))
             positions.append(photons.position[photons.landed])
             fluxes.append(photons.flux[photons.landed])
             stats.setdefault(obj.name, []).append(photons.stats)

@@ -216,7 +216,13 @@ class ExitRays:
     origin: np.ndarray  # (V, 3)
     direction: np.ndarray  # (V, 3)
     weight: np.ndarray  # (V, 3) F_t times Beer-Lambert absorption, per channel
+    faces: np.ndarray  # (F, 3) the table mesh's triangles (table_mesh), the illumination volumes' bases
     face_flux: np.ndarray  # (F, 3) E S entering each lit face (0 for unlit ones)
+
+    @property
+    def volume_flux(self) -> np.ndarray:
+        """(F, 3) the flux each illumination volume carries: E S times its three rays' mean weight (eq. 2)."""
+        return self.face_flux * self.weight[self.faces].mean(axis=1)
 
 
 def object_exit_rays(obj, sample, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH,
@@ -232,7 +238,7 @@ def object_exit_rays(obj, sample, directions: int = DEFAULT_DIRECTIONS, max_dept
     out = []
     for ior, channel in groups:
         rays = exit_rays(obj, table_for(mesh, ior, directions, max_depth, quantized, progress), sample)
-        out.append(ExitRays(rays.origin, rays.direction, rays.weight * channel, rays.face_flux))
+        out.append(ExitRays(rays.origin, rays.direction, rays.weight * channel, rays.faces, rays.face_flux))
     return out
 
 
@@ -255,7 +261,7 @@ def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     light_dir, irradiance = _incident(sample, tri.mean(axis=1))
     projected = np.maximum(0.5 * dot(cross, light_dir), 0.0)  # area * cos, 0 for faces turned away
-    return ExitRays(origin, direction, weight, irradiance * projected[:, None])
+    return ExitRays(origin, direction, weight, mesh.faces, irradiance * projected[:, None])
 
 
 _FRAMES: LruCache = LruCache(64)  # an animated mesh has new geometry each frame
@@ -290,12 +296,11 @@ def receiver_scene(receivers) -> RayScene:
     return RayScene.from_meshes([o.world_mesh() for o in receivers])
 
 
-def caustic_photons(rays: ExitRays, faces: np.ndarray, receivers: RayScene, budget: int, plane_cos: float = 0.9999) -> PhotonSet:
+def caustic_photons(rays: ExitRays, receivers: RayScene, budget: int, plane_cos: float = 0.9999) -> PhotonSet:
     """Photons on the receivers from one object's illumination volumes (eq. 2; see the module docstring)."""
-    face_weight = rays.weight[faces].mean(axis=1)  # (F, 3) mean transmittance of the three rays
-    flux = rays.face_flux * face_weight
+    flux = rays.volume_flux
     lit = flux.max(axis=1) > 0
-    faces, flux = faces[lit], flux[lit]
+    faces, flux = rays.faces[lit], flux[lit]
     empty = PhotonSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, bool), {"faces": 0, "planar": 0})
     if len(faces) == 0:
         return empty

@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..raytrace.optics import normalize
-from .runtime import ExitRays, object_exit_rays, receiver_scene, subdivision_barycentrics, table_mesh
+from .runtime import ExitRays, object_exit_rays, receiver_scene, subdivision_barycentrics
 
 MAX_SUBDIVISION = 32  # a volume's slice is drawn with at most 32^2 sub-triangles
 
@@ -86,9 +86,9 @@ class SamplePlane:
         return out.reshape(self.rows, self.cols, 3) / self.texel_area
 
 
-def volume_slices(rays: ExitRays, faces: np.ndarray, plane: SamplePlane) -> tuple[np.ndarray, np.ndarray]:
+def volume_slices(rays: ExitRays, plane: SamplePlane) -> tuple[np.ndarray, np.ndarray]:
     """The illumination volumes' intersections with ``plane``: triangles (K, 3, 3) and their flux (K, 3)."""
-    flux = rays.face_flux * rays.weight[faces].mean(axis=1)
+    faces, flux = rays.faces, rays.volume_flux
     n = plane.normal
     along = rays.direction @ n
     t = ((plane.origin - rays.origin) @ n) / np.where(np.abs(along) > 1e-12, along, np.nan)
@@ -98,9 +98,9 @@ def volume_slices(rays: ExitRays, faces: np.ndarray, plane: SamplePlane) -> tupl
     return points[faces[keep]], flux[keep]
 
 
-def caustics_map(rays: ExitRays, faces: np.ndarray, plane: SamplePlane) -> np.ndarray:
+def caustics_map(rays: ExitRays, plane: SamplePlane) -> np.ndarray:
     """Caustic irradiance (rows, cols, 3) W/m^2 on ``plane`` from one object's illumination volumes."""
-    triangles, flux = volume_slices(rays, faces, plane)
+    triangles, flux = volume_slices(rays, plane)
     area = 0.5 * np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]), axis=1)
     sub = np.clip(np.ceil(2.0 * np.sqrt(area / plane.texel_area)), 1, MAX_SUBDIVISION).astype(np.int64)
     out = np.zeros((plane.rows, plane.cols, 3))
@@ -152,7 +152,7 @@ def sample_plane_maps(scene, light_index: int, planes, directions: int = 129, ma
         for obj in scene.objects_of("glass"):
             for rays in object_exit_rays(obj, sample, directions, max_depth, quantized, progress=False):
                 for out, plane in zip(maps, planes):
-                    out += caustics_map(rays, table_mesh(obj.mesh).faces, plane)
+                    out += caustics_map(rays, plane)
     return maps
 
 
