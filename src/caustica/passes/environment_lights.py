@@ -367,6 +367,15 @@ def bake_settings(params) -> int:
     return size
 
 
+def baked_boxes(scene, floor) -> list:
+    """The box-shaped diffuse objects other than ``floor`` whose six faces get light maps: the first
+    (MAX_BAKED - 1) // 6 of them (raytrace/environment_bake.py box_faces), the floor's map taking one slot."""
+    from ..raytrace.environment_bake import box_faces
+
+    boxes = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
+    return boxes[: (MAX_BAKED - 1) // 6]
+
+
 def light_maps(scene, sun_taken: bool, size: int, samples: int | None = None) -> list:
     """The LightMaps (raytrace/environment_bake.py) of the scene's floor (scene_floor, ``size`` texels a side)
     and of the faces of its other box-shaped diffuse objects (FACE_SIZE a side; up to MAX_BAKED maps in all)
@@ -384,10 +393,10 @@ def light_maps(scene, sun_taken: bool, size: int, samples: int | None = None) ->
         sun = environment_sun(scene.environment).light if sun_taken else None
         ambient = environment_light(scene.environment).rest if sun_taken else scene.environment
         maps = [bake_floor(scene, floor, ambient, sun, size, samples)]
-        boxes = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
-        faces = [face for o in boxes for face in box_faces(o)][: (MAX_BAKED - 1) // 6 * 6]
+        boxes = baked_boxes(scene, floor)
+        faces = [face for o in boxes for face in box_faces(o)]
         if faces:
-            label = ", ".join(o.name for o in boxes[: len(faces) // 6])
+            label = ", ".join(o.name for o in boxes)
             maps += bake_rectangles(scene, faces, (FACE_SIZE, FACE_SIZE), ambient, sun, samples, label)
         _BAKES[key] = maps
     return maps

@@ -28,9 +28,9 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
-from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_BAKED, MAX_LOBES, environment_sun,
+from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, baked_boxes, environment_sun,
                                         lobe_occlusion, scene_floor)
-from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, box_faces
+from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -235,12 +235,11 @@ def _occluded_ambient(scene) -> bool:
 def _baked(obj, scene) -> str:
     """The plan's reason for the floor's light map, on the floor's entry and the others'."""
     floor = scene_floor(scene)
-    baked = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
     if obj is floor:
         return (f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by "
                 "default) baked with exact's rays: occluded, through glass (the sky's caustic), one bounce "
                 "(docs/environment-light.md)")
-    if obj in baked[: (MAX_BAKED - 1) // 6]:
+    if obj in baked_boxes(scene, floor):
         return (f"; the environment's light on its faces from light maps ({FACE_SIZE} texels a side) baked with "
                 "exact's rays, as the floor's")
     return "; the environment's light unoccluded, the floor's bounce for its light from below"
@@ -335,7 +334,7 @@ def _concave(obj, camera) -> bool:
 
 def _has_table(obj) -> bool:
     """Whether a light transport table at the default settings is cached for this glass object (one IOR:
-    dispersive glass keeps caustic mapping, which splits the channels)."""
+    dispersive glass keeps caustic mapping, whose tables would be three, one per channel's IOR)."""
     from ..transport.runtime import has_cached_table, table_mesh
 
     return obj.material.abbe is None and has_cached_table(table_mesh(obj.mesh), obj.material.ior)
