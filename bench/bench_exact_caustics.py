@@ -1,7 +1,7 @@
 """Benchmark: the caustic techniques and ``exact`` (photon-mapped caustics) against Mitsuba, on scenes
 not among the presets: a glass ball (radius 1, IOR 1.5), a clear glass bunny and a clear glass cow (Spot,
-seen from the other side under another light) over a grey floor under a point light, in a black
-environment (as path-traced references have).
+seen from the other side under another light), a glass block and a glass cylinder over a grey floor
+under a point light, in a black environment (as path-traced references have).
 
 For each scene: the Mitsuba composite (path + ptracer) at ``--reference-spp`` spp over ``--seeds``
 independent seeds, averaged (the spread between two seeds is printed: the reference's own noise), then
@@ -20,7 +20,7 @@ frame ("> " where Mitsuba does not reach it by ``--max-spp``: lower bounds). GPU
 ms: the fastest frame in blocks (bench.timing.fastest_in_blocks), with ``plain`` timed in the same run.
 
     .venv/bin/python bench/bench_exact_caustics.py [--size 128x96] [--reference-spp 1024] [--seeds 4]
-        [--max-spp 1024] [--scenes ball,bunny,spot]
+        [--max-spp 1024] [--scenes ball,bunny,spot,block,cylinder]
 """
 from __future__ import annotations
 
@@ -40,11 +40,14 @@ from caustica.renderer import Renderer
 from caustica.scene import Camera, Diffuse, Glass, PointLight, Scene, SceneObject, Transform
 from caustica.scene.environment import procedural_environment
 from caustica.scene.mesh import load_mesh
-from caustica.scene.shapes import plane, sphere
+from caustica.scene.shapes import box, cylinder, plane, sphere
 
 MODELS = Path(__file__).resolve().parents[2] / "shared" / "data" / "models"
 TECHNIQUES = ["exact", "depth-search+caustic-mapping", "depth-search+photon-splats", "depth-search+transport-table",
               "impostors+impostor-caustics", "auto"]
+# Rows with parameters: label -> (technique, parameters).
+VARIANTS = {"depth-search+caustic-mapping exit_reflections=0": ("depth-search+caustic-mapping",
+                                                                  {"exit_reflections": 0})}
 
 
 def over_floor(name: str, mesh, position, light, size, camera_position=(2.4, 3.4, 4.6),
@@ -66,7 +69,8 @@ def standing(path: Path, extent: float = 2.0):
 
 
 def scenes(size, names=("ball", "bunny")):
-    """The benchmark's scenes among ``names`` (ball, bunny, spot); the meshes' scenes only where shared/data is."""
+    """The benchmark's scenes among ``names`` (ball, bunny, spot, block, cylinder); the meshes' scenes only where
+    shared/data is."""
     if "ball" in names:
         ball = sphere(1.0, 6)
         ball.analytic_sphere = (np.zeros(3), 1.0)
@@ -74,6 +78,12 @@ def scenes(size, names=("ball", "bunny")):
     if "bunny" in names and (MODELS / "stanford-bunny.obj").is_file():
         yield over_floor("bunny-over-floor", standing(MODELS / "stanford-bunny.obj"), [0.0, 0.3, 0.0],
                          [-0.6, 5.0, 0.8], size)
+    # Convex, flat-sided glass whose side walls reflect light totally inside (caustic-mapping's exit reflections).
+    if "block" in names:
+        yield over_floor("block-over-floor", box((1.2, 0.6, 0.8)), [0.0, 1.0, 0.0], [0.7, 5.0, 0.9], size,
+                         camera_position=(-2.5, 3.0, 4.0))
+    if "cylinder" in names:
+        yield over_floor("cylinder-over-floor", cylinder(0.5, 1.4), [0.0, 1.4, 0.0], [-0.9, 4.0, 1.2], size)
     if "spot" in names and (MODELS / "spot.obj").is_file():
         # Not tuned on: another mesh, seen from the far side, lower and nearer, under a light off to the side.
         yield over_floor("spot-over-floor", standing(MODELS / "spot.obj", 1.6), [0.0, 0.4, 0.0], [2.0, 4.5, 1.5],
@@ -99,15 +109,15 @@ def print_table(caption: str, columns: list[str], rows: list[str]) -> None:
 
 
 def technique_frames(renderer, scene, spp: int) -> dict:
-    """{technique: (image, ms)}: GPU techniques and ``plain`` at their fastest frame in blocks (two rounds of
-    three frames), exact rendered once with its photon map traced."""
+    """{technique or VARIANTS label: (image, ms)}: GPU techniques and ``plain`` at their fastest frame in blocks
+    (two rounds of three frames), exact rendered once with its photon map traced."""
     out = {}
     start = time.perf_counter()
     out["exact"] = (renderer.render(scene, "exact", spp), (time.perf_counter() - start) * 1000.0)
-    gpu = [t for t in ["plain"] + TECHNIQUES if t != "exact"]
-    fastest = fastest_in_blocks(renderer, scene, {t: (t, {}) for t in gpu}, spp, rounds=2)
-    for technique in gpu:
-        out[technique] = (renderer.render(scene, technique, spp), fastest[technique]["wall"])
+    gpu = {t: (t, {}) for t in ["plain"] + TECHNIQUES if t != "exact"} | VARIANTS
+    fastest = fastest_in_blocks(renderer, scene, gpu, spp, rounds=2)
+    for label, (technique, params) in gpu.items():
+        out[label] = (renderer.render(scene, technique, spp, **params), fastest[label]["wall"])
     return out
 
 
@@ -130,7 +140,7 @@ def ratio(seconds: float, ms: float) -> str:
 def main(argv=None) -> None:
     parser = reference_arguments(__doc__.splitlines()[0], seeds=4)
     parser.add_argument("--max-spp", type=int, default=1024, help="Mitsuba's time to quality: 1, 2, 4, ... this")
-    parser.add_argument("--scenes", default="ball,bunny", help="comma-separated: ball, bunny, spot")
+    parser.add_argument("--scenes", default="ball,bunny", help="comma-separated: ball, bunny, spot, block, cylinder")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows, curves, gl = [], [], ""
@@ -149,7 +159,7 @@ def main(argv=None) -> None:
                               log=lambda line: print(line, file=sys.stderr))
         curves.append((scene.name, curve))
         plain_ms = frames["plain"][1]
-        for technique in TECHNIQUES:
+        for technique in [*TECHNIQUES, *VARIANTS]:
             image, ms = frames[technique]
             error = relmse(image, reference, caustic)
             rows.append(f"| {scene.name} | {technique} | {error:.4f} | {psnr_linear(image, reference, caustic):.1f} | "

@@ -21,7 +21,14 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
    image-space method: P2 = P1 + d T1 with d = d_V, the front-to-back distance
    seen from the light, refined by ``exit_iterations`` steps of the same
    estimator against the back-face position texture; N2 from the back-face
-   normal texture; total internal reflection at the exit drops the photon).
+   normal texture). Total internal reflection at the exit (our extension, as depth-search's internal
+   bounces from the eye): in convex glass the photon reflects inside and leaves where its ray crosses
+   the front or back faces seen from the light (a march and a bisection), up to ``exit_reflections``
+   times: the light a glass block or cylinder sends down through its bottom after reflecting off its side
+   walls (Embree's photons: a fifth of the caustic's flux under a block, nearly half under a cylinder;
+   tests/test_caustic_radiometry.py, docs/benchmarks.md).
+   Nonconvex glass drops the photon there: its one layer from the light bounds other parts of it, and the
+   reflected photons landed worse under a teapot, a cow and the bunny than none.
    ``exit_surface`` 'nearest' (default) takes the nearest back faces, where
    light that entered a nonconvex refractor meets its far side first; Wyman
    takes the farthest for the eye's refraction. Against Mitsuba (bench_exact_caustics,
@@ -80,7 +87,7 @@ Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
 
 Approximate: the exit point through the back buffer (one layer: concave or
 overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
-exit TIR (no internal bounces), the intersection estimate (exact on planes in
+exit TIR in nonconvex glass (and after ``exit_reflections`` in convex glass), the intersection estimate (exact on planes in
 a few steps; near receiver discontinuities, e.g. a mirror's reflection onto
 another wall, it can land on the wrong surface, as the paper notes for
 reflections), the first caster layer only (light through two glass objects in
@@ -135,6 +142,10 @@ class CausticMappingParams(ShadowedParams):
     second_layer: bool = param(False, help="photons that leave a refractor through its nearest back faces and "
                                            "meet its second layer (the next front faces from the light) enter "
                                            "it and leave through its farthest back faces: four interfaces")
+    exit_reflections: int = param(2, range=(0, 8),
+                                  help="our extension: total internal reflections at the exit a photon may take "
+                                       "inside convex glass before it leaves through the faces seen from the light "
+                                       "(0: dropped, the paper)")
     exit_iterations: int = param(6, range=(0, 64), paper="Wyman, eq. 6.3.1",
                                  help="regula falsi steps refining d_V against the back faces (0: d_V alone)")
     splat: str = param("auto", choices=SPLATS, help="'compute' (fixed-point atomics), 'points' (additive point sprites) or 'auto'")
@@ -185,6 +196,7 @@ class TracePhotons(Pass):
         scene, p = frame.scene, self.params
         types, iors, sigmas, colors = (np.zeros(MAX_CASTERS, "i4"), np.ones((MAX_CASTERS, 3), "f4"),
                                        np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
+        reflections = np.zeros(MAX_CASTERS, "i4")
         dispersive = False
         for i, obj in enumerate(casters(scene)):
             material = obj.material
@@ -194,6 +206,9 @@ class TracePhotons(Pass):
             else:
                 iors[i], sigmas[i] = material.ior_rgb, material.absorption_coefficient
                 dispersive |= bool(np.ptp(material.ior_rgb) > 0)
+                # The front and back faces seen from the light bound a convex solid exactly, so a photon
+                # reflected inside finds its way out; in a nonconvex one it meets other parts' layers.
+                reflections[i] = p.exit_reflections if obj.mesh.is_convex() else 0
         channels = 3 if dispersive else 1
         defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, "ADAPTIVE": int(p.adaptive_levels > 0)}
         program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
@@ -204,6 +219,7 @@ class TracePhotons(Pass):
         set_uniform(program, "channel_count", channels)
         set_uniform(program, "iterations", estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
+        set_uniform(program, "exit_reflections", reflections)
         set_uniform(program, "second_layer", int(self.layered))
         set_uniform(program, "estimator", ESTIMATORS[estimator[0]])
         set_uniform(program, "fallback_distance", half_diagonal(scene.objects))

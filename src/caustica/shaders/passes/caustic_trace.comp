@@ -46,6 +46,7 @@ uniform vec3 caster_color[MAX_CASTERS];  // mirror reflectance
 uniform int channel_count;  // 3: one photon per RGB channel (dispersion), 1: one RGB photon
 uniform int iterations;
 uniform int exit_iterations;
+uniform int exit_reflections[MAX_CASTERS];  // total internal reflections a photon may take inside the caster
 uniform int second_layer;  // 1: photons leaving through the nearest back faces may enter the glass again
 uniform sampler2D second_position;  // view 0: the glass's front faces behind its nearest back faces
 uniform sampler2D second_normal;
@@ -148,6 +149,48 @@ vec3 surface_normal(sampler2D tex, vec3 p, ivec2 s) {
     return normalize(n);
 }
 
+// How far p (inside the glass) lies outside it along the light: positive nearer the light than the front
+// faces or past the back faces (or off the glass's silhouette), negative between them; `back_side` tells
+// which layer is the nearer to crossing.
+float outside_glass(vec3 p, out bool back_side) {
+    vec4 front = surface_through(front_position, 0, p);
+    vec4 back = surface_through(back_position, 0, p);
+    if (front.a <= 0.0 || back.a <= 0.0) {
+        back_side = true;
+        return length_unit;
+    }
+    float ld = light_distance(p), before = front.a - ld, past = ld - back.a;
+    back_side = past >= before;
+    return max(before, past);
+}
+
+// Where a photon inside the glass at p along r leaves it after an internal reflection (our extension, as
+// depth-search's internal bounces from the eye): the distance along r to the crossing of the front or back
+// faces seen from the light, found by INTERNAL_STEPS steps over the casters' diameter and a bisection, with
+// n the outward normal there; -1 where it does not leave within that reach.
+#define INTERNAL_STEPS 32
+float internal_exit(vec3 p, vec3 r, ivec2 s, out vec3 n) {
+    float span = 2.0 * length_unit, lo = 0.0;
+    bool back_side;
+    for (int k = 1; k <= INTERNAL_STEPS; ++k) {
+        float d = span * float(k) / float(INTERNAL_STEPS);
+        if (outside_glass(p + d * r, back_side) < 0.0) {
+            lo = d;
+            continue;
+        }
+        float hi = d;
+        for (int i = 0; i < 12; ++i) {  // bisection on the crossing
+            float m = 0.5 * (lo + hi);
+            if (outside_glass(p + m * r, back_side) < 0.0) lo = m; else hi = m;
+        }
+        outside_glass(p + hi * r, back_side);
+        n = back_side ? surface_normal(back_normal, p + hi * r, s) : surface_normal(front_normal, p + hi * r, s);
+        if (dot(n, r) < 0.0) n = -n;  // outward, along the leaving ray
+        return hi;
+    }
+    return -1.0;
+}
+
 // Whether the 3 x 3 texels around s see caster id: s lies inside its silhouette from the light, not on
 // the rim (where the front- and back-face rasterizations may differ by a texel).
 bool inside_silhouette(ivec2 s, int id) {
@@ -205,9 +248,19 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
             n2 = normalize(n2);
             if (dot(n2, t1) < 0.0) n2 = -n2;  // outward, along the leaving ray
             vec3 t2 = refract(t1, -n2, eta);
+            inside = d;
+            // Total internal reflection at the exit: reflect inside and leave further on, up to
+            // exit_reflections times (0: the photon is dropped).
+            for (int b = 0; b < exit_reflections[id] && dot(t2, t2) == 0.0; ++b) {
+                t1 = reflect(t1, n2);
+                float run = internal_exit(p2 - 1e-4 * length_unit * n2, t1, s, n2);
+                if (run < 0.0) break;
+                p2 += run * t1;
+                inside += run;
+                t2 = refract(t1, -n2, eta);
+            }
             if (dot(t2, t2) == 0.0) continue;  // total internal reflection at the exit: dropped
             transmit *= 1.0 - fresnel_dielectric(dot(t1, n2), eta, 1.0);
-            inside = d;
             o = p2 + 1e-4 * length_unit * n2;
             r = t2;
             // The second layer: in through its front faces, out through the farthest back faces.
