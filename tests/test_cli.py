@@ -148,6 +148,19 @@ def test_unknown_technique_parameter(tmp_path, capsys):
     assert_one_line_error(code, err, "shadow_map_sise", "shadow_map_size")
 
 
+def test_a_parameter_qualified_by_its_technique(tmp_path, capsys):
+    """technique.name, as the error for a name two techniques of a combination share asks for, is taken from
+    -p (it was refused as 'not a name'); a bad qualifier is a one-line error."""
+    out = tmp_path / "o.png"
+    args = ["render", "caustic-sphere", "--size", "24x24", "-t", "depth-search+caustic-mapping"]
+    code, _, err = run_cli([*args, "-p", "caustic-mapping.map_size=64", "-o", out], capsys)
+    assert code == 0 and out.is_file(), err
+    code, _, err = run_cli([*args, "-p", "env-map.map_size=64", "-o", tmp_path / "p.png"], capsys)
+    assert_one_line_error(code, err, "env_map", "caustic-mapping")
+    code, _, err = run_cli([*args, "-p", "caustic-mapping..map_size=64", "-o", tmp_path / "q.png"], capsys)
+    assert_one_line_error(code, err, "not a name")
+
+
 def test_missing_output_directory(tmp_path, capsys):
     code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "no" / "dir.png"], capsys)
     assert_one_line_error(code, err, "does not exist")

@@ -385,6 +385,13 @@ def test_impostor_caustics_refuses_merged_planes(renderer):
         renderer.render(_scene([_ball(), _floor()], size=32), "impostor-caustics", merge_planes=True)
 
 
+def test_impostor_caustics_refuses_internal_bounces(renderer):
+    """Its photon buffer holds one exit per texel: with internal bounces it recorded the last lookup's rectangle
+    and a bounce's weight (a ball's caustic fell to 8 % of its flux), so they are refused in one line."""
+    with pytest.raises(TechniqueError, match="internal_bounces 2: .*one exit per texel.*leave it 0"):
+        renderer.render(_scene([_ball(), _floor()], size=32), "impostor-caustics", internal_bounces=2)
+
+
 def test_texture_units_of_the_shading_do_not_overlap():
     """ShadeSurfaces binds its units once per program (global GL state): the impostor atlas, the albedo
     texture, the environment lobes' four maps and the nearby planes' textures each need units of their own

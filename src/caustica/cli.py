@@ -141,9 +141,11 @@ def _param(text: str) -> tuple[str, object]:
     import math
     import tomllib
 
+    # name, or technique.name where two techniques of a combination both have one (caustic-mapping.map_size).
     key = key.strip().replace("-", "_")
-    if not key.isidentifier():
-        raise argparse.ArgumentTypeError(f"parameter name '{_shown(key)}' is not a name; write name=value")
+    if not all(part.isidentifier() for part in key.split(".")):
+        raise argparse.ArgumentTypeError(f"parameter name '{_shown(key)}' is not a name; write name=value or "
+                                         "technique.name=value")
     try:
         parsed = tomllib.loads(f"v = {value}")["v"]
     except tomllib.TOMLDecodeError:

@@ -94,6 +94,10 @@ class ImpostorCausticsParams(ImpostorParams):
         if self.merge_planes:
             raise ValueError("merge_planes: impostor-caustics keeps one rectangle per receiver (its caustic texture's); "
                              "leave it false")
+        if self.internal_bounces:
+            raise ValueError(f"internal_bounces {self.internal_bounces}: impostor-caustics' photon buffer keeps one "
+                             "exit per texel (Hu and Qin 3.1), so the light reflected inside cannot be followed; "
+                             "leave it 0 (caustic-mapping's exit_reflections follow it in convex glass)")
 
 
 def filter_weights(k: int) -> np.ndarray:
