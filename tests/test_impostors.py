@@ -390,6 +390,9 @@ def test_impostor_caustics_refuses_internal_bounces(renderer):
     and a bounce's weight (a ball's caustic fell to 8 % of its flux), so they are refused in one line."""
     with pytest.raises(TechniqueError, match="internal_bounces 2: .*one exit per texel.*leave it 0"):
         renderer.render(_scene([_ball(), _floor()], size=32), "impostor-caustics", internal_bounces=2)
+    image = renderer.render(_scene([_ball(), _floor()], size=32), "impostors+impostor-caustics",
+                            **{"impostors.internal_bounces": 2})
+    assert np.isfinite(image).all()
 
 
 def test_texture_units_of_the_shading_do_not_overlap():

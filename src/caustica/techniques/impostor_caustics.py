@@ -97,7 +97,7 @@ class ImpostorCausticsParams(ImpostorParams):
         if self.internal_bounces:
             raise ValueError(f"internal_bounces {self.internal_bounces}: impostor-caustics' photon buffer keeps one "
                              "exit per texel (Hu and Qin 3.1), so the light reflected inside cannot be followed; "
-                             "leave it 0 (caustic-mapping's exit_reflections follow it in convex glass)")
+                             "leave it 0, or in a combination give the view's alone (impostors.internal_bounces)")
 
 
 def filter_weights(k: int) -> np.ndarray:
