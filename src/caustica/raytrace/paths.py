@@ -432,6 +432,9 @@ class RefractedPaths:
     # surface, an object set in glass), -1 where none (it escaped or leaked), and the point it meets it at.
     landed_object: np.ndarray | None = None  # (N,) int32
     landed_position: np.ndarray | None = None  # (N,3), 0 where none
+    # Inside glass when it met nothing more: it left through a hole of an open mesh (a scan's), along
+    # ``direction`` from ``position`` (its last glass surface point, or its origin), as light does.
+    leaked: np.ndarray | None = None  # (N,) bool
 
 
 def follow_refraction(
@@ -455,7 +458,7 @@ def follow_refraction(
     else:
         ior = materials.ior_rgb[:, channel]
     result = RefractedPaths(d.copy(), o.copy(), np.zeros(n, bool), np.zeros(n), np.ones(n), np.zeros(n, np.int64),
-                            np.full(n, -1, np.int32), np.zeros((n, 3)))
+                            np.full(n, -1, np.int32), np.zeros((n, 3)), np.zeros(n, bool))
     active = np.arange(n)
     inside = np.full(n, bool(start_inside))
     for step in range(max_interfaces + 1):
@@ -467,6 +470,7 @@ def follow_refraction(
         # Finish rays that are outside glass and meet no more glass; inside ones leaked.
         done = ~at_glass | (step == max_interfaces)
         result.valid[active[done]] = ~inside[active[done]] & ~at_glass[done]
+        result.leaked[active[done]] = inside[active[done]] & ~hits.hit[done]
         landed = done & hits.hit & ~at_glass  # what the last refracted ray meets
         result.landed_object[active[landed]] = hits.object_index[landed]
         result.landed_position[active[landed]] = hits.position[landed]

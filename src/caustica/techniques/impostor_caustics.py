@@ -86,6 +86,11 @@ class ImpostorCausticsParams(ImpostorParams):
     caustic_size: int = param(512, range=(8, 4096), unit="texels", paper="Hu and Qin 3.2",
                               help="caustic texture texels a side per rectangle")
     filter_k: int = param(2, range=(0, 16), unit="texels", paper="Hu and Qin 3.2", help="caustic filter half width")
+    internal_bounces: int = param(0, range=(0, 0), paper="Hu and Qin 3.1",
+                                  help="0 only: the photon buffer keeps one exit per texel, so light reflected "
+                                       "inside is not followed",
+                                  hint=": the photon buffer keeps one exit per texel (Hu and Qin 3.1); in a "
+                                       "combination give the view's as impostors.internal_bounces")
     filter_s: float | None = param(None, kind="float", range=(0.0, 1e6), ends="(]", paper="Hu and Qin 3.2",
                                    special={None: "1 / sum of the weights, energy conserving"}, help="caustic filter scale")
 
@@ -94,10 +99,7 @@ class ImpostorCausticsParams(ImpostorParams):
         if self.merge_planes:
             raise ValueError("merge_planes: impostor-caustics keeps one rectangle per receiver (its caustic texture's); "
                              "leave it false")
-        if self.internal_bounces:
-            raise ValueError(f"internal_bounces {self.internal_bounces}: impostor-caustics' photon buffer keeps one "
-                             "exit per texel (Hu and Qin 3.1), so the light reflected inside cannot be followed; "
-                             "leave it 0, or in a combination give the view's alone (impostors.internal_bounces)")
+
 
 
 def filter_weights(k: int) -> np.ndarray:

@@ -30,8 +30,10 @@ planes with sliced object images (5.2), so any receiver shape works (the
 sample planes themselves are ``caustica.transport.sample_planes``); the table is
 made for a copy of the mesh with its large flat faces split (a prism's or a
 block's vertices all lie on its edges, where entering light meets the next
-face at once), and dispersive glass has a table per channel's IOR. Limits:
-see ``caustica.transport.runtime``.
+face at once), and dispersive glass has a table per channel's IOR. ``exit_rays="traced"`` (ours) traces the table's rays
+for the light's own directions each time the light or the object moves, and the sub-rays of the volumes whose
+rays part, instead of looking them up (``caustica.transport.runtime``: what a 129-direction table cannot hold
+on a scanned mesh). Limits: see ``caustica.transport.runtime``.
 """
 from __future__ import annotations
 
@@ -76,6 +78,9 @@ class TableParams(ShadowedParams):
 class TransportTableParams(TableParams):
     """Parameters of ``transport-table`` (Iwasaki et al.)."""
 
+    exit_rays: str = param("table", choices=("table", "traced"), paper="Iwasaki et al. 5.1",
+                           help="'table': looked up in the table (the paper); 'traced': the table's rays traced with "
+                                "Embree for the light's own directions, and parting volumes' sub-rays too (ours)")
     map_size: int = param(512, range=(16, 4096), unit="texels", help="caustic-map texels a side (per cube face)")
     photon_budget: int = param(1 << 18, range=(1, 1 << 24), unit="photons", paper="Iwasaki et al. 5.1",
                                help="photons spread over the illumination volumes' footprints, per light sample")
@@ -96,7 +101,8 @@ def scene_photons(scene, sample, params: TransportTableParams, progress: bool = 
     positions, fluxes, stats = [], [], {}
     budget = max(1, params.photon_budget // len(glass))
     for obj in glass:
-        channels = object_exit_rays(obj, sample, params.directions, params.max_depth, params.quantized, progress)
+        channels = object_exit_rays(obj, sample, params.directions, params.max_depth, params.quantized, progress,
+                                    traced=params.exit_rays == "traced")
         for rays in channels:
             photons = caustic_photons(rays, ray_scene, max(1, budget // len(channels)))
             positions.append(photons.position[photons.landed])

@@ -29,6 +29,17 @@ spot; a line light is N point samples):
    of the receivers), half by flux (bright volumes get several photons). The shared splat + resolve passes
    (``passes/light_space.py``) turn the photons into caustic maps.
 
+Traced exit rays (ours, ``exit_rays="traced"``; :func:`traced_exit_rays`): the vertex rays are traced with
+Embree through the object for the light's own directions (the precompute's trace, ``trace_samples``) instead of
+looked up, and a volume whose three rays part (:func:`parting`: their exit points spread over more than
+PARTING_SPREAD of its edges, or their directions over 15 degrees) sends its m^2 sub-rays from their points
+inside the face, each traced, instead of blends of the vertex rays. Why: on a scanned bunny the exit rays of a
+vertex change branch (through an ear into the body or past it, out of a hole, reflected totally or not) between
+the table's neighbouring directions: against rays traced for the light's own directions, the 129-direction
+lookup is off by 11 degrees at the median (67 degrees at the 90th percentile with 2049 directions), and half the
+bunny's lit volumes part (docs/benchmarks.md, "the bunny's caustic through the transport table"). The cost
+moves from the precompute to every light or object change (the vertex rays and the parting volumes' sub-rays).
+
 Limits: only the refracted branch (Fresnel-reflected light is not splatted,
 as in the paper); light blocked between the light and the glass by other
 objects, and light refracted by two glass objects in a row, are ignored; the
@@ -50,7 +61,8 @@ from ..raytrace.optics import dot, normalize
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..scene.mesh import Mesh, split_at_midpoints
 from .compress import TransportTableError, dequantize, load_table, quantize, table_bytes
-from .precompute import DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, precompute_table, tangent_frames
+from .precompute import (DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, glass_scene, precompute_table,
+                         tangent_frames, trace_samples)
 
 MAX_SUBDIVISION = 256
 _TABLES: LruCache = LruCache(8)  # the tables most recently used
@@ -216,8 +228,12 @@ class ExitRays:
     origin: np.ndarray  # (V, 3)
     direction: np.ndarray  # (V, 3)
     weight: np.ndarray  # (V, 3) F_t times Beer-Lambert absorption, per channel
+    entry: np.ndarray  # (V, 3) the vertices, where the rays enter
     faces: np.ndarray  # (F, 3) the table mesh's triangles (table_mesh), the illumination volumes' bases
     face_flux: np.ndarray  # (F, 3) E S entering each lit face (0 for unlit ones)
+    # exit_rays="traced": traces rays from points inside the faces (SurfaceRays.at), for the volumes whose
+    # three rays part (:func:`incoherent`); None: every volume is the blend of its vertex rays
+    surface: "SurfaceRays | None" = None
 
     @property
     def volume_flux(self) -> np.ndarray:
@@ -226,10 +242,11 @@ class ExitRays:
 
 
 def object_exit_rays(obj, sample, directions: int = DEFAULT_DIRECTIONS, max_depth: int = DEFAULT_MAX_DEPTH,
-                     quantized: bool = True, progress: bool = True) -> list[ExitRays]:
+                     quantized: bool = True, progress: bool = True, traced: bool = False) -> list[ExitRays]:
     """The exit rays of glass ``obj`` lit by ``sample`` from the tables of its :func:`table_mesh`: one set, or
     for dispersive glass one per channel, each from the table of that channel's IOR and carrying that channel
-    alone (the paper's table holds one IOR)."""
+    alone (the paper's table holds one IOR). ``traced``: traced for the light's own directions
+    (:func:`traced_exit_rays`) instead of looked up."""
     material, mesh = obj.material, table_mesh(obj.mesh)
     if material.abbe is None:
         groups = [(float(material.ior), np.ones(3))]
@@ -237,31 +254,121 @@ def object_exit_rays(obj, sample, directions: int = DEFAULT_DIRECTIONS, max_dept
         groups = [(float(ior), np.eye(3)[c]) for c, ior in enumerate(material.ior_rgb)]
     out = []
     for ior, channel in groups:
-        rays = exit_rays(obj, table_for(mesh, ior, directions, max_depth, quantized, progress), sample)
-        out.append(ExitRays(rays.origin, rays.direction, rays.weight * channel, rays.faces, rays.face_flux))
+        if traced:
+            rays = traced_exit_rays(obj, ior, sample, max_depth, channel)
+        else:
+            rays = exit_rays(obj, table_for(mesh, ior, directions, max_depth, quantized, progress), sample, channel)
+        out.append(rays)
     return out
 
 
-def exit_rays(obj, table: TransportTable, sample) -> ExitRays:
+def exit_rays(obj, table: TransportTable, sample, channel=np.ones(3)) -> ExitRays:
     """Look the table up for ``obj`` (rigid transform) lit by ``sample`` (section 5.1); the table is its
-    :func:`table_mesh`'s."""
+    :func:`table_mesh`'s. ``channel`` scales the rays' weight (dispersive glass: one channel per table)."""
     mesh = table_mesh(obj.mesh)
-    m = np.asarray(obj.world_from_object(), dtype=np.float64)
-    a, t = m[:3, :3], m[:3, 3]
-    world = mesh.vertices.astype(np.float64) @ a.T + t
-    towards, _ = _incident(sample, world)
-    found = lookup(table, vertex_frames(mesh), towards @ np.linalg.inv(a).T)
-    origin = found.exit_position.astype(np.float64) @ a.T + t
-    direction = normalize(found.exit_direction @ a.T)
+    frame = _ObjectFrame(obj)
+    towards, _ = _incident(sample, frame.world(mesh.vertices))
+    found = lookup(table, vertex_frames(mesh), frame.to_object(towards))
+    return _world_rays(obj, frame, mesh, found, sample, channel)
+
+
+class _ObjectFrame:
+    """An object's rigid transform (rotation, translation, uniform scale) applied to points and directions."""
+
+    def __init__(self, obj):
+        m = np.asarray(obj.world_from_object(), dtype=np.float64)
+        self.a, self.t = m[:3, :3], m[:3, 3]
+
+    def world(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points, np.float64) @ self.a.T + self.t
+
+    def to_object(self, directions: np.ndarray) -> np.ndarray:
+        return normalize(directions @ np.linalg.inv(self.a).T)
+
+    def world_direction(self, directions: np.ndarray) -> np.ndarray:
+        return normalize(np.asarray(directions, np.float64) @ self.a.T)
+
+
+def _exit_weight(obj, entry: np.ndarray, origin: np.ndarray, transmittance: np.ndarray, channel) -> np.ndarray:
+    """(N, 3) F_t times Beer-Lambert absorption over |x_out - P| (world), times ``channel``."""
     sigma = np.asarray(getattr(obj.material, "absorption_coefficient", np.zeros(3)), np.float64)
-    inside = np.linalg.norm(origin - world, axis=1)
-    weight = found.transmittance[:, None] * np.exp(-sigma[None] * inside[:, None])
+    inside = np.linalg.norm(origin - entry, axis=1)
+    return transmittance[:, None] * np.exp(-sigma[None] * inside[:, None]) * channel
+
+
+def _world_rays(obj, frame: _ObjectFrame, mesh, found: Lookup, sample, channel, surface=None) -> ExitRays:
+    """The exit rays of ``found`` (object space, per vertex of ``mesh``) in world space, with the flux E S
+    into each lit face (eq. 2)."""
+    world = frame.world(mesh.vertices)
+    origin = frame.world(found.exit_position)
+    weight = _exit_weight(obj, world, origin, found.transmittance, channel)
     # Flux E S into each lit face (S: its area projected along the light).
     tri = world[mesh.faces]
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     light_dir, irradiance = _incident(sample, tri.mean(axis=1))
     projected = np.maximum(0.5 * dot(cross, light_dir), 0.0)  # area * cos, 0 for faces turned away
-    return ExitRays(origin, direction, weight, mesh.faces, irradiance * projected[:, None])
+    return ExitRays(origin, frame.world_direction(found.exit_direction), weight, world, mesh.faces,
+                    irradiance * projected[:, None], surface)
+
+
+# Traced exit rays (ours: the table's rays for the light's own directions) ------------
+
+
+_GLASS_SCENES: LruCache = LruCache(8)
+
+
+def _glass_rays(mesh, ior: float):
+    """(scene, RayScene) of ``mesh`` alone as glass of index ``ior``: what the table is traced against."""
+    key = (mesh.geometry_hash(), round(float(ior), 9))
+    found = _GLASS_SCENES.get(key)
+    if found is None:
+        scene = glass_scene(mesh, ior)
+        found = _GLASS_SCENES[key] = (scene, RayScene(scene))
+    return found
+
+
+@dataclass
+class SurfaceRays:
+    """Refracted rays from any point of a glass object's table mesh for one light sample, traced with Embree
+    through the object as the table's samples are (:func:`~caustica.transport.precompute.trace_samples`)."""
+
+    obj: object
+    mesh: Mesh
+    ior: float
+    sample: object
+    max_depth: int
+    channel: np.ndarray
+
+    def at(self, faces: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World exit origins, directions and weights (N, 3) of the rays entering at the points
+        ``barycentric`` (N, 3) of the table-mesh triangles ``faces`` (N, 3) (normals interpolated)."""
+        points = np.einsum("nc,ncx->nx", barycentric, self.mesh.vertices[faces].astype(np.float64))
+        normals = normalize(np.einsum("nc,ncx->nx", barycentric, self.mesh.normals[faces].astype(np.float64)))
+        found = self.trace(points, normals)
+        frame = _ObjectFrame(self.obj)
+        origin = frame.world(found.exit_position)
+        weight = _exit_weight(self.obj, frame.world(points), origin, found.transmittance, self.channel)
+        return origin, frame.world_direction(found.exit_direction), weight
+
+    def trace(self, points: np.ndarray, normals: np.ndarray) -> Lookup:
+        """What the table would hold at object-space ``points`` with ``normals`` for the light's own
+        directions there: exit position, direction, F_t (0 where the object shades the point)."""
+        frame = _ObjectFrame(self.obj)
+        towards, _ = _incident(self.sample, frame.world(points))
+        scene, rays = _glass_rays(self.mesh, self.ior)
+        found = trace_samples(rays, scene, points, normals, frame.to_object(towards), self.ior, self.max_depth)
+        transmittance = np.where(found["occluded"], 0.0, found["transmittance"])
+        return Lookup(found["exit_position"], found["exit_direction"], transmittance, ~found["occluded"])
+
+
+def traced_exit_rays(obj, ior: float, sample, max_depth: int = DEFAULT_MAX_DEPTH, channel=np.ones(3)) -> ExitRays:
+    """The exit rays of ``obj`` for ``sample`` traced at every vertex of its :func:`table_mesh` for the light's
+    own directions, instead of looked up (exit_rays="traced"): the table's content with no directional
+    sampling, and the :class:`SurfaceRays` that trace the parting volumes' sub-rays."""
+    mesh = table_mesh(obj.mesh)
+    surface = SurfaceRays(obj, mesh, float(ior), sample, int(max_depth), np.asarray(channel, np.float64))
+    found = surface.trace(mesh.vertices.astype(np.float64), normalize(mesh.normals.astype(np.float64)))
+    return _world_rays(obj, _ObjectFrame(obj), mesh, found, sample, surface.channel, surface)
 
 
 _FRAMES: LruCache = LruCache(64)  # an animated mesh has new geometry each frame
@@ -296,9 +403,34 @@ def receiver_scene(receivers) -> RayScene:
     return RayScene.from_meshes([o.world_mesh() for o in receivers])
 
 
+PARTING_SPREAD = 4.0  # a volume parts where its exit points lie more than this many of its face's edges apart,
+PARTING_COS = float(np.cos(np.radians(15.0)))  # or its exit directions more than 15 degrees
+
+
+def parting(rays: ExitRays, faces: np.ndarray) -> np.ndarray:
+    """(F,) bool: the volumes of ``faces`` whose three rays do not stay together: exit points more than
+    PARTING_SPREAD of the face's longest edge apart, or directions more than 15 degrees apart. Their rays took
+    different paths through the object (one through an ear and into the body, one out of a hole, one
+    reflected inside), so a blend of them (eq. 2's volume) lights places no light reaches."""
+    corners = rays.origin[faces]  # (F, 3, 3) exit points
+    entry_edge = np.zeros(len(faces))
+    spread = np.zeros(len(faces))
+    cos = np.ones(len(faces))
+    for k in range(3):
+        a, b = faces[:, k], faces[:, (k + 1) % 3]
+        spread = np.maximum(spread, np.linalg.norm(corners[:, k] - corners[:, (k + 1) % 3], axis=1))
+        cos = np.minimum(cos, dot(rays.direction[a], rays.direction[b]))
+        entry_edge = np.maximum(entry_edge, np.linalg.norm(rays.entry[a] - rays.entry[b], axis=1))
+    return (spread > PARTING_SPREAD * entry_edge) | (cos < PARTING_COS)
+
+
 def caustic_photons(rays: ExitRays, receivers: RayScene, budget: int, plane_cos: float = 0.9999) -> PhotonSet:
-    """Photons on the receivers from one object's illumination volumes (eq. 2; see the module docstring)."""
+    """Photons on the receivers from one object's illumination volumes (eq. 2; see the module docstring).
+    With ``rays.surface`` (exit_rays="traced") the parting volumes (:func:`parting`) send their m^2 sub-rays
+    from points inside the face, each traced through the object, instead of blends of the vertex rays."""
     flux = rays.volume_flux
+    if rays.surface is not None:  # a parting volume's flux is its sub-rays' own (E S / m^2 times each's F_t)
+        flux = np.where(parting(rays, rays.faces)[:, None], rays.face_flux, flux)
     lit = flux.max(axis=1) > 0
     faces, flux = rays.faces[lit], flux[lit]
     empty = PhotonSet(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, bool), {"faces": 0, "planar": 0})
@@ -315,7 +447,8 @@ def caustic_photons(rays: ExitRays, receivers: RayScene, budget: int, plane_cos:
     same = (hits.object_index[f] == hits.object_index[f][:, :1]).all(axis=1)
     n = hits.geometric_normal[f]
     coplanar = (dot(n[:, 1], n[:, 0]) > plane_cos) & (dot(n[:, 2], n[:, 0]) > plane_cos)
-    planar = all_hit & same & coplanar
+    split = parting(rays, faces) if rays.surface is not None else np.zeros(len(faces), bool)
+    planar = all_hit & same & coplanar & ~split
     # Photon count per volume: half the budget by S_p (uniform cover of the receivers), half by flux
     # (every bright volume gets several photons).
     span = np.where(all_hit, 0.5 * np.linalg.norm(np.cross(landed[:, 1] - landed[:, 0], landed[:, 2] - landed[:, 0]), axis=1), 0.0)
@@ -334,15 +467,25 @@ def caustic_photons(rays: ExitRays, receivers: RayScene, budget: int, plane_cos:
         fluxes.append(np.repeat(flux[pick][on_plane] / (m * m), len(bary), axis=0))
         landed_mask.append(np.ones(len(p_plane), bool))
         # The rest: blend the vertex rays and land each sub-ray.
-        rest = faces[pick][~on_plane]
+        blend = ~on_plane & ~split[pick]
+        rest = faces[pick][blend]
         if len(rest):
             o = np.einsum("kc,fcx->fkx", bary, rays.origin[rest]).reshape(-1, 3)
             d = normalize(np.einsum("kc,fcx->fkx", bary, rays.direction[rest]).reshape(-1, 3))
             h = receivers.intersect(o, d)
             positions.append(h.position)
-            fluxes.append(np.repeat(flux[pick][~on_plane] / (m * m), len(bary), axis=0))
+            fluxes.append(np.repeat(flux[pick][blend] / (m * m), len(bary), axis=0))
             landed_mask.append(h.hit)
+        # Parting volumes: trace each sub-ray from its point inside the face.
+        parted = faces[pick][split[pick]]
+        if len(parted):
+            o, d, w = rays.surface.at(np.repeat(parted, len(bary), axis=0), np.tile(bary, (len(parted), 1)))
+            h = receivers.intersect(o, d)
+            positions.append(h.position)
+            fluxes.append(np.repeat(flux[pick][split[pick]] / (m * m), len(bary), axis=0) * w)
+            landed_mask.append(h.hit & (w.max(axis=1) > 0))
     position, photon_flux, mask = np.concatenate(positions), np.concatenate(fluxes), np.concatenate(landed_mask)
-    stats = {"faces": int(len(faces)), "planar": int(planar.sum()), "photons": int(len(position)),
-             "flux_in": flux.sum(axis=0).tolist(), "flux_landed": photon_flux[mask].sum(axis=0).tolist()}
+    stats = {"faces": int(len(faces)), "planar": int(planar.sum()), "parting": int(split.sum()),
+             "photons": int(len(position)),
+             "flux_in": photon_flux.sum(axis=0).tolist(), "flux_landed": photon_flux[mask].sum(axis=0).tolist()}
     return PhotonSet(position, photon_flux, mask, stats)
