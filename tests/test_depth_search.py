@@ -260,3 +260,14 @@ def test_face_planes_of_convex_polyhedra_only():
     faces = sides + caps + [[6 + i for i in c[::-1]] for c in caps]
     assert Mesh(vertices, None, np.array(faces)).is_solid()
     assert Mesh(vertices, None, np.array(faces)).face_planes(16) is None
+
+
+def test_convex_exits_of_an_analytic_ball_follow_its_bounces_closer(sphere_and_exact):
+    """Ours: on glass-sphere (an analytic sphere) the exact exits follow three internal bounces to 52.6 dB
+    against full exact, the searched ones to 50.1 (measured, 96x96, 4 spp); at least 1 dB better and 51."""
+    from caustica.metrics import psnr_linear
+
+    small, scene, exact = sphere_and_exact
+    searched = psnr_linear(small.render(scene, "depth-search", spp=4, internal_bounces=3), exact[16])
+    convex = psnr_linear(small.render(scene, "depth-search", spp=4, internal_bounces=3, convex_exits=True), exact[16])
+    assert convex > max(searched + 1.0, 51.0), (searched, convex)
