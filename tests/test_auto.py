@@ -157,7 +157,8 @@ def test_other_parameters_go_to_the_planned_technique():
     scene = scene_of([marble()], size=(32, 24))
     with Renderer() as renderer:
         assert np.array_equal(renderer.render(scene, "auto", internal_bounces=0),
-                              renderer.render(scene, "depth-search", internal_bounces=0, shadow_map_size=1024))
+                              renderer.render(scene, "depth-search", internal_bounces=0, shadow_map_size=1024,
+                                              convex_exits=True))
         with pytest.raises(TechniqueError, match="auto planned 'depth-search'.*shadow_map_sise.*shadow_map_size"):
             renderer.render(scene, "auto", shadow_map_sise=64)
 
@@ -380,6 +381,21 @@ def test_exit_shares_of_a_ball_have_the_closed_form():
     f = fresnel_dielectric(cos_i, 1.0, ior)
     expected = [float(((1 - f) * f**k).mean()) for k in range(3)]
     assert exit_shares(scene, camera, 3) == pytest.approx(expected, rel=0.02, abs=2e-4)
+
+
+def test_glass_exits_are_exact_for_spheres_and_convex_polyhedra():
+    """auto sets depth-search's convex_exits (passes/convex_exits.py) wherever it plans glass: alone or with
+    impostors; a ball and a block get exact shapes, a torus (not convex) keeps the search."""
+    from caustica.passes.convex_exits import convex_shape
+    from caustica.scene.shapes import box, torus
+
+    assert plan(scene_of([marble()])).params["convex_exits"] is True
+    assert plan(lens_before_a_chart()).params["convex_exits"] is True
+    block = SceneObject("block", box((1.6, 0.5, 1.0)), Glass(ior=1.5), Transform(position=[0.6, 0.85, 0.4]))
+    planes = convex_shape(block).planes
+    assert planes.shape == (6, 4) and np.allclose(planes[np.argmax(planes[:, 1]), 3], 1.1)  # the top at y = 1.1
+    assert convex_shape(marble()).sphere is not None
+    assert convex_shape(SceneObject("ring", torus(1.0, 0.3), Glass(ior=1.5))) is None
 
 
 def test_internal_bounces_are_followed_where_they_carry_light():

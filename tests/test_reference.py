@@ -248,6 +248,23 @@ def test_ptracer_ignores_the_absorbing_medium_and_the_reference_says_so(mi, tmp_
             image = reference_render._render_integrator(mi, scene, camera, 16, integrator, "lights", 16, tmp_path,
                                                         None, True, None, 0)
             sums[label, integrator] = float(image.sum())
-        assert bool(reference_render.reference_caveats(scene)) == (label == "absorbing")
+        attenuation = [c for c in reference_render.reference_caveats(scene) if "absorbing" in c]
+        assert bool(attenuation) == (label == "absorbing")
     assert sums["absorbing", "ptracer"] == pytest.approx(sums["clear", "ptracer"], rel=1e-6)
     assert sums["absorbing", "volpath"] < 0.95 * sums["clear", "volpath"]
+
+
+def test_the_reference_says_where_the_lights_caustics_seen_through_glass_are_missing():
+    """light -> glass -> floor -> glass -> camera is sampled by neither integrator (the module docstring;
+    on env-mixed-light-low the glass pixels of exact without its photons match the reference to 32.3 dB,
+    with them 25.4): scenes with a light, glass or a mirror and a diffuse receiver say so; without a lit
+    light, or without a receiver, not."""
+    def missing(scene):
+        return any("seen through glass" in c for c in reference_render.reference_caveats(scene))
+
+    scene = caustica.load_scene("caustic-sphere")
+    assert missing(scene)
+    assert not missing(caustica.load_scene("glass-sphere"))
+    for light in scene.lights:
+        light.intensity = np.zeros(3)
+    assert not missing(scene)

@@ -541,6 +541,16 @@ def nearby_option(nearby: str, params) -> NearbyOption:
     return NearbyOption([NearbyView()], ("nearby_view",), {"NEARBY": code}, set_search)
 
 
+def chain_defines(*functions):
+    """One frame_defines(frame) -> dict merging each non-None function's defines in turn (None if none)."""
+    functions = [f for f in functions if f is not None]
+
+    def call(frame):
+        return {key: value for f in functions for key, value in f(frame).items()}
+
+    return call if functions else None
+
+
 def chain_uniforms(*functions):
     """One set_uniforms(program, frame, obj) calling each non-None function in turn."""
     functions = [f for f in functions if f is not None]

@@ -39,6 +39,7 @@ class Mesh:
     _open: bool | None = field(default=None, repr=False, compare=False)
     _solid: bool | None = field(default=None, repr=False, compare=False)
     _convex: bool | None = field(default=None, repr=False, compare=False)
+    _planes: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
         self.validate(normals_missing=self.normals is None)
@@ -193,6 +194,36 @@ class Mesh:
                 convex = bool(np.all(height[usable] <= tolerance * size * length[face][usable]))
             self._convex = convex
         return self._convex
+
+    def face_planes(self, max_planes: int, tolerance: float = 1e-4) -> np.ndarray | None:
+        """The planes of a convex polyhedron's faces, (K, 4) float64: outward unit normal xyz and offset w
+        (n . x = w on the face, n . x <= w inside), one row per distinct plane; None when the mesh is not
+        convex (:meth:`is_convex`) or its faces lie on more than ``max_planes`` planes (a tessellated curve).
+        The body is the intersection of these half-spaces, so a ray inside leaves it where it crosses the
+        first plane it moves towards (Haines, "Fast ray-convex polyhedron intersection", Graphics Gems II)."""
+        key = (int(max_planes), float(tolerance))
+        if key not in self._planes:
+            self._planes[key] = self._face_planes(*key)
+        return self._planes[key]
+
+    def _face_planes(self, max_planes: int, tolerance: float) -> np.ndarray | None:
+        if not self.is_convex(tolerance):
+            return None
+        v = self.vertices.astype(np.float64)
+        corners = v[self.faces]
+        normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(normal, axis=1)
+        size = float(np.ptp(v, axis=0).max())
+        usable = length > 1e-12 * size * size
+        normal = normal[usable] / length[usable, None]
+        offset = np.einsum("ij,ij->i", normal, corners[usable, 0])
+        planes = []
+        for n, w in zip(normal, offset):  # group the faces by plane, giving up past max_planes
+            if not any(np.dot(n, p[:3]) > 1.0 - tolerance and abs(w - p[3]) <= tolerance * size for p in planes):
+                if len(planes) == max_planes:
+                    return None
+                planes.append(np.append(n, w))
+        return np.array(planes)
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""

@@ -128,15 +128,17 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         bounces, dropped = _bounces_that_pay(scene, bounces, BOUNCE_SHARE[quality])
     if glass and len(objects) > 1:  # glass with anything else, another glass object included
         view = "impostors"
-        view_params.update(internal_bounces=bounces, impostor_size=impostor_size, merge_planes=True)
+        view_params.update(internal_bounces=bounces, impostor_size=impostor_size, merge_planes=True, convex_exits=True)
         why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2; coplanar flat "
                      f"objects share one), exits by "
-                     f"depth search, {bounces} internal bounce{'' if bounces == 1 else 's'}")
+                     f"depth search (exact for spheres and convex polyhedra), {bounces} internal "
+                     f"bounce{'' if bounces == 1 else 's'}")
         why_mirror = "its reflections see the nearby objects as impostors (Hu and Qin 2.2)"
     elif glass:
         view = "depth-search"
-        view_params.update(internal_bounces=bounces)
-        why_glass = (f"alone in the environment: depth-search exits (Hu and Qin 2.1), {bounces} internal "
+        view_params.update(internal_bounces=bounces, convex_exits=True)
+        why_glass = (f"alone in the environment: depth-search exits (Hu and Qin 2.1; exact for spheres and convex "
+                     f"polyhedra), {bounces} internal "
                      f"bounce{'' if bounces == 1 else 's'}")
         why_mirror = ""
     elif hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:

@@ -22,6 +22,8 @@ refractors (outward normal and eye distance). For each glass fragment:
 4. N2 from the front or back normal buffer at P2 (2.1.4), T2 = refract(T1, N2),
    environment lookup (fig. 10c); where no buffer holds P2, T2 = T1.
 5. Ours: ``internal_bounces`` follows the light reflected inside at each exit.
+6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a convex
+   polyhedron of at most 16 planes (``passes/convex_exits.py``), the depth search elsewhere.
 
 Works for n_t < n_i (fig. 10). Exact dielectric Fresnel at every interface,
 Beer-Lambert absorption inside; with dispersion the geometry follows the green
@@ -42,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform
-from ..passes.impostors import NearbyParams, chain_uniforms, nearby_option
+from ..passes.convex_exits import bind_convex_shape, convex_defines
+from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.rules import MAX_COORDINATE
@@ -72,6 +75,8 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                      "or the paper's depth-step")
     internal_bounces: int = param(0, range=(0, MAX_INTERNAL_BOUNCES),
                                   help="our extension: internal reflections followed to further exits (0: the paper)")
+    convex_exits: bool = param(False, help="ours: exact exits from analytic spheres and convex polyhedra of at most "
+                                           "16 planes, every bounce (False: the depth search for all glass; auto sets it)")
 
 
 class DepthSearch(RasterTechnique):
@@ -82,6 +87,8 @@ class DepthSearch(RasterTechnique):
     def build_passes(self, params):
         def set_uniforms(program, frame, obj):
             if obj is not None:
+                if params.convex_exits:
+                    bind_convex_shape(program, obj)
                 return
             set_uniform(program, "world_from_clip", np.linalg.inv(frame.camera.clip_from_world()))
             set_uniform(program, "search_steps", params.search_steps)
@@ -102,7 +109,8 @@ class DepthSearch(RasterTechnique):
             ShadeSurfaces("passes/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
                           set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",),
-                          frame_defines=nearby.frame_defines,
+                          frame_defines=chain_defines(nearby.frame_defines,
+                                                      convex_defines if params.convex_exits else None),
                           captures_front_surface=True,
                           # Back faces first: the search runs in a second resolve stage, only where needed.
                           staged=("glass",) if params.assume_back_first else ()),

@@ -52,6 +52,7 @@ from ..passes.impostors import (
     MAX_IMPOSTORS,
     BuildImpostors,
     bind_impostors,
+    chain_defines,
     chain_uniforms,
     impostor_defines,
     world_index,
@@ -104,7 +105,7 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
                      "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples,
                      "IMPOSTOR_REFLECTIONS": int(params.reflections)}
-    shade.frame_defines = impostor_defines  # MAX_IMPOSTORS: the frame's largest group of rectangles
+    shade.frame_defines = chain_defines(shade.frame_defines, impostor_defines)  # MAX_IMPOSTORS: the largest group
     # Mirrors that search the rectangles are shaded once per pixel too; without reflections they
     # see the environment, as in depth-search, and stay per-fragment.
     shade.deferred = ("glass", "mirror") if params.reflections else ("glass",)

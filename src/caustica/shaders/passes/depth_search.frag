@@ -8,12 +8,14 @@
 // at every interface (dispersion). TIR at the last exit reflects once (at the entry: reflect only).
 // Our extension, not in the paper: INTERNAL_BOUNCES > 0 follows the light reflected inside at
 // each exit (weight F) to the next exit, found against the nearer of the two buffers.
+// Ours too: CONVEX_EXITS computes every exit exactly where the glass is an analytic sphere or a
+// convex polyhedron of few planes (common/convex_exits.glsl; 1: every glass object, 2: per object).
 //
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
 // Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
 // INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1), BACK_SPHERE_START (0/1),
-// ASSUME_BACK_FIRST (0/1; compile-time, since
+// CONVEX_EXITS (0/1/2), ASSUME_BACK_FIRST (0/1; compile-time, since
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
@@ -28,11 +30,17 @@
 #ifndef BACK_SPHERE_START
 #define BACK_SPHERE_START 1  // ours, with BACK_SECANT: start at the chord along T1 of the sphere fitting d_V (0: at d_V)
 #endif
+#ifndef CONVEX_EXITS
+#define CONVEX_EXITS 0  // ours: exact exits from spheres and convex polyhedra (1: every glass object, 2: some; passes/convex_exits.py)
+#endif
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
 #endif
 #include "common/surface_inputs.glsl"
 #include "common/impostors.glsl"
+#if CONVEX_EXITS
+#include "common/convex_exits.glsl"
+#endif
 
 uniform sampler2D front_surface;  // nearest front face: outward normal xyz, eye distance w (0: none)
 uniform sampler2D back_surface;   // farthest back face: the same
@@ -219,15 +227,9 @@ vec3 inside_radiance(vec3 d, float ior) {
     return radiance;
 }
 
-vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
-    vec3 reflected_dir = reflect_direction(v, n);
-    vec3 reflected = nearby_reflection(world_position, reflected_dir);
-    float ior = ior_rgb[1];
-    vec3 t1 = refract_direction(v, n, 1.0 / ior);
-    exit_dir = nearby_output(vec4(reflected_dir, 1.0));
-    // Entry TIR (n_t < n_i at grazing incidence): the surface only reflects.
-    if (dot(t1, t1) == 0.0) return reflected;
-    vec3 p1 = world_position;
+// The exits of the path entering at P1 along T1 (v, n: the view direction and the normal at P1),
+// found in screen space: 2.1.2-2.1.4, and our internal bounces.
+void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
     vec2 pix1;
     buffer_pixel(p1, pix1);
     float start = 1e-3 * length(p1 - camera_position);  // the paper's small positive initial dT
@@ -314,6 +316,44 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         exit_count = found ? k + 1 : exit_count;
         d = r;
     }
+#endif
+}
+
+// Ours (passes/convex_exits.py): every exit exact, where the glass is an analytic sphere or a convex
+// polyhedron of few planes; the internal bounces go from exact point to exact point.
+#if CONVEX_EXITS
+void convex_exits(vec3 p1, vec3 t1) {
+    vec3 p = p1, d = t1;
+    float travelled = 0.0;
+    for (int k = 0; k < MAX_EXITS; ++k) {
+        vec3 normal;
+        float t = convex_exit(p, d, normal);
+        p += t * d;
+        travelled += t;
+        exit_point[k] = p;
+        exit_normal[k] = normal;
+        exit_length[k] = travelled;
+        d = reflect_direction(d, -normal);
+    }
+    exit_count = MAX_EXITS;
+}
+#endif
+
+vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
+    vec3 reflected_dir = reflect_direction(v, n);
+    vec3 reflected = nearby_reflection(world_position, reflected_dir);
+    float ior = ior_rgb[1];
+    vec3 t1 = refract_direction(v, n, 1.0 / ior);
+    exit_dir = nearby_output(vec4(reflected_dir, 1.0));
+    // Entry TIR (n_t < n_i at grazing incidence): the surface only reflects.
+    if (dot(t1, t1) == 0.0) return reflected;
+#if CONVEX_EXITS == 1
+    convex_exits(world_position, t1);
+#elif CONVEX_EXITS == 2
+    if (convex_kind != 0) convex_exits(world_position, t1);
+    else searched_exits(v, n, world_position, t1);
+#else
+    searched_exits(v, n, world_position, t1);
 #endif
     // Per channel Snell and Fresnel at every interface (dispersion), or one IOR for all.
     vec3 result;
