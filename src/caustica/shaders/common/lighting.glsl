@@ -252,38 +252,47 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 }
 #endif
 
-// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py):
-// the ambient environment's irradiance, occluded, through glass, with one bounce, on the floor's top face and
-// the faces of box-shaped objects: rectangle k from env_bake_origin[k] along the edges whose u / |u|^2, v / |v|^2
-// are env_bake_u[k], env_bake_v[k], facing env_bake_normal[k], in the atlas's texels env_bake_texels[k] (x0, y0,
-// columns, rows); a point within env_bake_slack[k] of its plane, facing its way, is on it.
+// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py,
+// passes/environment_lights.py scene_bake): the ambient environment's irradiance, occluded, through glass, with
+// one bounce, on the diffuse receivers, in one rgb32f atlas env_bake: the maps' tiles; from row
+// env_bake_layout.x a table of its env_bake_layout.y rectangles, one a row (texels: origin; u / |u|^2; v / |v|^2;
+// normal; tile x0, y0 and slack, how far off its plane a point may lie; tile columns, rows); from row
+// env_bake_layout.z the per-vertex irradiance of curved receivers, row-major (common/baked_vertex.glsl reads it).
+// Each object names its own rectangles (env_bake_rects: first, count; a box's six, a plane's two sides, the
+// floor's top), so a fragment tries those alone, whatever the scene's count. Host define
+// ENVIRONMENT_BAKE_VERTICES (0 or 1; ShadeSurfaces sets it for diffuse variants where the bake has vertices):
+// the vertex stage passes baked_vertex_irradiance, used where env_bake_vertex_first >= 0.
 #ifndef ENVIRONMENT_BAKE
 #define ENVIRONMENT_BAKE 0
 #endif
+#ifndef ENVIRONMENT_BAKE_VERTICES
+#define ENVIRONMENT_BAKE_VERTICES 0
+#endif
 #if ENVIRONMENT_BAKE
-#define MAX_BAKED 32
 uniform sampler2D env_bake;
-uniform int env_bake_count;
-uniform vec3 env_bake_origin[MAX_BAKED];
-uniform vec3 env_bake_u[MAX_BAKED];
-uniform vec3 env_bake_v[MAX_BAKED];
-uniform vec3 env_bake_normal[MAX_BAKED];
-uniform vec4 env_bake_texels[MAX_BAKED];
-uniform float env_bake_slack[MAX_BAKED];
+uniform ivec4 env_bake_layout;   // the table's first row, its rectangles, the vertices' first row, 0
+uniform ivec2 env_bake_rects;    // this object's rectangles in the table: first, count
+#endif
+#if ENVIRONMENT_BAKE_VERTICES
+uniform int env_bake_vertex_first;  // this object's first vertex in the atlas's vertex rows; -1: none
+in vec3 baked_vertex_irradiance;
 #endif
 
-// Whether p (normal n) lies on a light map's rectangle, and the map's irradiance there (bilinear, clamped to
-// the tile's texel centres).
-bool baked_irradiance(vec3 p, vec3 n, out vec3 e) {
+// Whether p (normal n) lies on one of the rectangles first .. first + count - 1, and that map's irradiance there
+// (bilinear, clamped to the tile's texel centres).
+bool baked_irradiance(int first, int count, vec3 p, vec3 n, out vec3 e) {
     e = vec3(0.0);
 #if ENVIRONMENT_BAKE
-    for (int k = 0; k < env_bake_count; ++k) {
-        vec3 d = p - env_bake_origin[k];
-        vec2 st = vec2(dot(d, env_bake_u[k]), dot(d, env_bake_v[k]));
-        if (dot(n, env_bake_normal[k]) > 0.99 && abs(dot(d, env_bake_normal[k])) <= env_bake_slack[k]
-            && all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)))) {
-            vec4 tile = env_bake_texels[k];
-            vec2 texel = tile.xy + clamp(st * tile.zw, vec2(0.5), tile.zw - 0.5);
+    for (int k = first; k < first + count; ++k) {
+        int row = env_bake_layout.x + k;
+        vec3 normal = texelFetch(env_bake, ivec2(3, row), 0).rgb;
+        if (dot(n, normal) <= 0.99) continue;
+        vec3 d = p - texelFetch(env_bake, ivec2(0, row), 0).rgb;
+        vec3 tile = texelFetch(env_bake, ivec2(4, row), 0).rgb;  // x0, y0, slack
+        vec2 st = vec2(dot(d, texelFetch(env_bake, ivec2(1, row), 0).rgb), dot(d, texelFetch(env_bake, ivec2(2, row), 0).rgb));
+        if (abs(dot(d, normal)) <= tile.z && all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)))) {
+            vec2 size = texelFetch(env_bake, ivec2(5, row), 0).rg;
+            vec2 texel = tile.xy + clamp(st * size, vec2(0.5), size - 0.5);
             e = texture(env_bake, texel / vec2(textureSize(env_bake, 0))).rgb;
             return true;
         }
@@ -292,18 +301,28 @@ bool baked_irradiance(vec3 p, vec3 n, out vec3 e) {
     return false;
 }
 
-// The light maps' irradiance where they are, elsewhere the SH's (no lobes: what impostors seen in glass take).
+// The light maps' irradiance where any rectangle holds p (a point the impostors' nearby planes found, whose object
+// the shader does not know: a search over the whole table), elsewhere the SH's (no lobes).
 vec3 baked_or_sh_irradiance(vec3 p, vec3 n) {
     vec3 e;
-    return baked_irradiance(p, n, e) ? e : ambient_irradiance(n);
+#if ENVIRONMENT_BAKE
+    if (baked_irradiance(0, env_bake_layout.y, p, n, e)) return e;
+#endif
+    return ambient_irradiance(n);
 }
 
-// Ambient irradiance at p with normal n: on a light map its own; elsewhere the SH's less what the
+// Ambient irradiance at p with normal n: on one of this object's light maps that map's, on a receiver baked per
+// vertex the interpolated vertices'; elsewhere the SH's less what the
 // environment's lobes find blocked, plus what the blocked directions show instead (the occluders' bounce, over
 // each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
     vec3 e;
-    if (baked_irradiance(p, n, e)) return e;
+#if ENVIRONMENT_BAKE
+    if (baked_irradiance(env_bake_rects.x, env_bake_rects.y, p, n, e)) return e;
+#endif
+#if ENVIRONMENT_BAKE_VERTICES
+    if (env_bake_vertex_first >= 0) return baked_vertex_irradiance;
+#endif
     e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
     vec3 blocked = vec3(0.0), bounce = vec3(0.0);
