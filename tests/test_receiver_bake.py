@@ -229,3 +229,28 @@ def test_auto_shows_a_spheres_vertex_bake(renderer):
     assert error.mean() < 0.02 and error.max() < 0.06
     unoccluded = renderer.render(scene, "auto", environment_bake=0, environment_lobes=0).reshape(-1, 3)[on]
     assert np.abs(unoccluded.mean(axis=1) / expected - 1.0).mean() > 0.10
+
+
+def test_auto_on_a_lens_before_a_chart_bakes_and_plans_no_lobes_nor_caustic_map():
+    """bench_auto_cost_scenes' lens-before-chart (a thick lens before an 8 x 8 chart and two boxes, sky-checker, no
+    floor): auto bakes the chart's plane and the boxes' faces instead of the lobes it planned, and no caustic map:
+    of the sun's flux towards the lens 0.6 % lands on a diffuse surface (the sun lights the chart from behind; the
+    lens's internal reflections reach a box), under CAUSTIC_SHARE, and the map changed no pixel."""
+    from caustica.scene import procedural_environment
+    from caustica.scene.presets_per_vertex import test_chart
+    from caustica.scene.shapes import biconvex_lens
+    from caustica.techniques.auto import CAUSTIC_SHARE, plan
+
+    lens = SceneObject("lens", biconvex_lens(0.3, 0.14, 0.01, 64, 16), Glass(ior=1.5))
+    boxes = [SceneObject("box-a", box((0.2, 0.2, 0.2)), Diffuse([0.7, 0.3, 0.2]), Transform(position=[-0.45, -0.3, -0.4])),
+             SceneObject("box-b", box((0.15, 0.3, 0.15)), Diffuse([0.2, 0.5, 0.7]), Transform(position=[0.45, 0.25, -0.45]))]
+    camera = Camera(position=[0.12, 0.06, 0.9], look_at=[0.0, 0.0, -0.2], fov_y=38.0, size=(160, 120))
+    scene = Scene(camera=camera, objects=[lens, *test_chart(center=(0.05, -0.02, -0.6), size=1.0, cells=8), *boxes],
+                  environment=procedural_environment("sky-checker"))
+    chosen = plan(scene)
+    assert chosen.technique == "impostors"
+    assert f"under {CAUSTIC_SHARE:.0%}" in chosen.describe()
+    kinds = [r.kind if r else None for r in bake_plan(scene).receivers]
+    assert kinds == [None] + ["plane"] * 6 + ["box", "box"] and len(bake_plan(scene).planes) == 1
+    planned = planned_view(scene)
+    assert planned.environment_bake > 0 and planned.environment_lobes == 0

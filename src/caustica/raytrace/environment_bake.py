@@ -1,4 +1,4 @@
-"""A light map of the environment's light on a floor, baked with ``exact``'s rays (issue 23, real time).
+"""Light maps of the environment's light on the diffuse receivers, baked with ``exact``'s rays (issue 23, real time).
 
 The raster techniques light diffuse surfaces with the environment's SH irradiance, unoccluded, or with a
 few lobes' shadow maps (passes/environment_lights.py); neither has the sky's light refracted by glass
@@ -8,7 +8,10 @@ by the shading with one texture fetch: a light map, the oldest precomputation of
 (Heckbert 1990, "Adaptive radiosity textures for bidirectional ray tracing"; here gathered, not shot).
 
 Each texel of the floor's top rectangle (and of the faces of box-shaped diffuse objects: walls, table tops,
-boxes) gathers the irradiance of the *ambient* environment (the image
+boxes; of both sides of the rectangle of a plane holding flat objects: a backdrop, a chart's squares), and each
+vertex of a curved receiver (a sphere, a scanned mesh: at most VERTEX_CAP of them, the others interpolated from
+their baked neighbours; passes/environment_lights.py bake_plan says which), gathers the irradiance of the
+*ambient* environment (the image
 without its sun where the sun is a directional light of its own, which keeps its sharp shadow and its caustic
 map) with ``exact``'s cosine rays (:func:`~caustica.raytrace.paths.cosine_gather`): occluded by every object,
 through glass and off mirrors (the sky's caustic and the glass's tinted shadow) and one bounce of
