@@ -18,7 +18,6 @@ process CPU time, 1 spp). It uses only what main had too, so the same command me
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -27,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from bench_exact_caustics import MODELS, print_table, standing  # noqa: E402
-from bench_exact_environment import region_cells, seeded_reference  # noqa: E402
+from bench_exact_environment import reference_parser, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import fastest_in_blocks  # noqa: E402
 from caustica.passes.environment_lights import environment_sun, light_maps  # noqa: E402
@@ -68,11 +67,7 @@ def scenes(size, models: Path = MODELS):
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", default="128x96")
-    parser.add_argument("--spp", type=int, default=4)
-    parser.add_argument("--reference-spp", type=int, default=1024)
-    parser.add_argument("--seeds", type=int, default=2)
+    parser = reference_parser(__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
@@ -88,9 +83,9 @@ def main(argv=None) -> None:
             plan = renderer.last_plan
             fastest = fastest_in_blocks(renderer, scene, {"auto": ("auto", {}), "plain": ("plain", {})}, 1,
                                         args.rounds)
+            ratios = " | ".join(f"{fastest['auto'][k] / fastest['plain'][k]:.2f}" for k in ("wall", "cpu"))
             rows.append(f"| {scene.name} | {plan.technique} | {region_cells(image, reference, masks)} | {bake:.1f} | "
-                        f"{fastest['auto']['wall'] / fastest['plain']['wall']:.2f} | "
-                        f"{fastest['auto']['cpu'] / fastest['plain']['cpu']:.2f} |")
+                        f"{ratios} |")
             print(rows[-1], file=sys.stderr, flush=True)
     print_table(f"{args.size}, auto {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged, "
                 f"cost at 1 spp (fastest of {args.rounds} rounds x 3 frames), GL: {gl}",
