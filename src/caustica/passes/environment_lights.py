@@ -21,7 +21,7 @@ showing the occluders' bounce, and a floor's bounce for the light from below (do
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -343,7 +343,8 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
 
 MAX_BAKE_SIZE = 1024  # texels a side of the floor's light map, at most
 ATLAS_WIDTH = 1024  # texels a row of the bake's atlas at least (the vertices' rows)
-TABLE_TEXELS = 6  # texels a rectangle takes in the atlas's table: origin, u', v', normal, (x0, y0, slack), (columns, rows)
+TABLE_TEXELS = 5  # texels a rectangle takes in the atlas's table (rectangle_rows: origin and slack, u', v', normal, tile)
+MAX_OBJECT_RECTS = 6  # lighting.glsl's: the rectangles of one object (a box's faces) set as its uniforms
 
 _BAKES = LruCache(4)  # the bakes of the scenes rendered last (not the camera: a move bakes nothing)
 
@@ -501,9 +502,10 @@ def light_maps(scene, sun_taken: bool, size: int, samples: int | None = None) ->
 
 @dataclass
 class EnvironmentBake:
-    """ShadowMaps' ``environment_bake``: the scene's bake (:class:`SceneBake`) in one rgb32f ``texture`` (the
+    """ShadowMaps' ``environment_bake``: the scene's bake (:class:`SceneBake`) in one rgba32f ``texture`` (the
     maps' ``tiles``, x0, y0, columns, rows in texels each; below them the rectangles' table from row
-    ``table_row``, TABLE_TEXELS a row; below that the vertices' irradiance from row ``vertex_row``, row-major),
+    ``table_row``, rectangle_rows, TABLE_TEXELS a row; below that the vertices' irradiance from row ``vertex_row``,
+    row-major),
     per scene object (in the scene's order) its maps' range and its vertices' first index in that region (-1:
     none), and the SH ambient of every other diffuse surface (floor_bounce_sh where there is a floor, else None)."""
 
@@ -515,6 +517,8 @@ class EnvironmentBake:
     vertex_row: int = 0
     objects: tuple = ()  # per scene object: (first map, map count, first vertex or -1)
     by_id: tuple = ()  # (id(scene object), its entry) of the scene the bake was made for
+    rectangles: np.ndarray | None = None  # rectangle_rows of the maps: what bind_baked_object gives an object
+    _uniforms: dict = field(default_factory=dict, repr=False)  # id(object) -> object_uniforms
 
     @property
     def has_vertices(self) -> bool:
@@ -528,9 +532,36 @@ class EnvironmentBake:
             return self.objects[index]
         return dict(self.by_id).get(id(obj), (0, 0, -1))
 
+    def object_uniforms(self, scene, obj) -> tuple[np.ndarray, int, int]:
+        """(env_bake_rect's rows, env_bake_rect_count, env_bake_vertex_first) of ``obj`` (bind_baked_object),
+        worked out once per object: a frame binds them at every draw of every pass."""
+        kept = self._uniforms.get(id(obj))
+        if kept is None:
+            first, count, vertex = self.entry(scene, obj)
+            if count > MAX_OBJECT_RECTS:
+                raise ValueError(f"an object has {count} light maps; lighting.glsl takes {MAX_OBJECT_RECTS}")
+            rows = np.zeros((MAX_OBJECT_RECTS * TABLE_TEXELS, 4), np.float32)
+            rows[:count * TABLE_TEXELS] = self.rectangles[first:first + count].reshape(-1, 4)
+            kept = self._uniforms[id(obj)] = (rows, count, vertex)
+        return kept
 
-def bake_atlas(bake: SceneBake) -> tuple[np.ndarray, int, int, tuple, np.ndarray]:
-    """(image, table_row, vertex_row, per-object entries by id, tiles) of :class:`EnvironmentBake`'s texture."""
+
+def rectangle_rows(maps: list, tiles: np.ndarray) -> np.ndarray:
+    """(maps, TABLE_TEXELS, 4) float32: per light map (origin, slack: how far off its plane a point may lie), (u /
+    |u|^2, 0), (v / |v|^2, 0), (normal, 0), (its tile: x0, y0, columns, rows): lighting.glsl's rectangle, as the
+    atlas's table holds it and as an object's uniforms give it."""
+    rows = np.zeros((len(maps), TABLE_TEXELS, 4), np.float32)
+    for k, (light_map, tile) in enumerate(zip(maps, tiles)):
+        u, v = light_map.u, light_map.v
+        rows[k, 0] = (*light_map.origin, 1e-3 * min(np.linalg.norm(u), np.linalg.norm(v)))
+        rows[k, 1, :3], rows[k, 2, :3] = u / max(float(u @ u), 1e-300), v / max(float(v @ v), 1e-300)
+        rows[k, 3, :3], rows[k, 4] = light_map.normal, tile
+    return rows
+
+
+def bake_atlas(bake: SceneBake) -> tuple[np.ndarray, np.ndarray, int, int, tuple, np.ndarray]:
+    """(image, rectangle_rows, table_row, vertex_row, per-object entries, tiles) of :class:`EnvironmentBake`'s
+    rgba32f texture."""
     tiles, (width, height) = atlas_tiles(bake.maps) if bake.maps else (np.zeros((0, 4), np.int64), (0, 0))
     width = max(width, ATLAS_WIDTH)
     table_row, vertex_row = height, height + len(bake.maps)
@@ -538,20 +569,16 @@ def bake_atlas(bake: SceneBake) -> tuple[np.ndarray, int, int, tuple, np.ndarray
     for values in bake.vertices:
         firsts.append(-1 if values is None else total)
         total += 0 if values is None else len(values)
-    image = np.zeros((vertex_row + -(-total // width), width, 3), np.float32)
-    image[:height, :] = atlas_image(bake.maps, tiles, (width, height)) if bake.maps else 0.0
-    for k, (light_map, (x0, y0, columns, rows)) in enumerate(zip(bake.maps, tiles)):
-        u, v = light_map.u, light_map.v
-        slack = 1e-3 * min(np.linalg.norm(u), np.linalg.norm(v))  # how far off its plane a point may lie
-        image[table_row + k, :TABLE_TEXELS] = [light_map.origin, u / max(float(u @ u), 1e-300),
-                                               v / max(float(v @ v), 1e-300), light_map.normal, (x0, y0, slack),
-                                               (columns, rows, 0.0)]
-    flat = image[vertex_row:].reshape(-1, 3)
+    image = np.zeros((vertex_row + -(-total // width), width, 4), np.float32)
+    image[:height, :, :3] = atlas_image(bake.maps, tiles, (width, height)) if bake.maps else 0.0
+    rectangles = rectangle_rows(bake.maps, tiles)
+    image[table_row:vertex_row, :TABLE_TEXELS] = rectangles
+    flat = image[vertex_row:].reshape(-1, 4)
     for first, values in zip(firsts, bake.vertices):
         if values is not None:
-            flat[first:first + len(values)] = values
+            flat[first:first + len(values), :3] = values
     entries = tuple((*bake.ranges[i], firsts[i]) for i in range(len(firsts)))
-    return image, table_row, vertex_row, entries, tiles
+    return image, rectangles, table_row, vertex_row, entries, tiles
 
 
 def atlas_tiles(maps: list) -> tuple[np.ndarray, tuple[int, int]]:
@@ -587,9 +614,11 @@ def bind_environment_bake(program, baked: EnvironmentBake, unit: int) -> None:
 
 
 def bind_baked_object(program, baked: EnvironmentBake, scene, obj) -> None:
-    """Set lighting.glsl's per-object env_bake_rects (first map, count) and env_bake_vertex_first (-1: none)."""
-    from ..gpu.meshes import set_uniform
+    """Set lighting.glsl's per-object rectangles (env_bake_rect, its rectangle_rows, and env_bake_rect_count) and
+    env_bake_vertex_first (-1: none)."""
+    from ..gpu.meshes import set_uniform, write_uniform_array
 
-    first, count, vertex = baked.entry(scene, obj)
-    set_uniform(program, "env_bake_rects", (first, count))
+    rows, count, vertex = baked.object_uniforms(scene, obj)
+    write_uniform_array(program, "env_bake_rect", rows)
+    set_uniform(program, "env_bake_rect_count", count)
     set_uniform(program, "env_bake_vertex_first", vertex)

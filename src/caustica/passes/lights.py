@@ -110,7 +110,7 @@ class ShadowMaps(Pass):
         Channel("environment_shadows", "host", "EnvironmentShadows: the environment's lobes and their maps' atlas, "
                                                "or None"),
         Channel("environment_bake", "host", "EnvironmentBake: the light maps and per-vertex irradiance of the "
-                                            "ambient environment on the diffuse receivers (rgb32f atlas), or None"),
+                                            "ambient environment on the diffuse receivers (rgba32f atlas), or None"),
     )
 
     def __init__(self, size: int = 1024):
@@ -140,13 +140,13 @@ class ShadowMaps(Pass):
         bake = scene_bake(scene, sun_taken, size) if size else None
         if bake is None or not (bake.maps or any(v is not None for v in bake.vertices)):
             return None
-        image, table_row, vertex_row, objects, tiles = bake_atlas(bake)
-        texture = frame.own(frame.gpu.ctx.texture(image.shape[1::-1], 3, image.tobytes(), dtype="f4"))
+        image, rectangles, table_row, vertex_row, objects, tiles = bake_atlas(bake)
+        texture = frame.own(frame.gpu.ctx.texture(image.shape[1::-1], 4, image.tobytes(), dtype="f4"))
         texture.repeat_x = texture.repeat_y = False
         floor = scene_floor(scene)
         ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
         return EnvironmentBake(texture, bake.maps, tiles, ground, table_row, vertex_row, objects,
-                               tuple((id(o), entry) for o, entry in zip(scene.objects, objects)))
+                               tuple((id(o), entry) for o, entry in zip(scene.objects, objects)), rectangles)
 
     def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)
