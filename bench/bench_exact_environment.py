@@ -73,13 +73,18 @@ def region_cells(image, reference, masks) -> str:
     return f"{scores} | {psnr_linear(image, reference):.1f}"
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def reference_parser(description: str) -> argparse.ArgumentParser:
+    """The options of a benchmark against seeded Mitsuba references: --size, --spp, --reference-spp, --seeds."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--size", default="128x96")
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--seeds", type=int, default=2)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv=None) -> None:
+    args = reference_parser(__doc__.splitlines()[0]).parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows = []
     for light in (False, True):

@@ -1,9 +1,10 @@
-"""Benchmark: auto's floor light map (issue 23, docs/environment-light.md) on the presets that have a floor, which
-it was not tuned on: auto as planned now against ``environment_bake=0`` (the SH ambient those lit presets had),
+"""Benchmark: auto's light maps (issue 23, docs/environment-light.md) on the presets where auto plans them, which
+they were not tuned on: auto as planned now against ``environment_bake=0`` (the SH ambient those lit presets had),
 PSNR (linear) overall and per region (refractor, caustic, rest) against the cached Mitsuba reference, and the
 bake's time.
 
     .venv/bin/python bench/bench_floor_light_map.py [--size 128x96] [--spp 4] [--reference-spp 1024]
+        [--presets a,b,...]
 """
 from __future__ import annotations
 
@@ -14,8 +15,8 @@ import time
 import caustica
 from caustica.bench.compare import reference_image
 from caustica.metrics import compare_images, region_masks
-from caustica.passes import environment_lights
 from caustica.scene.presets import PRESETS
+from caustica.techniques import get_technique
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from bench_exact_caustics import print_table  # noqa: E402
@@ -29,14 +30,17 @@ def main(argv=None) -> None:
     parser.add_argument("--size", default="128x96")
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--presets", default=",".join(CANDIDATES), help="comma-separated preset names")
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     rows, gl = [], ""
-    for name in CANDIDATES:
+    auto = get_technique("auto")
+    for name in args.presets.split(","):
         scene = PRESETS[name]()
         scene = scene.with_camera(scene.camera.with_size(*size))
-        if environment_lights.scene_floor(scene) is None:
-            print(f"{name}: no floor, no light map", file=sys.stderr, flush=True)
+        planned = auto.for_scene(scene, auto.make_params())[1]
+        if not (planned[0] if isinstance(planned, tuple) else planned).environment_bake:
+            print(f"{name}: auto plans no light map", file=sys.stderr, flush=True)
             continue
         reference, _ = reference_image(scene, size, args.reference_spp, False)
         with caustica.Renderer(size) as renderer:

@@ -21,11 +21,12 @@ showing the occluders' bounce, and a floor's bounce for the light from below (do
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..cache import LruCache, array_digest, kept_on, material_state_key, scene_state_key
+from ..progress import detail
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
@@ -338,24 +339,90 @@ def _glass_loss(glass: list, origins: np.ndarray, directions: np.ndarray, tnear:
     return loss
 
 
-# The floor's light map: the ambient environment's light baked with exact's rays --------------------------
+# The light maps: the ambient environment's light on the diffuse receivers, baked with exact's rays -----------
 
 MAX_BAKE_SIZE = 1024  # texels a side of the floor's light map, at most
-MAX_BAKED = 32  # lighting.glsl's MAX_BAKED: the floor and the faces of the first five box-shaped objects
+ATLAS_WIDTH = 1024  # texels a row of the bake's atlas at least (the vertices' rows)
+TABLE_TEXELS = 5  # texels a rectangle takes in the atlas's table (rectangle_rows: origin and slack, u', v', normal, tile)
+MAX_OBJECT_RECTS = 6  # lighting.glsl's: the rectangles of one object (a box's faces) set as its uniforms
 
-_BAKES = LruCache(4)  # the light maps of the scenes rendered last (not the camera: a move bakes nothing)
+_BAKES = LruCache(4)  # the bakes of the scenes rendered last (not the camera: a move bakes nothing)
 
 
-@dataclass
-class EnvironmentBake:
-    """ShadowMaps' ``environment_bake``: the light maps (raytrace/environment_bake.py LightMap: the floor's top
-    first, then the faces of box-shaped diffuse objects) as tiles of one rgb32f ``texture`` (``tiles``: x0, y0,
-    columns, rows in texels, per map), and the SH ambient of every other diffuse surface (floor_bounce_sh)."""
+@dataclass(frozen=True)
+class Receiver:
+    """How one diffuse object's share of the environment's light is baked (bake_plan): ``kind`` "floor" (its
+    top face), "box" (its six faces), "plane" (both sides of the rectangle of its plane, shared with the
+    coplanar objects of ``group``) or "vertices" (per vertex, ``baked`` of its ``vertices`` where capped)."""
 
-    texture: object
+    kind: str
+    group: int = -1  # "plane": the index of its plane among bake_plan's groups
+    vertices: int = 0  # "vertices": the mesh's
+    baked: int = 0  # "vertices": how many are baked (the others interpolated), at most VERTEX_CAP
+
+
+@dataclass(frozen=True)
+class BakePlan:
+    """Per scene object its :class:`Receiver` (None: not diffuse, nothing to bake), the floor (or None) and the
+    coplanar groups of flat objects (lists of scene object indices)."""
+
+    receivers: tuple
+    floor: object
+    planes: tuple
+
+
+def bake_plan(scene) -> BakePlan:
+    """What :func:`scene_bake` bakes for ``scene`` (docs/environment-light.md, "Light maps on every diffuse
+    receiver"): the floor's top (scene_floor), the faces of box-shaped objects (box_faces), the rectangle of each
+    plane holding flat objects (plane_of: walls, backdrops, a chart's squares, coplanar ones sharing it), the
+    vertices of every other diffuse mesh (capped at VERTEX_CAP). Cached on the scene by its state."""
+    return kept_on(scene, "_bake_plan_cache", (scene_state_key(scene), tuple(o.material.kind for o in scene.objects)),
+                   lambda: _bake_plan(scene))
+
+
+def _bake_plan(scene) -> BakePlan:
+    from ..raytrace.environment_bake import VERTEX_CAP, _spread, box_faces, plane_of
+
+    floor = scene_floor(scene)
+    size = float(np.linalg.norm(np.ptp(scene.bounds(), axis=0))) if scene.objects else 1.0
+    receivers, planes, plane_keys = [], [], []
+    for index, obj in enumerate(scene.objects):
+        if obj.material.kind != "diffuse":
+            receivers.append(None)
+        elif obj is floor:
+            receivers.append(Receiver("floor"))
+        elif box_faces(obj) is not None:
+            receivers.append(Receiver("box"))
+        elif (flat := plane_of(obj)) is not None:
+            centre, normal = flat
+            group = next((k for k, (c, n) in enumerate(plane_keys) if abs(n @ normal) > 1.0 - 1e-6
+                          and abs((centre - c) @ n) <= 1e-4 * size), None)
+            if group is None:
+                group = len(planes)
+                planes.append([])
+                plane_keys.append(flat)
+            planes[group].append(index)
+            receivers.append(Receiver("plane", group))
+        else:
+            mesh = obj.world_mesh()
+            count = len(mesh.vertices)
+            baked = count if count <= VERTEX_CAP else len(_spread(mesh.vertices.astype(np.float64),
+                                                                  mesh.normals.astype(np.float64), VERTEX_CAP))
+            receivers.append(Receiver("vertices", vertices=count, baked=baked))
+    return BakePlan(tuple(receivers), floor, tuple(tuple(g) for g in planes))
+
+
+@dataclass(frozen=True)
+class SceneBake:
+    """The bake of a scene state (:func:`scene_bake`): the LightMaps (raytrace/environment_bake.py: the floor's
+    top first where there is one, then each box's six faces, then each plane's two sides), per scene object the
+    range of its maps (first, count; (0, 0) for none) and its per-vertex irradiance ((vertices, 3) or None), and
+    the seconds the bake took."""
+
     maps: list
-    tiles: np.ndarray
-    ambient_sh: np.ndarray
+    ranges: tuple
+    vertices: tuple
+    seconds: float
 
 
 def bake_settings(params) -> int:
@@ -367,39 +434,151 @@ def bake_settings(params) -> int:
     return size
 
 
-def baked_boxes(scene, floor) -> list:
-    """The box-shaped diffuse objects other than ``floor`` whose six faces get light maps: the first
-    (MAX_BAKED - 1) // 6 of them (raytrace/environment_bake.py box_faces), the floor's map taking one slot."""
-    from ..raytrace.environment_bake import box_faces
+def scene_bake(scene, sun_taken: bool, size: int, samples: int | None = None) -> SceneBake:
+    """The :class:`SceneBake` of every diffuse receiver of ``scene`` (bake_plan) under the ambient environment
+    (without its sun where ``sun_taken``): the floor's top ``size`` texels a side, box faces FACE_SIZE, a plane's
+    rectangle ``size`` along its longer side where it spans the scene (in proportion, FACE_SIZE at least,
+    otherwise), VERTEX_CAP vertices of a mesh at most; kept for the next frame of the same geometry, materials
+    and environment."""
+    from ..raytrace.environment_bake import BAKE_SAMPLES
 
-    boxes = [o for o in scene.objects if o is not floor and o.material.kind == "diffuse" and box_faces(o)]
-    return boxes[: (MAX_BAKED - 1) // 6]
+    samples = BAKE_SAMPLES if samples is None else samples
+    key = (scene_state_key(scene), material_state_key(scene), bool(sun_taken), int(size), int(samples))
+    bake = _BAKES.get(key)
+    if bake is None:
+        bake = _BAKES[key] = _scene_bake(scene, sun_taken, int(size), int(samples))
+    return bake
+
+
+def _scene_bake(scene, sun_taken: bool, size: int, samples: int) -> SceneBake:
+    import time
+
+    from ..raytrace.environment_bake import (FACE_SIZE, bake_floor, bake_rectangles, bake_vertices, box_faces,
+                                             plane_of, plane_rectangle)
+
+    start = time.perf_counter()
+    plan = bake_plan(scene)
+    sun = environment_sun(scene.environment).light if sun_taken else None
+    ambient = environment_light(scene.environment).rest if sun_taken else scene.environment
+    objects = scene.objects
+    maps, ranges, vertices = [], [(0, 0)] * len(objects), [None] * len(objects)
+    if plan.floor is not None:
+        maps.append(bake_floor(scene, plan.floor, ambient, sun, size, samples))
+        ranges[next(i for i, o in enumerate(objects) if o is plan.floor)] = (0, 1)
+    boxes = [i for i, r in enumerate(plan.receivers) if r is not None and r.kind == "box"]
+    if boxes:
+        faces = [face for i in boxes for face in box_faces(objects[i])]
+        label = ", ".join(objects[i].name for i in boxes)
+        for k, i in enumerate(boxes):
+            ranges[i] = (len(maps) + 6 * k, 6)
+        maps += bake_rectangles(scene, faces, (FACE_SIZE, FACE_SIZE), ambient, sun, samples, label)
+    extent = float(np.ptp(scene.bounds(), axis=0).max())
+    for group in plan.planes:
+        members = [objects[i] for i in group]
+        origin, u, v, normal = plane_rectangle(members, *plane_of(members[0]))
+        lengths = np.array([np.linalg.norm(u), np.linalg.norm(v)])
+        columns, rows = np.maximum(np.round(min(size, max(FACE_SIZE, size * lengths.max() / extent))
+                                            * lengths / lengths.max()), 1).astype(int)
+        sides = [(origin, u, v, normal), (origin, u, v, -normal)]
+        for i in group:
+            ranges[i] = (len(maps), 2)
+        maps += bake_rectangles(scene, sides, (int(columns), int(rows)), ambient, sun, samples,
+                                ", ".join(o.name for o in members))
+    for i, receiver in enumerate(plan.receivers):
+        if receiver is not None and receiver.kind == "vertices":
+            vertices[i] = bake_vertices(scene, objects[i], ambient, sun, samples)[0]
+    seconds = time.perf_counter() - start
+    texels = sum(m.irradiance.shape[0] * m.irradiance.shape[1] for m in maps)
+    points = sum(r.baked for r in plan.receivers if r is not None and r.kind == "vertices")
+    detail(f"the environment's light baked in {seconds:.1f} s: {len(maps)} light maps ({texels} texels) and "
+           f"{points} vertices, {samples} rays each")
+    return SceneBake(maps, tuple(ranges), tuple(vertices), seconds)
 
 
 def light_maps(scene, sun_taken: bool, size: int, samples: int | None = None) -> list:
-    """The LightMaps (raytrace/environment_bake.py) of the scene's floor (scene_floor, ``size`` texels a side)
-    and of the faces of its other box-shaped diffuse objects (FACE_SIZE a side; up to MAX_BAKED maps in all)
-    under the ambient environment (without its sun where ``sun_taken``), kept for the next frame of the same
-    geometry, materials and environment; [] without a floor."""
-    from ..raytrace.environment_bake import BAKE_SAMPLES, FACE_SIZE, bake_floor, bake_rectangles, box_faces
+    """The LightMaps of :func:`scene_bake` (the floor's top first where the scene has a floor)."""
+    return scene_bake(scene, sun_taken, size, samples).maps
 
-    floor = scene_floor(scene)
-    if floor is None:
-        return []
-    samples = BAKE_SAMPLES if samples is None else samples
-    key = (scene_state_key(scene), material_state_key(scene), bool(sun_taken), int(size), int(samples))
-    maps = _BAKES.get(key)
-    if maps is None:
-        sun = environment_sun(scene.environment).light if sun_taken else None
-        ambient = environment_light(scene.environment).rest if sun_taken else scene.environment
-        maps = [bake_floor(scene, floor, ambient, sun, size, samples)]
-        boxes = baked_boxes(scene, floor)
-        faces = [face for o in boxes for face in box_faces(o)]
-        if faces:
-            label = ", ".join(o.name for o in boxes)
-            maps += bake_rectangles(scene, faces, (FACE_SIZE, FACE_SIZE), ambient, sun, samples, label)
-        _BAKES[key] = maps
-    return maps
+
+@dataclass
+class EnvironmentBake:
+    """ShadowMaps' ``environment_bake``: the scene's bake (:class:`SceneBake`) in one rgba32f ``texture`` (the
+    maps' ``tiles``, x0, y0, columns, rows in texels each; below them the rectangles' table from row
+    ``table_row``, rectangle_rows, TABLE_TEXELS a row; below that the vertices' irradiance from row ``vertex_row``,
+    row-major),
+    per scene object (in the scene's order) its maps' range and its vertices' first index in that region (-1:
+    none), and the SH ambient of every other diffuse surface (floor_bounce_sh where there is a floor, else None)."""
+
+    texture: object
+    maps: list
+    tiles: np.ndarray
+    ambient_sh: np.ndarray | None
+    table_row: int = 0
+    vertex_row: int = 0
+    objects: tuple = ()  # per scene object: (first map, map count, first vertex or -1)
+    by_id: tuple = ()  # (id(scene object), its entry) of the scene the bake was made for
+    rectangles: np.ndarray | None = None  # rectangle_rows of the maps: what bind_baked_object gives an object
+    _uniforms: dict = field(default_factory=dict, repr=False)  # id(object) -> object_uniforms
+
+    @property
+    def has_vertices(self) -> bool:
+        return any(entry[2] >= 0 for entry in self.objects)
+
+    def entry(self, scene, obj) -> tuple[int, int, int]:
+        """``obj``'s (first map, map count, first vertex or -1) by its place in ``scene`` (the frame's, whose
+        state the bake's is: ShadowMaps' cache key) or in a part of it (a view without some objects)."""
+        index = next((i for i, o in enumerate(scene.objects) if o is obj), None)
+        if index is not None and len(scene.objects) == len(self.objects):
+            return self.objects[index]
+        return dict(self.by_id).get(id(obj), (0, 0, -1))
+
+    def object_uniforms(self, scene, obj) -> tuple[np.ndarray, int, int]:
+        """(env_bake_rect's rows, env_bake_rect_count, env_bake_vertex_first) of ``obj`` (bind_baked_object),
+        worked out once per object: a frame binds them at every draw of every pass."""
+        kept = self._uniforms.get(id(obj))
+        if kept is None:
+            first, count, vertex = self.entry(scene, obj)
+            if count > MAX_OBJECT_RECTS:
+                raise ValueError(f"an object has {count} light maps; lighting.glsl takes {MAX_OBJECT_RECTS}")
+            rows = np.zeros((MAX_OBJECT_RECTS * TABLE_TEXELS, 4), np.float32)
+            rows[:count * TABLE_TEXELS] = self.rectangles[first:first + count].reshape(-1, 4)
+            kept = self._uniforms[id(obj)] = (rows, count, vertex)
+        return kept
+
+
+def rectangle_rows(maps: list, tiles: np.ndarray) -> np.ndarray:
+    """(maps, TABLE_TEXELS, 4) float32: per light map (origin, slack: how far off its plane a point may lie), (u /
+    |u|^2, 0), (v / |v|^2, 0), (normal, 0), (its tile: x0, y0, columns, rows): lighting.glsl's rectangle, as the
+    atlas's table holds it and as an object's uniforms give it."""
+    rows = np.zeros((len(maps), TABLE_TEXELS, 4), np.float32)
+    for k, (light_map, tile) in enumerate(zip(maps, tiles)):
+        u, v = light_map.u, light_map.v
+        rows[k, 0] = (*light_map.origin, 1e-3 * min(np.linalg.norm(u), np.linalg.norm(v)))
+        rows[k, 1, :3], rows[k, 2, :3] = u / max(float(u @ u), 1e-300), v / max(float(v @ v), 1e-300)
+        rows[k, 3, :3], rows[k, 4] = light_map.normal, tile
+    return rows
+
+
+def bake_atlas(bake: SceneBake) -> tuple[np.ndarray, np.ndarray, int, int, tuple, np.ndarray]:
+    """(image, rectangle_rows, table_row, vertex_row, per-object entries, tiles) of :class:`EnvironmentBake`'s
+    rgba32f texture."""
+    tiles, (width, height) = atlas_tiles(bake.maps) if bake.maps else (np.zeros((0, 4), np.int64), (0, 0))
+    width = max(width, ATLAS_WIDTH)
+    table_row, vertex_row = height, height + len(bake.maps)
+    firsts, total = [], 0
+    for values in bake.vertices:
+        firsts.append(-1 if values is None else total)
+        total += 0 if values is None else len(values)
+    image = np.zeros((vertex_row + -(-total // width), width, 4), np.float32)
+    image[:height, :, :3] = atlas_image(bake.maps, tiles, (width, height)) if bake.maps else 0.0
+    rectangles = rectangle_rows(bake.maps, tiles)
+    image[table_row:vertex_row, :TABLE_TEXELS] = rectangles
+    flat = image[vertex_row:].reshape(-1, 4)
+    for first, values in zip(firsts, bake.vertices):
+        if values is not None:
+            flat[first:first + len(values), :3] = values
+    entries = tuple((*bake.ranges[i], firsts[i]) for i in range(len(firsts)))
+    return image, rectangles, table_row, vertex_row, entries, tiles
 
 
 def atlas_tiles(maps: list) -> tuple[np.ndarray, tuple[int, int]]:
@@ -426,24 +605,20 @@ def atlas_image(maps: list, tiles: np.ndarray, shape: tuple[int, int]) -> np.nda
 
 
 def bind_environment_bake(program, baked: EnvironmentBake, unit: int) -> None:
-    """Set lighting.glsl's env_bake_* uniforms and bind the maps' atlas to texture unit ``unit``."""
-    from ..gpu.meshes import set_uniform, write_uniform_array
+    """Set lighting.glsl's env_bake_layout and bind the bake's atlas to texture unit ``unit``."""
+    from ..gpu.meshes import set_uniform
 
-    count = len(baked.maps)
-    rows = {"env_bake_origin": [m.origin for m in baked.maps],
-            "env_bake_u": [m.u / max(float(m.u @ m.u), 1e-300) for m in baked.maps],
-            "env_bake_v": [m.v / max(float(m.v @ m.v), 1e-300) for m in baked.maps],
-            "env_bake_normal": [m.normal for m in baked.maps]}
-    for name, values in rows.items():
-        padded = np.zeros((MAX_BAKED, 3), "f4")
-        padded[:count] = values
-        write_uniform_array(program, name, padded)
-    tiles = np.zeros((MAX_BAKED, 4), "f4")
-    tiles[:count] = baked.tiles
-    write_uniform_array(program, "env_bake_texels", tiles)
-    slack = np.zeros(MAX_BAKED, "f4")  # how far off its plane a point may lie: 1e-3 of the shorter edge
-    slack[:count] = [1e-3 * min(np.linalg.norm(m.u), np.linalg.norm(m.v)) for m in baked.maps]
-    write_uniform_array(program, "env_bake_slack", slack)
-    set_uniform(program, "env_bake_count", count)
+    set_uniform(program, "env_bake_layout", (baked.table_row, len(baked.maps), baked.vertex_row, 0))
     baked.texture.use(unit)
     set_uniform(program, "env_bake", unit)
+
+
+def bind_baked_object(program, baked: EnvironmentBake, scene, obj) -> None:
+    """Set lighting.glsl's per-object rectangles (env_bake_rect, its rectangle_rows, and env_bake_rect_count) and
+    env_bake_vertex_first (-1: none)."""
+    from ..gpu.meshes import set_uniform, write_uniform_array
+
+    rows, count, vertex = baked.object_uniforms(scene, obj)
+    write_uniform_array(program, "env_bake_rect", rows)
+    set_uniform(program, "env_bake_rect_count", count)
+    set_uniform(program, "env_bake_vertex_first", vertex)

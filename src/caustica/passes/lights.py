@@ -30,9 +30,9 @@ from ..scene.transform import (
     up_hint,
 )
 from .base import Channel, Frame, Pass
-from .environment_lights import (EnvironmentBake, EnvironmentShadows, atlas_image, atlas_tiles, bake_settings,
-                                 environment_lobes, environment_sun, floor_bounce_sh, light_maps, lobe_settings,
-                                 mean_albedo, scene_floor)
+from .environment_lights import (EnvironmentBake, EnvironmentShadows, bake_atlas, bake_settings, environment_lobes,
+                                 environment_sun, floor_bounce_sh, lobe_settings, mean_albedo, scene_bake,
+                                 scene_floor)
 
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
@@ -109,8 +109,8 @@ class ShadowMaps(Pass):
         Channel("shadow_maps", "r32f[light]", "per light sample: distance to the light (6-face atlas for points)"),
         Channel("environment_shadows", "host", "EnvironmentShadows: the environment's lobes and their maps' atlas, "
                                                "or None"),
-        Channel("environment_bake", "host", "EnvironmentBake: the floor's light map of the ambient environment "
-                                            "(rgba32f), or None"),
+        Channel("environment_bake", "host", "EnvironmentBake: the light maps and per-vertex irradiance of the "
+                                            "ambient environment on the diffuse receivers (rgba32f atlas), or None"),
     )
 
     def __init__(self, size: int = 1024):
@@ -132,18 +132,21 @@ class ShadowMaps(Pass):
         frame.write("environment_bake", self._environment_bake(frame, samples))
 
     def _environment_bake(self, frame: Frame, samples: list[LightSample]):
-        """The light maps where the frame's parameters ask for them and the scene has a floor, else None."""
+        """The light maps (environment_lights.scene_bake) where the frame's parameters ask for them and the scene
+        has a diffuse receiver, else None."""
         size = bake_settings(frame.params)
         scene = frame.scene
         sun_taken = any(s.environment for s in samples)
-        maps = light_maps(scene, sun_taken, size) if size else []
-        if not maps:
+        bake = scene_bake(scene, sun_taken, size) if size else None
+        if bake is None or not (bake.maps or any(v is not None for v in bake.vertices)):
             return None
-        tiles, shape = atlas_tiles(maps)
-        texture = frame.own(frame.gpu.ctx.texture(shape, 3, atlas_image(maps, tiles, shape).tobytes(), dtype="f4"))
+        image, rectangles, table_row, vertex_row, objects, tiles = bake_atlas(bake)
+        texture = frame.own(frame.gpu.ctx.texture(image.shape[1::-1], 4, image.tobytes(), dtype="f4"))
         texture.repeat_x = texture.repeat_y = False
-        ground = floor_bounce_sh(scene.environment, sun_taken, mean_albedo(scene_floor(scene)))
-        return EnvironmentBake(texture, maps, tiles, ground)
+        floor = scene_floor(scene)
+        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
+        return EnvironmentBake(texture, bake.maps, tiles, ground, table_row, vertex_row, objects,
+                               tuple((id(o), entry) for o, entry in zip(scene.objects, objects)), rectangles)
 
     def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
         count, size = lobe_settings(frame.params)

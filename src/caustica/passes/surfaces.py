@@ -16,14 +16,15 @@ from . import deferred
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
-from .environment_lights import ambient_sh, bind_environment_bake, bind_environment_shadows
+from .environment_lights import ambient_sh, bind_baked_object, bind_environment_bake, bind_environment_shadows
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 
 FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
 FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
 ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
 ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27-29 their glass's, bounce's, nearest distances' (passes/environment_lights.py)
-ENVIRONMENT_BAKE_UNIT = 30  # the floor's light map of the environment (passes/environment_lights.py)
+ENVIRONMENT_BAKE_UNIT = 30  # the light maps' atlas of the environment's light (passes/environment_lights.py)
+BAKED_VERTEX_STAGES = ("common/mesh_vertex.glsl", "passes/transport_view.vert")  # they pass baked_vertex_irradiance
 
 
 class RefractorSurfaces(Pass):
@@ -248,6 +249,9 @@ class ShadeSurfaces(Pass):
                    "MAX_CAUSTIC_TILES": MAX_CAUSTIC_TILES}
         if frame.optional("environment_shadows") is not None:
             defines.update(frame.optional("environment_shadows").defines())
+        bake = frame.optional("environment_bake")
+        # Receivers baked per vertex read them from the vertex stage (common/baked_vertex.glsl).
+        baked_vertices = bake is not None and bake.has_vertices and self.vertex in BAKED_VERTEX_STAGES
         if self.frame_defines is not None:
             defines.update(self.frame_defines(frame))
         clip_from_world = camera.clip_from_world()
@@ -262,7 +266,8 @@ class ShadeSurfaces(Pass):
         later = []  # the deferred (object, material, variant defines) in G-buffer id order
         for kind, dispersion, textured in variants:
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion),
-                               **({"ALBEDO_TEXTURE": 1} if textured else {})}
+                               **({"ALBEDO_TEXTURE": 1} if textured else {}),
+                               **({"ENVIRONMENT_BAKE_VERTICES": 1} if baked_vertices and kind == "diffuse" else {})}
             program_defines = variant_defines
             defer = kind in self.deferred and not textured  # the G-buffer holds no uvs
             if deferring_targets:
@@ -303,6 +308,9 @@ class ShadeSurfaces(Pass):
         tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
+        bake = frame.optional("environment_bake")
+        if bake is not None:
+            bind_baked_object(program, bake, frame.scene, obj)
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, obj)
 

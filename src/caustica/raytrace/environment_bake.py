@@ -1,4 +1,4 @@
-"""A light map of the environment's light on a floor, baked with ``exact``'s rays (issue 23, real time).
+"""Light maps of the environment's light on the diffuse receivers, baked with ``exact``'s rays (issue 23, real time).
 
 The raster techniques light diffuse surfaces with the environment's SH irradiance, unoccluded, or with a
 few lobes' shadow maps (passes/environment_lights.py); neither has the sky's light refracted by glass
@@ -8,7 +8,10 @@ by the shading with one texture fetch: a light map, the oldest precomputation of
 (Heckbert 1990, "Adaptive radiosity textures for bidirectional ray tracing"; here gathered, not shot).
 
 Each texel of the floor's top rectangle (and of the faces of box-shaped diffuse objects: walls, table tops,
-boxes) gathers the irradiance of the *ambient* environment (the image
+boxes; of both sides of the rectangle of a plane holding flat objects: a backdrop, a chart's squares), and each
+vertex of a curved receiver (a sphere, a scanned mesh: at most VERTEX_CAP of them, the others interpolated from
+their baked neighbours; passes/environment_lights.py bake_plan says which), gathers the irradiance of the
+*ambient* environment (the image
 without its sun where the sun is a directional light of its own, which keeps its sharp shadow and its caustic
 map) with ``exact``'s cosine rays (:func:`~caustica.raytrace.paths.cosine_gather`): occluded by every object,
 through glass and off mirrors (the sky's caustic and the glass's tinted shadow) and one bounce of
@@ -38,6 +41,8 @@ from .paths import EnvironmentSampling, Materials, cosine_gather
 BAKE_SIZE = 64  # texels a side of the floor's light map
 BAKE_SAMPLES = 256  # cosine rays a texel
 FACE_SIZE = 16  # texels a side of each face of a box's light maps
+VERTEX_CAP = 2048  # vertices of one mesh baked at most; the others take their baked neighbours' weighted mean
+PLANE_TOLERANCE = 1e-4  # a mesh is flat when its vertices lie within this share of its size off one plane
 
 
 @dataclass(frozen=True)
@@ -107,6 +112,36 @@ def box_faces(obj) -> list[tuple] | None:
     return faces
 
 
+def plane_of(obj) -> tuple[np.ndarray, np.ndarray] | None:
+    """(a point, the unit normal the faces turn to) of ``obj``'s world mesh where every vertex lies within
+    PLANE_TOLERANCE of its size off one plane (a wall, a backdrop, a chart's squares), else None."""
+    mesh = obj.world_mesh()
+    vertices = mesh.vertices.astype(np.float64)
+    triangles = vertices[mesh.faces]
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]).sum(axis=0)
+    length, size = float(np.linalg.norm(normal)), float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    if not length > 0.0 or not size > 0.0:
+        return None
+    normal /= length
+    centre = vertices.mean(axis=0)
+    if np.abs((vertices - centre) @ normal).max() > PLANE_TOLERANCE * size:
+        return None
+    return centre, normal
+
+
+def plane_rectangle(objects: list, centre: np.ndarray, normal: np.ndarray) -> tuple:
+    """The rectangle (origin, u, v, normal) in the plane (``centre``, ``normal``) that holds every vertex of
+    ``objects`` (coplanar): edges along the world axis nearest the plane, and the normal's cross with it."""
+    axis = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = axis - (axis @ normal) * normal
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    vertices = np.concatenate([o.world_mesh().vertices.astype(np.float64) for o in objects]) - centre
+    s, t = vertices @ u, vertices @ v
+    origin = centre + s.min() * u + t.min() * v
+    return origin, (s.max() - s.min()) * u, (t.max() - t.min()) * v, normal
+
+
 def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambient: Environment, sun=None,
                     samples: int = BAKE_SAMPLES, label: str = "") -> list[LightMap]:
     """A :class:`LightMap` of ``size`` (columns, rows) per rectangle (origin, u, v, normal) under the ``ambient``
@@ -161,3 +196,78 @@ def _fill(values: np.ndarray, invalid: np.ndarray) -> np.ndarray:
         values[reached] = total[reached] / count[reached][:, None]
         invalid &= ~reached
     return values
+
+
+def bake_vertices(scene, obj, ambient: Environment, sun=None, samples: int = BAKE_SAMPLES,
+                  cap: int = VERTEX_CAP) -> tuple[np.ndarray, int]:
+    """((vertices, 3) float32, baked): the irradiance of the ``ambient`` environment at each vertex of ``obj``'s
+    mesh, on the side its normals face (gathered as a rectangle's texel is: occluded, through glass, one bounce,
+    the open irradiance in closed form). A mesh of more than ``cap`` vertices bakes ``cap`` or fewer of them
+    (one per cell of a grid and normal direction, _spread) and gives every other vertex the mean of its four
+    nearest baked ones, weighted by inverse distance and by how far their normals agree; ``baked`` says how
+    many were baked."""
+    mesh = obj.world_mesh()
+    points, normals = mesh.vertices.astype(np.float64), mesh.normals.astype(np.float64)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+    chosen = _spread(points, normals, cap)
+    lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
+    rays = ray_scene_for(scene)
+    materials = Materials.of(scene)
+    sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
+    with progress(len(chosen), f"baking the environment's light on {obj.name} ({len(chosen)} of {len(points)} "
+                  f"vertices, {samples} rays)", unit="vertices") as bar:
+        at, towards = points[chosen], normals[chosen]
+        shadowed = cosine_gather(rays, lit, at, towards, towards, sampling, materials, materials.ior_rgb[:, 0],
+                                 less_open=True, done=bar.update)
+    baked = np.maximum(open_irradiances(ambient.image, towards) + np.pi * shadowed, 0.0)
+    if len(chosen) == len(points):
+        return baked.astype(np.float32), len(chosen)
+    return _spread_to(points, normals, chosen, baked).astype(np.float32), len(chosen)
+
+
+def open_irradiances(image: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(n, 3): :func:`open_irradiance` for each of ``normals`` (n, 3), 256 at a time."""
+    directions, solid_angle = texel_grid(*image.shape[:2])
+    weighted = image.astype(np.float64).reshape(-1, 3) * solid_angle.reshape(-1, 1)
+    directions = directions.reshape(-1, 3)
+    out = np.empty((len(normals), 3))
+    for start in range(0, len(normals), 256):
+        cos = np.maximum(normals[start:start + 256] @ directions.T, 0.0)
+        out[start:start + 256] = cos @ weighted
+    return out
+
+
+def _spread(points: np.ndarray, normals: np.ndarray, cap: int) -> np.ndarray:
+    """Indices of at most ``cap`` of ``points``, all where there are no more: the first vertex in each cell of
+    the coarsest-first grids (cells halved in number until they fit) and of each of the six axis directions its
+    normal is nearest, so that both sides of a thin part keep a vertex."""
+    if len(points) <= cap:
+        return np.arange(len(points))
+    low, extent = points.min(axis=0), max(float(np.ptp(points, axis=0).max()), 1e-30)
+    side = np.abs(normals).argmax(axis=1) * 2 + (normals[np.arange(len(normals)), np.abs(normals).argmax(axis=1)] > 0)
+    cells = int(np.ceil((cap / 6.0) ** (1.0 / 2.0))) * 2  # a surface fills about cells^2 of cells^3
+    while True:
+        index = np.minimum(((points - low) / extent * cells).astype(np.int64), cells - 1)
+        key = ((index[:, 0] * cells + index[:, 1]) * cells + index[:, 2]) * 6 + side
+        _, first = np.unique(key, return_index=True)
+        if len(first) <= cap or cells <= 1:
+            return np.sort(first)
+        cells = max(1, int(cells / 1.25))
+
+
+def _spread_to(points: np.ndarray, normals: np.ndarray, chosen: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per vertex, the mean of ``values`` at its four nearest ``chosen`` vertices, weighted by 1 / (distance +
+    a hundredth of the mean spacing) times max(0, the normals' cosine)^2 (the nearest alone where none agrees);
+    the chosen keep theirs."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(points[chosen])
+    distance, nearest = tree.query(points, k=min(4, len(chosen)))
+    distance, nearest = distance.reshape(len(points), -1), nearest.reshape(len(points), -1)
+    spacing = max(float(distance[:, -1].mean()), 1e-30)
+    agree = np.maximum(np.einsum("ij,ikj->ik", normals, normals[chosen][nearest]), 0.0) ** 2
+    weight = agree / (distance + 0.01 * spacing)
+    weight[weight.sum(axis=1) <= 0.0, 0] = 1.0
+    out = np.einsum("ik,ikc->ic", weight, values[nearest]) / weight.sum(axis=1, keepdims=True)
+    out[chosen] = values
+    return out

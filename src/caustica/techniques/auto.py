@@ -29,9 +29,9 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
-from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, baked_boxes, environment_sun,
+from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
                                         lobe_occlusion, scene_floor)
-from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE
+from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
@@ -59,9 +59,9 @@ class AutoParams(Params):
                                         "where the plan finds diffuse surfaces that other objects occlude")
     environment_bake: int = param(BAKE_SIZE, range=(0, MAX_BAKE_SIZE), special={0: "none"}, unit="texels",
                                   help="texels a side of the floor's light map of the environment's light (box "
-                                       "faces get 16), baked once per scene state with exact's rays (occlusion, "
-                                       "glass, the sky's caustic, one bounce; docs/environment-light.md), where the "
-                                       "scene has a floor")
+                                       "faces get 16, planes up to this, curved receivers per vertex), baked once "
+                                       "per scene state with exact's rays (occlusion, glass, the sky's caustic, one "
+                                       "bounce; docs/environment-light.md), where objects occlude diffuse receivers")
 
 
 @dataclass
@@ -171,7 +171,7 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         params[f"{caustics_by}.map_size"] = sized if caustics_by == CAUSTICS else map_size
     if tabled:  # the table's rays traced for the light: 30 dB on the bunny over a floor, 22 looked up
         params[f"{TABLE}.exit_rays"] = "traced"
-    baked = _baked_floor(scene)
+    baked = _baked_receivers(scene)
     occluded = not baked and _occluded_ambient(scene)
     entries = []
     for obj in objects:
@@ -198,9 +198,9 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
             elif not casters:
                 why += " (nothing specular casts caustics)"
             elif unlanded:
-                why += (f" (no caustics: none of {PLAN_PHOTONS} photons from {_lights(lit, sun)}, refracted "
-                        "through the glass and reflected off the mirrors as caustic mapping follows them, reaches "
-                        "a diffuse surface)")
+                why += (f" (no caustics: of {PLAN_PHOTONS} photons from {_lights(lit, sun)}, refracted "
+                        "through the glass and reflected off the mirrors as caustic mapping follows them, "
+                        f"{paths.share:.1%} of the flux reaches a diffuse surface, under {CAUSTIC_SHARE:.0%})")
             entries.append(PlanEntry(obj.name, kind, view, why))
     notes = []
     if glass and dropped:
@@ -238,23 +238,29 @@ def _occluded_ambient(scene) -> bool:
 
 
 def _baked(obj, scene) -> str:
-    """The plan's reason for the floor's light map, on the floor's entry and the others'."""
-    floor = scene_floor(scene)
-    if obj is floor:
-        return (f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by "
-                "default) baked with exact's rays: occluded, through glass (the sky's caustic), one bounce "
-                "(docs/environment-light.md)")
-    if obj in baked_boxes(scene, floor):
-        return (f"; the environment's light on its faces from light maps ({FACE_SIZE} texels a side) baked with "
-                "exact's rays, as the floor's")
-    return "; the environment's light unoccluded, the floor's bounce for its light from below"
+    """The plan's reason for the light maps (environment_lights.bake_plan), on each diffuse object's entry."""
+    receiver = bake_plan(scene).receivers[next(i for i, o in enumerate(scene.objects) if o is obj)]
+    how = "baked with exact's rays: occluded, through glass (the sky's caustic), one bounce (docs/environment-light.md)"
+    if receiver.kind == "floor":
+        return f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by default) {how}"
+    if receiver.kind == "box":
+        return f"; the environment's light on its faces from light maps ({FACE_SIZE} texels a side) {how}"
+    if receiver.kind == "plane":
+        return f"; the environment's light on it from the light map of its plane (both sides) {how}"
+    capped = (f", {receiver.baked} of its {receiver.vertices} vertices baked (VERTEX_CAP {VERTEX_CAP}), the others "
+              "interpolated from the nearest" if receiver.baked < receiver.vertices else "")
+    return f"; the environment's light on it baked per vertex{capped}, {how}"
 
 
-def _baked_floor(scene) -> bool:
-    """Whether the floor's light map pays: a floor (scene_floor) with another object on it to shadow it or
-    focus the sky onto it, under an environment that sheds some light."""
-    return (len(scene.objects) > 1 and scene_floor(scene) is not None
-            and bool(np.any(scene.environment.irradiance_sh()[0] > 0)))
+def _baked_receivers(scene) -> bool:
+    """Whether the light maps pay (environment_lights.bake_plan: the floor, box faces, planes, curved receivers per
+    vertex): a diffuse object and another object, under an environment that sheds some light, with a floor (which
+    the others shadow or the sky's caustic lights) or, without one, objects that take more than LOBE_SHARE of the
+    sky's light on the diffuse faces the camera sees (lobe_occlusion; a chart of coplanar squares before a thin
+    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH)."""
+    return (len(scene.objects) > 1 and any(o.material.kind == "diffuse" for o in scene.objects)
+            and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
+            and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE))
 
 
 # quality -> the least share of the glass pixels' light an internal bounce must carry to be followed (high: all)
@@ -289,22 +295,28 @@ def _bounces_that_pay(scene, bounces: int, least: float) -> tuple[int, int]:
 # two boxes, 12 % (+1.4 dB; docs/auto.md).
 LOBE_SHARE = 1e-2
 PLAN_PHOTONS = 4096  # photons that decide whether a light's caustic reaches a diffuse surface at all
+# The least share of the flux the lights send towards the casters that must land on diffuse surfaces as caustics
+# for a caustic map to pay: on lens-before-chart 0.6 % lands (the sun behind the chart, the lens's internal
+# reflections onto a box) and the map changed no pixel, for 0.3x plain's CPU time; on the presets with caustics
+# the least is spectacle-concave's 3.1 % (docs/auto.md).
+CAUSTIC_SHARE = 1e-2
 
 
 @dataclass(frozen=True)
 class CausticPaths:
     """What PLAN_PHOTONS exact photons say of a scene's caustics (:func:`_caustic_paths`)."""
 
-    landed: bool  # one at least reached a diffuse surface
+    landed: bool  # CAUSTIC_SHARE at least of the flux sent towards the casters reached a diffuse surface
     beyond_two: float  # the share of the landed flux that crossed other than two glass interfaces
+    share: float = 0.0  # the landed flux over the flux sent towards the casters
 
 
 def _caustic_paths(scene, lit: list) -> CausticPaths:
     """PLAN_PHOTONS photons from the ``lit`` lights (the environment's sun among them), refracted through the
     glass and reflected off the mirrors (``branches="transmit"``: glass reflects only on TIR, as in caustic
-    mapping), traced to the diffuse surfaces (raytrace/photons.py, Embree). Where none lands, a caustic map
-    would cost every frame and add no light: on spectacle-convex the sun comes from behind the chart, and the
-    lens sends its light towards the camera. The share of the landed flux on other than two interfaces (one
+    mapping), traced to the diffuse surfaces (raytrace/photons.py, Embree). Where none lands, or less than
+    CAUSTIC_SHARE of the flux sent towards the casters, a caustic map would cost every frame and add no light:
+    on spectacle-convex the sun comes from behind the chart, and the lens sends its light towards the camera. The share of the landed flux on other than two interfaces (one
     through a scan's hole, three or four through a second lobe, internal reflections) is what caustic mapping's
     two-interface estimate misses and a transport table follows. Cached on the scene by its state."""
     from dataclasses import replace
@@ -316,7 +328,8 @@ def _caustic_paths(scene, lit: list) -> CausticPaths:
         flux = hits.flux.sum(axis=1)
         total = float(flux.sum())
         beyond = float(flux[hits.bounces != 2].sum()) / total if total > 0 else 0.0
-        return CausticPaths(bool(len(hits.position)), beyond)
+        share = total / max(float(hits.emitted.sum()), 1e-300)
+        return CausticPaths(bool(len(hits.position)) and share >= CAUSTIC_SHARE, beyond, share)
 
     key = (scene_state_key(scene), material_state_key(scene), tuple(state_key(light) for light in lit))
     return kept_on(scene, "_caustic_paths_cache", key, traced)
@@ -416,9 +429,9 @@ class Auto(Technique):
         given = getattr(params, "given", ())
         # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
         view_values.environment_bake = params.environment_bake if "environment_bake" in given or (
-            "environment_lobes" not in given and _baked_floor(scene)) else 0
-        # The floor's light map replaces the lobes: with it they changed the other diffuse pixels by -0.4 to +0.7 dB
-        # for twice its frame and more (docs/auto.md).
+            "environment_lobes" not in given and _baked_receivers(scene)) else 0
+        # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
+        # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
         view_values.environment_lobes = params.environment_lobes if "environment_lobes" in given or (
             not view_values.environment_bake and _occluded_ambient(scene)) else 0
         for name in ("environment_lobes", "environment_bake"):

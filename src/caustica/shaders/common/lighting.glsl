@@ -252,58 +252,89 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 }
 #endif
 
-// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py):
-// the ambient environment's irradiance, occluded, through glass, with one bounce, on the floor's top face and
-// the faces of box-shaped objects: rectangle k from env_bake_origin[k] along the edges whose u / |u|^2, v / |v|^2
-// are env_bake_u[k], env_bake_v[k], facing env_bake_normal[k], in the atlas's texels env_bake_texels[k] (x0, y0,
-// columns, rows); a point within env_bake_slack[k] of its plane, facing its way, is on it.
+// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py,
+// passes/environment_lights.py scene_bake): the ambient environment's irradiance, occluded, through glass, with
+// one bounce, on the diffuse receivers, in one rgba32f atlas env_bake: the maps' tiles (rgb); from row
+// env_bake_layout.x a table of its env_bake_layout.y rectangles, one a row of five texels (rectangle_rows:
+// origin and slack, how far off its plane a point may lie; u / |u|^2; v / |v|^2; normal; tile x0, y0, columns,
+// rows); from row env_bake_layout.z the per-vertex irradiance of curved receivers, row-major
+// (common/baked_vertex.glsl reads it). Each object's own rectangles (a box's six, a plane's two sides, the floor's
+// top) come as its uniforms env_bake_rect (the same five rows each) and env_bake_rect_count, so a fragment tries
+// those alone, whatever the scene's count, and reads no table. Host define ENVIRONMENT_BAKE_VERTICES (0 or 1;
+// ShadeSurfaces sets it for diffuse variants where the bake has vertices): the vertex stage passes
+// baked_vertex_irradiance, used where env_bake_vertex_first >= 0.
 #ifndef ENVIRONMENT_BAKE
 #define ENVIRONMENT_BAKE 0
 #endif
+#ifndef ENVIRONMENT_BAKE_VERTICES
+#define ENVIRONMENT_BAKE_VERTICES 0
+#endif
+#define MAX_OBJECT_RECTS 6
 #if ENVIRONMENT_BAKE
-#define MAX_BAKED 32
 uniform sampler2D env_bake;
-uniform int env_bake_count;
-uniform vec3 env_bake_origin[MAX_BAKED];
-uniform vec3 env_bake_u[MAX_BAKED];
-uniform vec3 env_bake_v[MAX_BAKED];
-uniform vec3 env_bake_normal[MAX_BAKED];
-uniform vec4 env_bake_texels[MAX_BAKED];
-uniform float env_bake_slack[MAX_BAKED];
+uniform ivec4 env_bake_layout;   // the table's first row, its rectangles, the vertices' first row, 0
+uniform int env_bake_rect_count;  // this object's rectangles, at most MAX_OBJECT_RECTS
+uniform vec4 env_bake_rect[5 * MAX_OBJECT_RECTS];  // their rows (origin and slack, u', v', normal, tile), five each
+#endif
+#if ENVIRONMENT_BAKE_VERTICES
+uniform int env_bake_vertex_first;  // this object's first vertex in the atlas's vertex rows; -1: none
+in vec3 baked_vertex_irradiance;
 #endif
 
-// Whether p (normal n) lies on a light map's rectangle, and the map's irradiance there (bilinear, clamped to
-// the tile's texel centres).
+#if ENVIRONMENT_BAKE
+// Whether p (normal n) lies on the rectangle whose five rows are ``r``, and its map's irradiance there (bilinear,
+// clamped to the tile's texel centres).
+bool on_rectangle(vec4 r[5], vec3 p, vec3 n, out vec3 e) {
+    e = vec3(0.0);
+    if (dot(n, r[3].xyz) <= 0.99) return false;
+    vec3 d = p - r[0].xyz;
+    vec2 st = vec2(dot(d, r[1].xyz), dot(d, r[2].xyz));
+    if (abs(dot(d, r[3].xyz)) > r[0].w || any(lessThan(st, vec2(0.0))) || any(greaterThan(st, vec2(1.0))))
+        return false;
+    vec2 texel = r[4].xy + clamp(st * r[4].zw, vec2(0.5), r[4].zw - 0.5);
+    e = texture(env_bake, texel / vec2(textureSize(env_bake, 0))).rgb;
+    return true;
+}
+#endif
+
+// Whether p (normal n) lies on one of the shaded object's rectangles, and that map's irradiance there.
 bool baked_irradiance(vec3 p, vec3 n, out vec3 e) {
     e = vec3(0.0);
 #if ENVIRONMENT_BAKE
-    for (int k = 0; k < env_bake_count; ++k) {
-        vec3 d = p - env_bake_origin[k];
-        vec2 st = vec2(dot(d, env_bake_u[k]), dot(d, env_bake_v[k]));
-        if (dot(n, env_bake_normal[k]) > 0.99 && abs(dot(d, env_bake_normal[k])) <= env_bake_slack[k]
-            && all(greaterThanEqual(st, vec2(0.0))) && all(lessThanEqual(st, vec2(1.0)))) {
-            vec4 tile = env_bake_texels[k];
-            vec2 texel = tile.xy + clamp(st * tile.zw, vec2(0.5), tile.zw - 0.5);
-            e = texture(env_bake, texel / vec2(textureSize(env_bake, 0))).rgb;
-            return true;
-        }
+    for (int k = 0; k < env_bake_rect_count; ++k) {
+        vec4 r[5] = vec4[5](env_bake_rect[5 * k], env_bake_rect[5 * k + 1], env_bake_rect[5 * k + 2],
+                            env_bake_rect[5 * k + 3], env_bake_rect[5 * k + 4]);
+        if (on_rectangle(r, p, n, e)) return true;
     }
 #endif
     return false;
 }
 
-// The light maps' irradiance where they are, elsewhere the SH's (no lobes: what impostors seen in glass take).
+// The light maps' irradiance where any rectangle of the table holds p (a point the impostors' nearby planes
+// found, whose object the shader does not know: a search over the whole table), elsewhere the SH's (no lobes).
 vec3 baked_or_sh_irradiance(vec3 p, vec3 n) {
+#if ENVIRONMENT_BAKE
     vec3 e;
-    return baked_irradiance(p, n, e) ? e : ambient_irradiance(n);
+    for (int k = 0; k < env_bake_layout.y; ++k) {
+        int row = env_bake_layout.x + k;
+        vec4 r[5];
+        for (int i = 0; i < 5; ++i) r[i] = texelFetch(env_bake, ivec2(i, row), 0);
+        if (on_rectangle(r, p, n, e)) return e;
+    }
+#endif
+    return ambient_irradiance(n);
 }
 
-// Ambient irradiance at p with normal n: on a light map its own; elsewhere the SH's less what the
+// Ambient irradiance at p with normal n: on one of this object's light maps that map's, on a receiver baked per
+// vertex the interpolated vertices'; elsewhere the SH's less what the
 // environment's lobes find blocked, plus what the blocked directions show instead (the occluders' bounce, over
 // each stratum's span as irradiance is).
 vec3 ambient_irradiance(vec3 p, vec3 n) {
     vec3 e;
     if (baked_irradiance(p, n, e)) return e;
+#if ENVIRONMENT_BAKE_VERTICES
+    if (env_bake_vertex_first >= 0) return baked_vertex_irradiance;
+#endif
     e = ambient_irradiance(n);
 #if ENVIRONMENT_SHADOWS
     vec3 blocked = vec3(0.0), bounce = vec3(0.0);

@@ -1,7 +1,9 @@
 // Shared vertex stage for meshes: object -> world -> clip. Writes world position and normal (and
-// surface_uv: host define ALBEDO_TEXTURE, common/albedo_vertex.glsl).
+// surface_uv: host define ALBEDO_TEXTURE, common/albedo_vertex.glsl; baked_vertex_irradiance: host define
+// ENVIRONMENT_BAKE_VERTICES, common/baked_vertex.glsl).
 #version 430 core
 #include "common/albedo_vertex.glsl"
+#include "common/baked_vertex.glsl"
 uniform mat4 world_from_object;
 uniform mat3 world_normal_from_object;
 uniform mat4 clip_from_world;
@@ -16,5 +18,6 @@ void main() {
     world_position = p.xyz;
     world_normal = world_normal_from_object * in_normal;
     pass_surface_uv();
+    pass_baked_irradiance();
     gl_Position = clip_from_world * p;
 }

@@ -1,9 +1,10 @@
 // transport-table-view: the shared mesh vertex stage plus the per-vertex table lookup of the view ray
 // (Iwasaki et al. 5.3): world exit direction and transmittance after the entry (per channel), set by
 // the host per frame as vertex attributes; zero on meshes without them (opaque objects). Host defines:
-// ALBEDO_TEXTURE (common/albedo_vertex.glsl).
+// ALBEDO_TEXTURE (common/albedo_vertex.glsl), ENVIRONMENT_BAKE_VERTICES (common/baked_vertex.glsl).
 #version 430 core
 #include "common/albedo_vertex.glsl"
+#include "common/baked_vertex.glsl"
 uniform mat4 world_from_object;
 uniform mat3 world_normal_from_object;
 uniform mat4 clip_from_world;
@@ -24,5 +25,6 @@ void main() {
     exit_dir_world = in_exit_dir;
     exit_t = in_exit_t;
     pass_surface_uv();
+    pass_baked_irradiance();
     gl_Position = clip_from_world * p;
 }
