@@ -382,6 +382,7 @@ def bake_plan(scene) -> BakePlan:
 
 def _bake_plan(scene) -> BakePlan:
     from ..raytrace.environment_bake import VERTEX_CAP, _spread, box_faces, plane_of
+    from .impostors import same_plane
 
     floor = scene_floor(scene)
     size = float(np.linalg.norm(np.ptp(scene.bounds(), axis=0))) if scene.objects else 1.0
@@ -394,9 +395,7 @@ def _bake_plan(scene) -> BakePlan:
         elif box_faces(obj) is not None:
             receivers.append(Receiver("box"))
         elif (flat := plane_of(obj)) is not None:
-            centre, normal = flat
-            group = next((k for k, (c, n) in enumerate(plane_keys) if abs(n @ normal) > 1.0 - 1e-6
-                          and abs((centre - c) @ n) <= 1e-4 * size), None)
+            group = next((k for k, known in enumerate(plane_keys) if same_plane(flat, known, 1e-4 * size)), None)
             if group is None:
                 group = len(planes)
                 planes.append([])

@@ -302,6 +302,13 @@ class BuildImpostors(Pass):
                          into=(impostor.texture, impostor.cell))
 
 
+def same_plane(plane, known, offset_tolerance: float, normal_tolerance: float = 1e-6) -> bool:
+    """Whether ``plane`` and ``known`` ((a point, a unit normal) each; either side) are one plane: their normals
+    parallel within ``normal_tolerance`` and the point of ``plane`` within ``offset_tolerance`` of ``known``'s."""
+    return (abs(abs(float(np.dot(plane[1], known[1]))) - 1.0) < normal_tolerance
+            and abs(float(np.dot(plane[0] - known[0], known[1]))) < offset_tolerance)
+
+
 def coplanar_groups(world, indices: list[int], tolerance: float = 1e-6) -> list[list[int]]:
     """``indices`` (nearest first) in groups that share one rectangle: flat diffuse patches that lie in one plane
     (normals parallel, offsets equal within ``tolerance`` of the scene's size) together, in the order of their
@@ -314,8 +321,7 @@ def coplanar_groups(world, indices: list[int], tolerance: float = 1e-6) -> list[
         obj = world.objects[i]
         plane = planar_rectangle(obj) if obj.material.kind == "diffuse" else None
         for k, known in enumerate(planes):
-            if (plane is not None and known is not None and abs(abs(float(np.dot(plane[1], known[1]))) - 1.0) < tolerance
-                    and abs(float(np.dot(plane[0] - known[0], known[1]))) < tolerance * size):
+            if plane is not None and known is not None and same_plane(plane, known, tolerance * size, tolerance):
                 groups[k].append(i)
                 break
         else:
