@@ -171,19 +171,23 @@ float outside_glass(vec3 p, out bool back_side) {
 #define INTERNAL_STEPS 32
 float internal_exit(vec3 p, vec3 r, ivec2 s, out vec3 n) {
     float span = 2.0 * length_unit, lo = 0.0;
-    bool back_side;
+    bool back_side, side;
     for (int k = 1; k <= INTERNAL_STEPS; ++k) {
         float d = span * float(k) / float(INTERNAL_STEPS);
         if (outside_glass(p + d * r, back_side) < 0.0) {
             lo = d;
             continue;
         }
-        float hi = d;
+        float hi = d;  // outside: back_side is the layer crossed before hi
         for (int i = 0; i < 12; ++i) {  // bisection on the crossing
             float m = 0.5 * (lo + hi);
-            if (outside_glass(p + m * r, back_side) < 0.0) lo = m; else hi = m;
+            if (outside_glass(p + m * r, side) < 0.0) {
+                lo = m;
+            } else {
+                hi = m;
+                back_side = side;
+            }
         }
-        outside_glass(p + hi * r, back_side);
         n = back_side ? surface_normal(back_normal, p + hi * r, s) : surface_normal(front_normal, p + hi * r, s);
         if (dot(n, r) < 0.0) n = -n;  // outward, along the leaving ray
         return hi;
