@@ -10,7 +10,7 @@ from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
-from .passes.adaptive import FLAGS, AdaptiveFlags, combined, flagged_fraction
+from .passes.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
 from .passes.base import Frame
 from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
@@ -49,7 +49,9 @@ class Renderer:
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
         self.last_pass_ms: dict[str, float] = {}
         self.last_plan = None  # the Plan auto rendered the last frame with
-        self.last_adaptive_fraction: float | None = None  # pixels antialias 'adaptive' supersampled last frame
+        # antialias 'adaptive''s last frame: the (H, W) bool pixels it supersampled, and their fraction (else None)
+        self.last_adaptive_flags: np.ndarray | None = None
+        self.last_adaptive_fraction: float | None = None
 
     def _check_open(self) -> None:
         if self.closed:
@@ -113,7 +115,7 @@ class Renderer:
         if antialias == "adaptive" and spp != 1:
             raise RenderOptionError(f"antialias 'adaptive' renders 1 spp and 4 spp at the edges itself, not spp {spp}; "
                                     "leave spp at 1, or use spp without adaptive")
-        self.last_adaptive_fraction = None
+        self.last_adaptive_flags = self.last_adaptive_fraction = None
         names = None if labels is None else check_labels(labels)
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
@@ -246,7 +248,7 @@ class Renderer:
     def _render_adaptive(self, tech, scene: Scene, camera, parameters, labels=None):
         """antialias 'adaptive' (passes/adaptive.py): the graph at 1 spp and its flags, then, when any pixel
         is flagged, at 4 spp with the flagged pixels alone shaded, the two combined on the GPU and read
-        back. Sets ``last_adaptive_fraction``; returns (image, label buffers) as :meth:`_render_graph`,
+        back. Sets ``last_adaptive_flags`` and ``last_adaptive_fraction``; returns (image, label buffers) as :meth:`_render_graph`,
         the labels at 1 spp."""
         self._give_back_kept()
         extra = [AdaptiveFlags()] + ([] if labels is None else [label_pass(scene, labels, 1)])
@@ -255,7 +257,8 @@ class Renderer:
         single = frames[0]
         try:
             flags, color = single.read(FLAGS.name), single.read("color")
-            self.last_adaptive_fraction = flagged_fraction(flags)
+            self.last_adaptive_flags = read_flags(flags)
+            self.last_adaptive_fraction = float(self.last_adaptive_flags.mean())
             if self.last_adaptive_fraction > 0.0:  # else the 1-spp image is the answer
                 frames.append(self._run_frame(tech, scene, camera, parameters, 4, keep=None if self._keep else ("color",),
                                               channels={FLAGS.name: flags}))

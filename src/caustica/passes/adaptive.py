@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..gpu.readback import read_rgba
 from .base import Channel, Frame, Pass
 from .resolve import fullscreen_pass
 
@@ -31,9 +32,9 @@ class AdaptiveFlags(Pass):
                                                 {"THRESHOLD": THRESHOLD}, 1, "r32f"))
 
 
-def flagged_fraction(flags) -> float:
-    """The fraction of pixels AdaptiveFlags flagged in ``flags`` (read back)."""
-    return float(np.frombuffer(flags.read(), dtype="f4").mean())
+def read_flags(flags) -> np.ndarray:
+    """AdaptiveFlags' ``flags`` read back: (H, W) bool, True where flagged, row 0 at the top."""
+    return read_rgba(flags, copy=False)[..., 0] > 0.5
 
 
 def preset_depth(frame: Frame, depth, flags) -> None:
