@@ -56,11 +56,13 @@ def test_the_flagged_pixels_are_the_outline_of_a_sphere(renderer):
 
 
 @pytest.mark.parametrize("preset, technique", [("glass-sphere", "env-map"), ("glass-sphere", "depth-search"),
-                                               ("caustics-ring", "caustic-mapping"), ("door-mirror", "per-vertex")])
+                                               ("caustics-ring", "caustic-mapping"), ("door-mirror", "per-vertex"),
+                                               ("spectacle-convex", "auto")])
 def test_flagged_pixels_are_4_spp_and_the_rest_1_spp(renderer, preset, technique):
-    """Forward (env-map, caustics-ring's receivers under caustic maps), deferred (depth-search's glass) and
-    per-vertex mirrors (door-mirror): the depth preset leaves the flagged pixels' shading as the 4-spp
-    frame's. (auto plans both of adaptive's frames as for 4 spp, its caustic map following the frame's size,
+    """Forward (env-map, caustics-ring's receivers under caustic maps), deferred (depth-search's glass),
+    per-vertex mirrors (door-mirror) and impostors' lens, whose depth search reads the front faces at other
+    pixels (drawn whole under the flags, not captured from the G-buffer: it differed by up to 0.04 at 41 %
+    of the flagged pixels): the depth preset leaves the flagged pixels' shading as the 4-spp frame's. (auto plans both of adaptive's frames as for 4 spp, its caustic map following the frame's size,
     so there the 1-spp pixels are those of auto's 4-spp plan, not of auto at 1 spp.)"""
     scene = preset_at(preset)
     single = renderer.render(scene, technique, 1)

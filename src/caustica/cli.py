@@ -497,7 +497,9 @@ def cmd_render(args) -> int:
     write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
-    _say(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
+    fraction = renderer.last_adaptive_fraction
+    spp = f"{args.spp} spp" if fraction is None else f"adaptive: 4 spp at {100.0 * fraction:.1f} % of the pixels"
+    _say(f"wrote {output} ({width}x{height}, {args.technique}, {spp}): "
          f"{statistics.median(timings):.1f} ms per frame on {where}"
          + (f"; labels {', '.join(names)} in {labels_out}" if layers is not None else ""))
     return 0

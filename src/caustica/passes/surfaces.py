@@ -191,8 +191,11 @@ class ShadeSurfaces(Pass):
         if self.captures_front_surface:
             glass = scene.objects_of("glass")
             clip_from_world = camera.clip_from_world()
+            # Not under adaptive flags: the G-buffer holds the flagged pixels alone, and the glass searches
+            # this buffer at other pixels (depth-search's binary search).
             if (deferring and self.material_override is None and all(self.draws(o) for o in glass)
-                    and all(culls_back_faces(o, clip_from_world) for o in glass)):
+                    and all(culls_back_faces(o, clip_from_world) for o in glass)
+                    and frame.optional(FLAGS.name) is None):
                 front = frame.zeroed(camera.size, "rgba32f")
                 frame.write("front_surface", front)
             else:
