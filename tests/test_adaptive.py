@@ -115,3 +115,13 @@ def test_bad_requests_are_refused_in_one_line(renderer, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "leave spp at 1" in err, err
     assert not (tmp_path / "a.png").exists()
+
+
+def test_labels_are_the_1_spp_frames(renderer):
+    """Labels come from the 1-spp frame: the same layers as a 1-spp render's."""
+    scene = sphere_scene()
+    image, layers = renderer.render(scene, "plain", 1, labels=["id", "depth"], antialias="adaptive")
+    assert renderer.last_adaptive_fraction > 0.0
+    _, single = renderer.render(scene, "plain", 1, labels=["id", "depth"])
+    for name in ("id", "depth"):
+        np.testing.assert_array_equal(layers[name], single[name])
