@@ -354,7 +354,7 @@ BAD_SWEEPS = [
     ("[objects.spere]\nior = 1.4\n", "no object 'spere'", "did you mean 'sphere'"),
     ("[objects.sphere]\nior = { uniform = [1.2, 20] }\n", "objects.sphere.ior = 20", "ior"),
     ("[camera]\nfov = 30\n", "unknown key 'fov'", "fov_y"),
-    ("antialias = 'fxaa'\n", "antialias 'fxaa' is unknown", "choose one of none, edge, msaa"),
+    ("antialias = 'fxaa'\n", "antialias 'fxaa' is unknown", "choose one of none, edge, msaa, adaptive"),
     # An exporter's dotted name (Blender's Sphere.001) unquoted: TOML reads a table '001' in object 'Sphere'.
     ("[objects.sphere.001]\nior = 1.4\n", "read as object 'sphere' with a table '001'", '[objects."sphere.001"]'),
     # A relative image path is resolved against the sweep file's folder, and the error says so.
@@ -394,7 +394,7 @@ def test_antialias_msaa_frames_are_the_renderers(tmp_path):
 def test_a_bad_antialias_is_refused_before_any_frame(tmp_path, capsys):
     code, err = run_cli(["batch", "glass-sphere", "-o", str(tmp_path / "out"), "--antialias", "fxaa"], capsys)
     assert code == 2 and err.count("\n") == 1 and "invalid choice: 'fxaa'" in err and "msaa" in err, err
-    with pytest.raises(caustica.CausticaError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa$"):
+    with pytest.raises(caustica.CausticaError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa, adaptive$"):
         caustica.batch("glass-sphere", tmp_path / "out", 1, antialias="fxaa")
     assert not (tmp_path / "out").exists()
 

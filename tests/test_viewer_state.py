@@ -256,8 +256,10 @@ def test_antialias_is_a_checked_render_setting():
     assert state.antialias == "none" and state_of("glass-sphere", antialias="msaa").antialias == "msaa"
     state.set_antialias("msaa")
     assert state.antialias == "msaa" and state.state_version == 1
-    with pytest.raises(RenderOptionError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa$"):
+    with pytest.raises(RenderOptionError, match=r"^antialias 'fxaa' is unknown; choose one of none, edge, msaa, adaptive$"):
         state.set_antialias("fxaa")
+    with pytest.raises(RenderOptionError, match=r"^antialias 'adaptive' renders every frame twice"):
+        state.set_antialias("adaptive")  # two frames each: Renderer.render's, not the viewer's
     assert state.antialias == "msaa" and state.state_version == 1
     seen = []
     for _ in range(3):

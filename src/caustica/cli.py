@@ -246,7 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
                         help="none (default); edge: a post-process blend across edges, about 1.2x the cost of a "
                              "frame, for jagged outlines at 1 spp; msaa: outlines resolved from 4 geometry samples "
-                             "per pixel, shading once (docs/antialiasing.md; --spp is more accurate)")
+                             "per pixel, shading once; adaptive: 1 spp, and 4 spp at the pixels whose neighbours "
+                             "differ (--spp 1; docs/antialiasing.md; --spp is more accurate)")
     render.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops for PNG output")
     render.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                         help="PNG tone curve after the exposure: clip (default) or filmic (ACES fit: highlights roll "
@@ -268,7 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
-                      help="as 'render --antialias' (the A key and the panel switch it)")
+                      help="as 'render --antialias', but adaptive (the A key and the panel switch it)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
     view.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                       help="tone curve after the exposure, of the view and PNG screenshots: clip (default) or filmic "
@@ -496,7 +497,9 @@ def cmd_render(args) -> int:
     write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
-    _say(f"wrote {output} ({width}x{height}, {args.technique}, {args.spp} spp): "
+    fraction = renderer.last_adaptive_fraction
+    spp = f"{args.spp} spp" if fraction is None else f"adaptive: 4 spp at {100.0 * fraction:.1f} % of the pixels"
+    _say(f"wrote {output} ({width}x{height}, {args.technique}, {spp}): "
          f"{statistics.median(timings):.1f} ms per frame on {where}"
          + (f"; labels {', '.join(names)} in {labels_out}" if layers is not None else ""))
     return 0

@@ -10,6 +10,7 @@ from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
+from .passes.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
 from .passes.base import Frame
 from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
@@ -48,6 +49,9 @@ class Renderer:
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
         self.last_pass_ms: dict[str, float] = {}
         self.last_plan = None  # the Plan auto rendered the last frame with
+        # antialias 'adaptive''s last frame: the (H, W) bool pixels it supersampled, and their fraction (else None)
+        self.last_adaptive_flags: np.ndarray | None = None
+        self.last_adaptive_fraction: float | None = None
 
     def _check_open(self) -> None:
         if self.closed:
@@ -94,7 +98,8 @@ class Renderer:
                **params):
         """A (H, W, 3) float32 linear RGB image, row 0 at the top. ``technique``: a name (``caustica
         techniques`` lists them) or a Technique instance. ``antialias``: ``none``, ``edge`` (a
-        post-process) or ``msaa`` (outlines from multisampled coverage) on rasterized images
+        post-process), ``msaa`` (outlines from multisampled coverage) or ``adaptive`` (4 spp at the
+        pixels a 1-spp frame flags; spp 1; ``last_adaptive_fraction``) on rasterized images
         (passes/resolve.py; CPU techniques ignore it). ``labels``: a
         list of names from caustica.labels.LABELS; then ``(image, layers)``, layers a {name: array}
         at the output size (docs/labels.md)."""
@@ -107,22 +112,31 @@ class Renderer:
         ``labels``, ((image, layers), milliseconds), the layers' time included."""
         self._check_open()  # exact never touches the device
         check_antialias(antialias)
+        if antialias == "adaptive" and spp != 1:
+            raise RenderOptionError(f"antialias 'adaptive' renders 1 spp and 4 spp at the edges itself, not spp {spp}; "
+                                    "leave spp at 1, or use spp without adaptive")
+        self.last_adaptive_flags = self.last_adaptive_fraction = None
         names = None if labels is None else check_labels(labels)
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
         check_scene(scene)
         scene, shift = recentred(scene)  # float32 on the GPU and in Embree: far scenes render moved to the origin
         camera = self.camera_for(scene)
-        self._check_size(camera.size, spp, tech.uses_gl)
-        check_spp(tech, spp)
-        tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
-        self._check_frame(tech, scene, camera, parameters, spp, antialias)
+        adaptive = antialias == "adaptive" and tech.uses_gl
+        frame_spp = 4 if adaptive else spp  # adaptive plans and checks its frames as its 4-spp one
+        self._check_size(camera.size, frame_spp, tech.uses_gl)
+        check_spp(tech, frame_spp)
+        tech, parameters = self.resolve(tech, scene, camera, parameters, frame_spp)
+        self._check_frame(tech, scene, camera, parameters, frame_spp, "none" if adaptive else antialias)
         if names is not None:
             check_technique_gives(tech, names)
         if antialias == "msaa" and tech.uses_gl:
             check_multisampling(self.device)
         start = time.perf_counter()
-        if tech.uses_gl:
+        if adaptive:
+            image, buffers = self._render_adaptive(tech, scene, camera, parameters, names)
+            self.device.finish()
+        elif tech.uses_gl:
             image, buffers = self._render_graph(tech, scene, camera, parameters, int(spp), antialias, names)
             self.device.finish()
         else:
@@ -163,12 +177,13 @@ class Renderer:
         tech, parameters = self.resolve(tech, scene, camera, parameters, spp)
         return self._run_frame(tech, scene, camera, parameters, spp, keep)
 
-    def _run_frame(self, tech, scene: Scene, camera, parameters, spp: int, keep, extra=()) -> Frame:
-        """render_frame for a resolved technique; ``extra``: passes run after the technique's (labels)."""
+    def _run_frame(self, tech, scene: Scene, camera, parameters, spp: int, keep, extra=(), channels=None) -> Frame:
+        """render_frame for a resolved technique; ``extra``: passes run after the technique's (labels);
+        ``channels``: what the frame starts with (the caller's, not lent to it)."""
         k = supersampling_factor(spp)
         width, height = camera.size
         frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
-                      pass_ms={} if self.profile_passes else None)
+                      channels=dict(channels or {}), pass_ms={} if self.profile_passes else None)
         try:
             run_graph([*tech.build_passes(parameters), *extra], frame, keep=keep)
         except BaseException:
@@ -228,6 +243,42 @@ class Renderer:
             self._kept, self.channels = frame, dict(frame.channels)
         else:
             frame.give_back()
+        return image.astype(np.float32), buffers
+
+    def _render_adaptive(self, tech, scene: Scene, camera, parameters, labels=None):
+        """antialias 'adaptive' (passes/adaptive.py): the graph at 1 spp and its flags, then, when any pixel
+        is flagged, at 4 spp with the flagged pixels alone shaded, the two combined on the GPU and read
+        back. Sets ``last_adaptive_flags`` and ``last_adaptive_fraction``; returns (image, label buffers) as :meth:`_render_graph`,
+        the labels at 1 spp."""
+        self._give_back_kept()
+        extra = [AdaptiveFlags()] + ([] if labels is None else [label_pass(scene, labels, 1)])
+        keep = None if self._keep else ("color", *(c.name for p in extra for c in p.writes))
+        frames = [self._run_frame(tech, scene, camera, parameters, 1, keep=keep, extra=extra)]
+        single = frames[0]
+        try:
+            flags, color = single.read(FLAGS.name), single.read("color")
+            self.last_adaptive_flags = read_flags(flags)
+            self.last_adaptive_fraction = float(self.last_adaptive_flags.mean())
+            if self.last_adaptive_fraction > 0.0:  # else the 1-spp image is the answer
+                frames.append(self._run_frame(tech, scene, camera, parameters, 4, keep=None if self._keep else ("color",),
+                                              channels={FLAGS.name: flags}))
+                refined = frames[1]
+                color = combined(single, color, resolved(refined, refined.read("color"), 2), flags)
+            image = read_rgb(color)
+            buffers = read_label_buffers(single, labels) if labels is not None else None
+        except BaseException:
+            for frame in frames:
+                frame.give_back()
+            raise
+        if self._keep:  # the last frame's channels (the flags were the 1-spp frame's)
+            for frame in frames[:-1]:
+                frame.give_back()
+            self._kept, self.channels = frames[-1], dict(frames[-1].channels)
+            if len(frames) > 1:
+                self.channels.pop(FLAGS.name, None)
+        else:
+            for frame in frames:
+                frame.give_back()
         return image.astype(np.float32), buffers
 
     def _give_back_kept(self) -> None:

@@ -8,10 +8,11 @@ from ..errors import RenderOptionError, short
 if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
     from .base import Frame
 
-ANTIALIAS_MODES = ("none", "edge", "msaa")
+ANTIALIAS_MODES = ("none", "edge", "msaa", "adaptive")
 """``none``: pixels as rendered (k x k supersampling with spp > 1); ``edge``: the post-process edge blend
 (docs/antialiasing.md) after the box filter; ``msaa``: the outlines resolved with multisampled geometry
-coverage (passes/subpixel.py) before the box filter."""
+coverage (passes/subpixel.py) before the box filter; ``adaptive``: 1 spp, and 4 spp at the pixels whose
+neighbours differ (passes/adaptive.py; the renderer runs both frames)."""
 
 
 def check_antialias(antialias) -> str:
@@ -33,21 +34,22 @@ def resolved(frame: Frame, texture, k: int, antialias: str = "none"):
 
         texture = reconstructed(frame, texture, frame.texture(texture.size, "rgba32f"))
     if k > 1:
-        texture = _fullscreen(frame, texture, "passes/box_downsample.frag", {"K": int(k)}, k)
+        texture = fullscreen_pass(frame, texture, "passes/box_downsample.frag", {"K": int(k)}, k)
     if antialias == "edge":
-        texture = _fullscreen(frame, texture, "passes/edge_antialias.frag", {"MAX_STEPS": EDGE_SEARCH_STEPS}, 1)
+        texture = fullscreen_pass(frame, texture, "passes/edge_antialias.frag", {"MAX_STEPS": EDGE_SEARCH_STEPS}, 1)
     return texture
 
 
-def _fullscreen(frame: Frame, texture, shader: str, defines: dict, k: int):
-    """A fullscreen pass of ``shader`` reading ``texture`` into a new rgba32f texture k times smaller."""
+def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, fmt: str = "rgba32f"):
+    """A fullscreen pass of ``shader`` reading ``texture`` (as ``source``) into a new ``fmt`` texture k
+    times smaller, lent to ``frame``."""
     import moderngl
 
     from ..gpu.meshes import set_uniform
 
     gpu = frame.gpu
     width, height = texture.size
-    out = frame.texture((width // k, height // k), "rgba32f")
+    out = frame.texture((width // k, height // k), fmt)
     gpu.targets.framebuffer([out]).use()
     gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
     program = gpu.shaders.program("passes/fullscreen.vert", shader, defines)

@@ -13,6 +13,7 @@ from ..gpu.meshes import bind_samplers, set_uniform
 from ..scene.codes import MATERIAL_CODES
 from ..scene.textures import texture_of
 from . import deferred
+from .adaptive import FLAGS, preset_depth
 from .base import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
@@ -139,9 +140,11 @@ class ShadeSurfaces(Pass):
 
     FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT = FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT  # the module's (ShadeOptions checks)
     FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
-    # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py).
+    # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py);
+    # adaptive anti-aliasing's flags (passes/adaptive.py), given by the renderer: only flagged pixels shade.
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES",
-                "environment_shadows": "ENVIRONMENT_SHADOWS", "environment_bake": "ENVIRONMENT_BAKE"}
+                "environment_shadows": "ENVIRONMENT_SHADOWS", "environment_bake": "ENVIRONMENT_BAKE",
+                FLAGS.name: None}
 
     def __init__(self, *args, options: ShadeOptions | None = None, **overrides):
         """``args``, ``overrides``: ShadeOptions fields (in order, by name), over ``options`` when given.
@@ -188,8 +191,11 @@ class ShadeSurfaces(Pass):
         if self.captures_front_surface:
             glass = scene.objects_of("glass")
             clip_from_world = camera.clip_from_world()
+            # Not under adaptive flags: the G-buffer holds the flagged pixels alone, and the glass searches
+            # this buffer at other pixels (depth-search's binary search).
             if (deferring and self.material_override is None and all(self.draws(o) for o in glass)
-                    and all(culls_back_faces(o, clip_from_world) for o in glass)):
+                    and all(culls_back_faces(o, clip_from_world) for o in glass)
+                    and frame.optional(FLAGS.name) is None):
                 front = frame.zeroed(camera.size, "rgba32f")
                 frame.write("front_surface", front)
             else:
@@ -200,10 +206,13 @@ class ShadeSurfaces(Pass):
             g_buffer = frame.zeroed(camera.size, "rgba32f")  # normal times id, distance along the ray
         fbo = gpu.targets.framebuffer([color, exit_direction], depth)
         fbo.use()
-        environment = gpu.environment_texture(scene.environment)
-        environment.use(0)
         if self.background:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            if frame.optional(FLAGS.name) is not None:  # before the environment takes unit 0
+                preset_depth(frame, depth, frame.optional(FLAGS.name))
+                fbo.use()
+        environment = gpu.environment_texture(scene.environment)
+        environment.use(0)
         if deferring:
             targets = deferred.gbuffer_targets(gpu, color, exit_direction, g_buffer, depth, front)
             later = self._draw_objects(frame, drawn, targets)

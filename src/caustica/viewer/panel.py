@@ -11,12 +11,11 @@ import statistics
 import numpy as np
 
 from ..images import TONEMAPS
-from ..passes.resolve import ANTIALIAS_MODES
 from ..techniques import get_technique, technique_names
 from .display import MODES
 from .frames import channel_textures
 from .params import MATERIAL_FIELDS, param_specs
-from .state import render_status, technique_label
+from .state import VIEW_ANTIALIAS_MODES, render_status, technique_label
 
 SPP_CHOICES = (1, 4, 9, 16)
 PANEL_WIDTH = 360  # pixels at the window's right edge while the panel is open
@@ -170,7 +169,7 @@ def draw_panel(viewer) -> None:
     if changed:
         viewer.spp = spp
         viewer.changed()
-    changed, antialias = _combo(imgui, "antialias", viewer.antialias, ANTIALIAS_MODES)
+    changed, antialias = _combo(imgui, "antialias", viewer.antialias, VIEW_ANTIALIAS_MODES)
     if changed:
         viewer.set_antialias(antialias)
     changed, viewer.exposure = imgui.drag_float("exposure", viewer.exposure, 0.05, -10.0, 10.0, "%.2f")

@@ -15,12 +15,24 @@ import numpy as np
 
 from ..errors import CausticaError
 from ..images import TONEMAPS
+from ..errors import RenderOptionError
 from ..passes.resolve import ANTIALIAS_MODES, check_antialias
 from ..scene import Scene
 from ..techniques.base import check_spp, get_technique
 from .display import auto_mode, value_range
 from .orbit import OrbitCamera
 from .params import param_specs
+
+
+VIEW_ANTIALIAS_MODES = tuple(mode for mode in ANTIALIAS_MODES if mode != "adaptive")
+
+
+def check_view_antialias(antialias) -> str:
+    """``antialias`` when the viewer draws it (VIEW_ANTIALIAS_MODES); RenderOptionError otherwise."""
+    if check_antialias(antialias) not in VIEW_ANTIALIAS_MODES:
+        raise RenderOptionError(f"antialias '{antialias}' renders every frame twice and is for still images; the viewer "
+                                f"takes {', '.join(VIEW_ANTIALIAS_MODES)} (use 'caustica render --antialias adaptive')")
+    return antialias
 
 
 def animated_variant(scene_name: str):
@@ -67,7 +79,7 @@ class ViewerState:
         chosen = get_technique(technique)
         chosen.make_params(**(params or {}))  # fail on bad input before opening a window
         check_spp(chosen, int(spp))
-        self.antialias = check_antialias(antialias)  # as Renderer.render's (passes/resolve.ANTIALIAS_MODES)
+        self.antialias = check_view_antialias(antialias)  # as Renderer.render's but adaptive (VIEW_ANTIALIAS_MODES)
         self.tonemap = tonemap  # the PNG tone curve (images.TONEMAPS) of the views and screenshots; checked
         self.scene = scene
         self.orbit = OrbitCamera(scene.camera)
@@ -188,13 +200,14 @@ class ViewerState:
         self.changed()
 
     def set_antialias(self, value: str) -> None:
-        """Anti-aliasing of both views, as ``Renderer.render``'s (a RenderOptionError for an unknown mode)."""
-        self.antialias = check_antialias(value)
+        """Anti-aliasing of both views, as ``Renderer.render``'s (a RenderOptionError for an unknown mode or adaptive)."""
+        self.antialias = check_view_antialias(value)
         self.changed()
 
     def cycle_antialias(self) -> None:
         """The next anti-aliasing mode (none, edge, msaa, none...): the A key."""
-        self.set_antialias(ANTIALIAS_MODES[(ANTIALIAS_MODES.index(self.antialias) + 1) % len(ANTIALIAS_MODES)])
+        modes = VIEW_ANTIALIAS_MODES
+        self.set_antialias(modes[(modes.index(self.antialias) + 1) % len(modes)])
 
     def set_side_by_side(self, technique: str | None, difference: bool = False) -> None:
         """Show ``technique`` beside the main one (None: back to one view); ``difference`` shows |a - b| instead."""
