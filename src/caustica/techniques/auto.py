@@ -241,6 +241,8 @@ def _baked(obj, scene) -> str:
     """The plan's reason for the light maps (environment_lights.bake_plan), on each diffuse object's entry."""
     receiver = bake_plan(scene).receivers[next(i for i, o in enumerate(scene.objects) if o is obj)]
     how = "baked with exact's rays: occluded, through glass (the sky's caustic), one bounce (docs/environment-light.md)"
+    if not np.any(scene.environment.irradiance_sh()[0] > 0):
+        how += "; the environment is black: the lights' light on the floor, come back to it through the glass"
     if receiver.kind == "floor":
         return f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by default) {how}"
     if receiver.kind == "box":
@@ -257,10 +259,21 @@ def _baked_receivers(scene) -> bool:
     vertex): a diffuse object and another object, under an environment that sheds some light, with a floor (which
     the others shadow or the sky's caustic lights) or, without one, objects that take more than LOBE_SHARE of the
     sky's light on the diffuse faces the camera sees (lobe_occlusion; a chart of coplanar squares before a thin
-    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH)."""
+    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH); in any environment, where a light shines through
+    glass onto a floor (:func:`_bounced_through_glass`)."""
     return (len(scene.objects) > 1 and any(o.material.kind == "diffuse" for o in scene.objects)
             and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
-            and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE))
+            and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE)) or _bounced_through_glass(scene)
+
+
+def _bounced_through_glass(scene) -> bool:
+    """Whether a light of the scene shines through glass onto a floor (of PLAN_PHOTONS photons, CAUSTIC_SHARE at
+    least of the flux lands: _caustic_paths): then the floor's own diffuse light comes back to it through the
+    glass, which no raster pass carries and the light maps' one bounce does (raytrace/environment_bake.py),
+    even in a black environment (docs/auto.md, "The floor's light back through the glass")."""
+    lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    return (bool(lit) and scene_floor(scene) is not None and any(o.material.kind == "glass" for o in scene.objects)
+            and _caustic_paths(scene, lit).landed)
 
 
 # quality -> the least share of the glass pixels' light an internal bounce must carry to be followed (high: all)
