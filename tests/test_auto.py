@@ -253,7 +253,8 @@ def test_the_traced_table_gives_the_caustics_where_light_crosses_the_glass_more_
     caustic flux beyond two interfaces), its photons by quality (draft 2^16, balanced 2^17, high 2^18; the
     technique's own default is 2^18), and the render makes no table, in memory or on disk. Glass whose light
     crosses it twice keeps caustic mapping (docs/auto.md: as accurate or more there): a ring lying flat (not
-    convex) and a convex marble."""
+    convex, 0.007 beyond two) and a convex marble; a ring standing (0.29) takes the table."""
+    from caustica.techniques.auto import _caustic_paths
     from caustica.transport.runtime import has_cached_table, table_mesh
 
     monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path / "cache"))
@@ -272,6 +273,16 @@ def test_the_traced_table_gives_the_caustics_where_light_crosses_the_glass_more_
     assert not (tmp_path / "cache" / "transport").exists()
     for glassy in (ring_of_glass(), scene_of([marble(), table()], light=True)):
         assert plan(glassy).technique == "impostors+caustic-mapping" and not plan(glassy).notes
+    # A ring standing sends 0.29 of it beyond two interfaces (under a third: caustic mapping until TABLE_SHARE
+    # fell to 0.05; docs/auto.md, "Which glass takes the traced table").
+    from caustica.scene.shapes import torus
+
+    ring = SceneObject("ring", torus(0.4, 0.14, 32, 12), Glass(ior=1.5),
+                       Transform(position=[0.2, 0.6, -0.2], rotation=[90.0, 0.0, 0.0]))
+    standing = scene_of([ring, table()], light=True, size=(48, 36))
+    share = _caustic_paths(standing, standing.lights).beyond_two
+    assert 0.05 < share < 1.0 / 3.0, share
+    assert plan(standing).technique == "impostors+transport-table"
 
 
 def test_convex_glass_keeps_caustic_mapping_where_its_light_reflects_inside():
