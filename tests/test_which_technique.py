@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from caustica.docs_techniques import WHICH_PATH, plan_rules, tables_cached, technique_limits, which_technique_markdown
+from caustica.docs_techniques import WHICH_PATH, plan_rules, technique_limits, which_technique_markdown
 from caustica.scene.presets import shared_data_dir
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,15 +37,6 @@ def test_limits_come_from_each_techniques_module():
     assert technique_limits("plain") == []  # its module documents env-map
     exact = technique_limits("exact")
     assert exact[0] == "Limits:" and exact[1].startswith("- ") and "``" not in "".join(exact)
-
-
-def test_tables_cached_answers_and_restores():
-    from caustica.transport import runtime
-
-    original = runtime.has_cached_table
-    with tables_cached(True):
-        assert runtime.has_cached_table(None, 1.5) is True
-    assert runtime.has_cached_table is original
 
 
 def _gallery():

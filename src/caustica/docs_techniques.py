@@ -6,7 +6,6 @@ auto planner (tests/test_which_technique.py checks that one).
 """
 from __future__ import annotations
 
-import contextlib
 import json
 import re
 import sys
@@ -102,24 +101,8 @@ def plan_rules(path: Path = AUTO_DOCS) -> list[tuple[str, str]]:
     return [(kind, technique) for kind, technique in rows if kind != "scene holds" and set(kind) != {"-"}]
 
 
-@contextlib.contextmanager
-def tables_cached(cached: bool):
-    """Plan as if a light transport table were (or were not) cached for every glass mesh, whatever
-    ``$CAUSTICA_CACHE`` holds: the planner's one look-up, ``transport.runtime.has_cached_table``, answers
-    ``cached``."""
-    from .transport import runtime
-
-    original = runtime.has_cached_table
-    runtime.has_cached_table = lambda *args, **kwargs: cached
-    try:
-        yield
-    finally:
-        runtime.has_cached_table = original
-
-
 def preset_plans() -> list[dict]:
-    """Per built-in preset: its object and light counts and auto's plan without and with cached transport
-    tables."""
+    """Per built-in preset: its object and light counts and auto's plan."""
     from . import load_scene
     from .scene.presets import preset_names
     from .techniques.auto import plan
@@ -128,12 +111,8 @@ def preset_plans() -> list[dict]:
     for name in preset_names():
         scene = load_scene(name)
         kinds = [o.material.kind for o in scene.objects]
-        with tables_cached(False):
-            bare = plan(scene)
-        with tables_cached(True):
-            tabled = plan(scene)
         out.append({"preset": name, "counts": {k: kinds.count(k) for k in ("glass", "mirror", "diffuse")},
-                    "lights": len(scene.lights), "plan": bare, "with_tables": tabled})
+                    "lights": len(scene.lights), "plan": plan(scene)})
     return out
 
 
@@ -150,8 +129,8 @@ def situation(chosen) -> str:
     words = words or f"`{view}`"
     if caustics:
         words += {"caustic-mapping": ", under a light: caustics by caustic mapping",
-                  "transport-table": ", under a light, solid glass not all convex, with a cached transport table: "
-                                     "caustics from the table"}.get(caustics, f", caustics by `{caustics}`")
+                  "transport-table": ", under a light, solid glass not all convex whose light crosses it more "
+                                     "than twice: caustics by the transport table's rays, traced"}.get(caustics, f", caustics by `{caustics}`")
     return words
 
 
@@ -214,14 +193,11 @@ def which_technique_markdown(plans: list[dict] | None = None) -> str:
     out += ["", "The planner's rules and their reasons, from its docstring:", "", _markdown_text(_doc_list(rules))]
     groups: dict[str, list] = {}
     for row in plans:
-        for key in ("plan", "with_tables"):
-            if key == "plan" or row[key].technique != row["plan"].technique:
-                groups.setdefault(situation(row[key]), []).append((row["preset"], row[key]))
+        groups.setdefault(situation(row["plan"]), []).append((row["preset"], row["plan"]))
     out += ["", "## Situations", "",
             "Each situation is a branch of the planner, with the built-in presets that take it (`caustica "
             "presets`). The reasons are the planner's own, from its plan of the first preset listed (the plans "
-            "are made at quality `balanced`; a transport table counts as cached only where the situation says "
-            "so, since the plan depends on the tables in `$CAUSTICA_CACHE`)."]
+            "are made at quality `balanced`)."]
     for words, members in sorted(groups.items(), key=lambda item: item[1][0][1].technique):
         example_name, example = members[0]
         out += ["", f"### {words}", "", f"auto picks `{example.technique}`.", "",
@@ -234,17 +210,18 @@ def which_technique_markdown(plans: list[dict] | None = None) -> str:
                 out.append(f"- {entry.kind} (`{entry.object}`), by `{entry.handled_by}`: {entry.reason}")
         out += [f"- note: {note}" for note in example.notes]
     out += ["", "## Every preset", "",
-            "| preset | glass | mirrors | diffuse | lights | auto picks | with transport tables cached |",
-            "|---|---|---|---|---|---|---|"]
+            "| preset | glass | mirrors | diffuse | lights | auto picks |",
+            "|---|---|---|---|---|---|"]
     for row in plans:
-        counts, bare, tabled = row["counts"], row["plan"].technique, row["with_tables"].technique
+        counts = row["counts"]
         out.append(f"| `{row['preset']}` | {counts['glass']} | {counts['mirror']} | {counts['diffuse']} | "
-                   f"{row['lights']} | `{bare}` | {'same' if tabled == bare else f'`{tabled}`'} |")
+                   f"{row['lights']} | `{row['plan'].technique}` |")
     out += ["", "## Quality", "", "`-p quality=` (or `--quality`) sets what the plan's cost depends on:", "",
-            "| quality | internal bounces | impostor texels | caustic-map texels | shadow-map texels |",
-            "|---|---|---|---|---|"]
+            "| quality | internal bounces | impostor texels | caustic-map texels | shadow-map texels | "
+            "transport-table photons |",
+            "|---|---|---|---|---|---|"]
     out += [f"| {name} | " + " | ".join(map(str, values)) + " |" for name, values in QUALITY.items()]
-    picked = sorted({part for row in plans for key in ("plan", "with_tables") for part in row[key].technique.split("+")}
+    picked = sorted({part for row in plans for part in row["plan"].technique.split("+")}
                     | {part for _, technique in plan_rules() for part in technique.split("+")})
     out += ["", "## The techniques auto picks", "",
             "Each technique's summary (what it does) and the limits its module documents.", ""]

@@ -12,11 +12,15 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
 - nothing specular: ``env-map`` (diffuse shading with shadow maps);
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
   (Shah et al.) is composed with the view technique, or ``transport-table`` (Iwasaki et al.) where
-  every caster is glass with a light transport table cached on disk (``caustica precompute``) and
-  more than a third of the caustic light crosses other than two glass interfaces (TABLE_SHARE), its
-  rays traced for the light's own directions (``exit_rays="traced"``).
+  every caster is solid glass, not all convex, and more than 5 % of the caustic light crosses other
+  than two glass interfaces (TABLE_SHARE), its rays traced for the light's own directions
+  (``exit_rays="traced"``: no table is cached or needed), its photons set by the quality;
+- light maps of the diffuse receivers (the environment's light, occluded and through glass, one bounce) where
+  objects occlude an environment that sheds light, and in any environment where a light shines through glass
+  onto a floor (the floor's own light comes back through the glass).
 
-``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes);
+``quality`` sets the parameters the costs depend on (internal bounces, impostor and map sizes, the table's
+photons);
 ``budget_ms`` instead takes the highest quality whose frame time, measured on this device at this
 size and cached on disk (``$CAUSTICA_CACHE/costs``), fits the budget.
 """
@@ -34,14 +38,14 @@ from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_p
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from .base import Params, Technique, get_technique, param
 
-QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels)
-    "draft": (0, 256, 256, 512),
-    "balanced": (2, 512, 512, 1024),
-    "high": (4, 1024, 1024, 2048),
+QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels, table photons)
+    "draft": (0, 256, 256, 512, 1 << 16),
+    "balanced": (2, 512, 512, 1024, 1 << 17),
+    "high": (4, 1024, 1024, 2048, 1 << 18),
 }
 CAUSTICS = "caustic-mapping"
 MIN_CAUSTIC_MAP = 256  # the smallest caustic map auto plans (caustic_map_size)
-TABLE = "transport-table"  # the caustics where every caster is glass with a cached table
+TABLE = "transport-table"  # the caustics where every caster is solid glass whose light crosses it more than twice
 
 
 @dataclass
@@ -114,7 +118,7 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
 
         raise TechniqueError(f"unknown quality {quality!r}{closest_name(str(quality), QUALITY)}; "
                              f"use one of {', '.join(QUALITY)}")
-    bounces, impostor_size, map_size, shadow_size = QUALITY[quality]
+    bounces, impostor_size, map_size, shadow_size, table_photons = QUALITY[quality]
     objects = list(scene.objects)
     glass = [o for o in objects if o.material.kind == "glass"]
     mirrors = [o for o in objects if o.material.kind == "mirror"]
@@ -161,16 +165,15 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
     paths = _caustic_paths(scene, lit) if lit_casters else None
     caustics = lit_casters and paths.landed
     unlanded = lit_casters and not caustics
-    tables_pay, missing = _transport_tables(glass, paths.beyond_two) if caustics and not mirrors else (False, [])
-    tabled = tables_pay and not missing
+    tabled = bool(caustics and not mirrors and _traced_table_pays(glass, paths.beyond_two))
     caustics_by = TABLE if tabled else CAUSTICS
     technique = f"{view}+{caustics_by}" if caustics else view
     params = dict(view_params)
     if caustics:
         sized = caustic_map_size(map_size, scene.camera.size if frame_size is None else frame_size)
         params[f"{caustics_by}.map_size"] = sized if caustics_by == CAUSTICS else map_size
-    if tabled:  # the table's rays traced for the light: 30 dB on the bunny over a floor, 22 looked up
-        params[f"{TABLE}.exit_rays"] = "traced"
+    if tabled:  # the table's rays traced for the light (no table): 30 dB on the bunny over a floor, 22 looked up
+        params.update({f"{TABLE}.exit_rays": "traced", f"{TABLE}.photon_budget": table_photons})
     baked = _baked_receivers(scene)
     occluded = not baked and _occluded_ambient(scene)
     entries = []
@@ -181,8 +184,9 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         elif kind == "mirror":
             entries.append(PlanEntry(obj.name, kind, view, why_mirror or "reflects the environment"))
         elif caustics:
-            how = ("the light transport table cached for each glass object (Iwasaki et al.), its rays traced "
-                   "for the light's own directions" if tabled else "caustic mapping (Shah et al.)")
+            how = (f"the light transport of each glass object (Iwasaki et al.), its rays traced for the light's own "
+                   f"directions (no table), {table_photons} photons: {paths.beyond_two:.0%} of the light crosses "
+                   "other than two glass interfaces" if tabled else "caustic mapping (Shah et al.)")
             entries.append(PlanEntry(obj.name, kind, f"{view} + {caustics_by}",
                                      f"diffuse receiver: shadow maps, and caustics from {_lights(lit, sun)} through "
                                      f"{len(casters)} specular object(s) by {how}"
@@ -207,10 +211,6 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         notes.append(f"{dropped} internal bounce(s) of the quality's {bounces + dropped} left out: each would carry "
                      f"less than {BOUNCE_SHARE[quality]:.1%} of the light in the glass pixels (exact paths at "
                      f"{BOUNCE_VIEW[0]}x{BOUNCE_VIEW[1]})")
-    if missing:
-        notes.append(f"no light transport table is cached for {', '.join(missing)}; 'caustica precompute MESH "
-                     f"--ior N' caches one, and auto then takes the caustics from it ({TABLE}): "
-                     f"{paths.beyond_two:.0%} of their light crosses other than two glass interfaces")
     if not objects:
         notes.append("the scene has no objects: the environment alone")
     return Plan(technique, params, quality, entries, notes)
@@ -241,6 +241,8 @@ def _baked(obj, scene) -> str:
     """The plan's reason for the light maps (environment_lights.bake_plan), on each diffuse object's entry."""
     receiver = bake_plan(scene).receivers[next(i for i, o in enumerate(scene.objects) if o is obj)]
     how = "baked with exact's rays: occluded, through glass (the sky's caustic), one bounce (docs/environment-light.md)"
+    if not np.any(scene.environment.irradiance_sh()[0] > 0):
+        how += "; the environment is black: the lights' light on the floor, come back to it through the glass"
     if receiver.kind == "floor":
         return f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by default) {how}"
     if receiver.kind == "box":
@@ -257,10 +259,21 @@ def _baked_receivers(scene) -> bool:
     vertex): a diffuse object and another object, under an environment that sheds some light, with a floor (which
     the others shadow or the sky's caustic lights) or, without one, objects that take more than LOBE_SHARE of the
     sky's light on the diffuse faces the camera sees (lobe_occlusion; a chart of coplanar squares before a thin
-    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH)."""
+    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH); in any environment, where a light shines through
+    glass onto a floor (:func:`_bounced_through_glass`)."""
     return (len(scene.objects) > 1 and any(o.material.kind == "diffuse" for o in scene.objects)
             and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
-            and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE))
+            and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE)) or _bounced_through_glass(scene)
+
+
+def _bounced_through_glass(scene) -> bool:
+    """Whether a light of the scene shines through glass onto a floor (of PLAN_PHOTONS photons, CAUSTIC_SHARE at
+    least of the flux lands: _caustic_paths): then the floor's own diffuse light comes back to it through the
+    glass, which no raster pass carries and the light maps' one bounce does (raytrace/environment_bake.py),
+    even in a black environment (docs/auto.md, "The floor's light back through the glass")."""
+    lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    return (bool(lit) and scene_floor(scene) is not None and any(o.material.kind == "glass" for o in scene.objects)
+            and _caustic_paths(scene, lit).landed)
 
 
 # quality -> the least share of the glass pixels' light an internal bounce must carry to be followed (high: all)
@@ -350,32 +363,23 @@ def _concave(obj, camera) -> bool:
     return obj.world_mesh().concave_fraction(camera.position) >= CONCAVE
 
 
-def _has_table(obj) -> bool:
-    """Whether a light transport table at the default settings is cached for this glass object (one IOR:
-    dispersive glass keeps caustic mapping, whose tables would be three, one per channel's IOR)."""
-    from ..transport.runtime import has_cached_table, table_mesh
-
-    return obj.material.abbe is None and has_cached_table(table_mesh(obj.mesh), obj.material.ior)
+TABLE_SHARE = 0.05  # the share of caustic flux beyond two interfaces from which the traced table pays (docs/auto.md)
 
 
-TABLE_SHARE = 1.0 / 3.0  # the share of caustic flux beyond two interfaces from which a transport table pays
-
-
-def _transport_tables(glass: list, beyond_two: float) -> tuple[bool, list[str]]:
-    """Whether cached transport tables would give the caustics of ``glass`` better than caustic mapping, and
-    the names of the glass objects that lack one (listed where they would pay). They pay where every object
-    is a solid (Iwasaki et al. 4 trace through closed objects; not a water sheet), one at least is not convex,
-    and more than TABLE_SHARE of the caustic flux crosses other than the two interfaces caustic mapping
-    estimates (docs/auto.md, measured on eleven scenes: the knot and a bunny over a floor, 0.62 and 0.35, have
-    the table ahead; a cow, an absorbing bunny, glass rings and balls, 0 to 0.30, caustic mapping). In convex
-    glass the light beyond two interfaces is reflected totally inside, which caustic mapping's
-    exit_reflections follow (a cylinder: 0.61 of its flux, caustic relMSE 0.004 against the table's 0.65)."""
+def _traced_table_pays(glass: list, beyond_two: float) -> bool:
+    """Whether ``transport-table`` with its rays traced for the light (``exit_rays="traced"``: no table to cache)
+    gives the caustics of ``glass`` better than caustic mapping: every object a solid of one IOR (Iwasaki et
+    al. 4 trace through closed objects; not a water sheet; dispersive glass, whose rays would be traced once per
+    channel, keeps caustic mapping, unmeasured), one at least not convex, and more than TABLE_SHARE of the
+    caustic flux on other than the two interfaces caustic mapping estimates (docs/auto.md, "Which glass takes
+    the traced table": at shares from 0.085 to 0.31 it was ahead of caustic mapping on seven scenes of nine, Suzanne
+    mixed and an absorbing bunny 0.6 dB behind; on a ring lying flat, 0.001, 0.4 dB behind). In convex glass the light beyond two interfaces is reflected totally inside, which caustic
+    mapping's exit_reflections follow (a cylinder: 0.61 of its flux, caustic relMSE 0.004 against the table's
+    0.65)."""
     from ..passes.casters import nearly_closed
 
-    pays = (all(nearly_closed(o.mesh) for o in glass) and not all(o.mesh.is_convex() for o in glass)
-            and beyond_two > TABLE_SHARE)
-    missing = [o.name for o in glass if not _has_table(o)] if pays else []
-    return pays, missing
+    return (all(nearly_closed(o.mesh) and o.material.abbe is None for o in glass)
+            and not all(o.mesh.is_convex() for o in glass) and beyond_two > TABLE_SHARE)
 
 
 class Auto(Technique):
