@@ -240,8 +240,14 @@ def write_which_technique(path: Path = WHICH_PATH) -> Path:
     return path
 
 
+USAGE = ("usage: python -m caustica.docs_techniques [PATH]   (writes docs/techniques.md, or PATH)\n"
+         "       python -m caustica.docs_techniques --which-technique [PATH]   (writes docs/which-technique.md)")
+
 if __name__ == "__main__":
     args = sys.argv[1:]
+    if any(a.startswith("-") and a != "--which-technique" for a in args) or len(args) > 2:
+        print(USAGE)
+        sys.exit(0 if {"-h", "--help"} & set(args) else 2)
     if args[:1] == ["--which-technique"]:
         print(f"wrote {write_which_technique(Path(args[1]) if len(args) > 1 else WHICH_PATH)}")
     else:
