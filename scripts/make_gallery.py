@@ -112,7 +112,7 @@ def gallery_markdown(data: dict) -> str:
            "unoccluded SH irradiance, `exact` with occluded environment rays, so part of the error is ambient "
            "occlusion, not the specular paths.",
            "- The technique is what `auto` planned (`caustica plan PRESET`); [which technique when](which-technique.md) "
-           "says why..",
+           "says why.",
            "", "| image | preset | auto planned | ms per frame | PSNR vs exact (dB) | FLIP |", "|---|---|---|---|---|---|"]
     for row in rows:
         image = f"![{row['preset']}](images/gallery/{row['preset']}.png)"
