@@ -523,6 +523,11 @@ class EnvironmentBake:
     def has_vertices(self) -> bool:
         return any(entry[2] >= 0 for entry in self.objects)
 
+    def pooled(self) -> list:
+        """Its one GL object, the atlas (gpu.device.gl_objects: the graph looks for lent textures in every live
+        channel after every pass, and the rest of this bake is host data it need not walk)."""
+        return [self.texture]
+
     def entry(self, scene, obj) -> tuple[int, int, int]:
         """``obj``'s (first map, map count, first vertex or -1) by its place in ``scene`` (the frame's, whose
         state the bake's is: ShadowMaps' cache key) or in a part of it (a view without some objects)."""
