@@ -150,7 +150,9 @@ def gl_objects(value, seen: set | None = None):
     elif hasattr(value, "release") and hasattr(value, "glo"):
         yield value
     elif hasattr(value, "pooled"):
-        yield from gl_objects(value.pooled(), seen)
+        # Item by item: the list pooled() makes is temporary, and a later one may be given its id once it is freed.
+        for item in value.pooled():
+            yield from gl_objects(item, seen)
     elif hasattr(value, "__dataclass_fields__"):
         for name in value.__dataclass_fields__:
             yield from gl_objects(getattr(value, name), seen)
