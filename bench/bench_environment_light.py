@@ -11,7 +11,8 @@ where a lobe is blocked, and, auto now, the floor's light map (raytrace/environm
 lobes; ``plain`` gives the cost floor (with the sun and no lobes, as it renders now). The light map's bake
 time (once per scene state, not in the frame times) is printed per scene.
 ``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out),
-``resting_scenes`` two of clear glass standing on the floor under a point light; ``--scenes a,b`` picks some.
+``resting_scenes`` two of clear glass standing on the floor under a point light; ``--scenes a,b`` picks some;
+``--exact`` gives exact's row per scene instead (its time in the ms column).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
     .venv/bin/python bench/bench_environment_light.py --cost-rounds 5  # the cost alone, in blocks
@@ -38,6 +39,7 @@ from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: 
 from caustica.renderer import Renderer  # noqa: E402
 from caustica.scene import Camera, Diffuse, Glass, PointLight, SceneObject, Transform  # noqa: E402
 from caustica.scene.shapes import box, cylinder, sphere  # noqa: E402
+from caustica.techniques.exact import Exact, ExactParams  # noqa: E402
 
 
 def scenes(size, tinted: bool = True):
@@ -137,6 +139,7 @@ def main(argv=None) -> None:
     parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
     parser.add_argument("--spp", type=int, default=1, help="auto's and plain's samples a pixel")
     parser.add_argument("--scenes", default="", help="comma-separated scene names (default: all)")
+    parser.add_argument("--exact", action="store_true", help="exact's row per scene (its defaults, --spp) instead of auto's")
     parser.add_argument("--last", type=int, default=0, help="only the last N states (0: all)")
     parser.add_argument("--cost-rounds", type=int, default=0,
                         help="only the cost: auto with the floor's light map and with the lobes over plain, "
@@ -148,6 +151,14 @@ def main(argv=None) -> None:
     rows = []
     for scene in chosen(scenes(size, not args.no_tinted), args.scenes):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
+        if args.exact:
+            start = time.perf_counter()
+            image = Exact().render(scene, scene.camera, ExactParams(), args.spp)
+            seconds = time.perf_counter() - start
+            rows.append(f"| {scene.name} | exact (defaults) | {region_cells(image, reference, masks)} | "
+                        f"{1000 * seconds:.0f} | - |")
+            print(rows[-1], file=sys.stderr, flush=True)
+            continue
         start = time.perf_counter()
         maps = environment_lights.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
         print(f"{scene.name}: light maps baked in {time.perf_counter() - start:.1f} s (the floor's {BAKE_SIZE}x"
