@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from caustica.raytrace.embree_scene import ray_scene_for
-from caustica.raytrace.environment_bake import bake_floor, standing_plane
+from caustica.raytrace.environment_bake import bake_floor, standing_plane, without_standing_faces
 from caustica.raytrace.paths import interface
 from caustica.scene import Camera, Diffuse, Environment, Glass, Scene, SceneObject, Transform
-from caustica.scene.shapes import box, plane
+from caustica.scene.shapes import box, plane, sphere
 
 ALBEDO = 0.5
 WHITE = Environment(np.ones((128, 256, 3), np.float32))
@@ -55,6 +55,18 @@ def test_floor_under_absorbing_glass_is_baked_through_it_not_filled():
     assert 0.25 * np.pi < expected.min() and expected.max() < 0.6 * np.pi
     assert np.abs(got / expected - 1.0).max() < 0.03
     assert abs((got / expected).mean() - 1.0) < 0.01
+
+
+def test_a_ball_touching_the_floor_does_not_stand_on_it():
+    """A finely tessellated ball resting on the floor has vertices within the tolerance of the floor's plane near
+    its pole, but they make far under STANDING_SHARE of its area: it stands on nothing, and the bake's scene keeps
+    its mesh (and its analytic sphere)."""
+    ball = sphere(1.0, 6)
+    ball.analytic_sphere = (np.zeros(3), 1.0)
+    scene = standing_scene(Glass(ior=1.5))
+    scene.objects[1] = SceneObject("ball", ball, Glass(ior=1.5), Transform(position=[0.0, 1.0, 0.0]))
+    assert standing_plane(scene, scene.objects[1]) is None
+    assert without_standing_faces(scene) is scene
 
 
 def test_floor_under_an_opaque_box_is_still_filled_from_outside():

@@ -50,6 +50,7 @@ FACE_SIZE = 16  # texels a side of each face of a box's light maps
 VERTEX_CAP = 2048  # vertices of one mesh baked at most; the others take their baked neighbours' weighted mean
 PLANE_TOLERANCE = 1e-4  # a mesh is flat when its vertices lie within this share of its size off one plane
 CONTACT_TOLERANCE = 1e-3  # of glass's bounding radius: how far off a receiver's plane its touching vertices lie
+STANDING_SHARE = 0.01  # glass stands on a receiver where faces of at least this share of its area lie on it
 
 
 @dataclass(frozen=True)
@@ -164,19 +165,26 @@ def receiver_rectangles(obj) -> list[tuple]:
 
 def standing_plane(scene, glass) -> np.ndarray | None:
     """(4,) float64: the front normal n and offset w (n . x = w on it) of the flat diffuse receiver (a flat object, a
-    box's face) that ``glass`` stands on: at least three of its vertices on that plane within CONTACT_TOLERANCE of
-    its radius and inside the receiver's rectangle, none behind it; None where it stands on none."""
-    vertices = glass.world_mesh().vertices.astype(np.float64)
+    box's face) that ``glass`` stands on: faces of it making at least STANDING_SHARE of its area lie on that plane
+    (their vertices within CONTACT_TOLERANCE of its radius) and inside the receiver's rectangle, no vertex behind
+    it; None where it stands on none (a ball touches in a point)."""
+    mesh = glass.world_mesh()
+    vertices = mesh.vertices.astype(np.float64)
+    corners = vertices[mesh.faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
     tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
     for other in scene.objects:
         if other is glass or other.material.kind != "diffuse":
             continue
         for origin, u, v, normal in receiver_rectangles(other):
             height = (vertices - origin) @ normal
-            touching = np.abs(height) <= tolerance
-            if touching.sum() < 3 or height.min() < -tolerance:
+            if height.min() < -tolerance:
                 continue
-            st = np.stack([(vertices[touching] - origin) @ u / (u @ u), (vertices[touching] - origin) @ v / (v @ v)])
+            lying = (np.abs(height) <= tolerance)[mesh.faces].all(axis=1)
+            if area[lying].sum() < STANDING_SHARE * area.sum():
+                continue
+            touching = vertices[mesh.faces[lying].ravel()] - origin
+            st = np.stack([touching @ u / (u @ u), touching @ v / (v @ v)])
             if st.min() >= -CONTACT_TOLERANCE and st.max() <= 1.0 + CONTACT_TOLERANCE:
                 return np.append(normal, origin @ normal)
     return None
