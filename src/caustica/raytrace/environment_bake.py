@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..cache import kept_on, scene_state_key
 from ..progress import progress
 from ..scene.codes import MATERIAL_GLASS
 from ..scene.mesh import Mesh
@@ -192,7 +193,12 @@ def standing_plane(scene, glass) -> np.ndarray | None:
 
 def without_standing_faces(scene):
     """``scene`` with each glass object's faces that lie on the receiver it stands on (:func:`standing_plane`) taken
-    out of its mesh, or ``scene`` itself where no glass stands on one."""
+    out of its mesh, or ``scene`` itself where no glass stands on one; kept on the scene while its state stays."""
+    key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects))
+    return kept_on(scene, "_without_standing_faces", key, lambda: _without_standing_faces(scene))
+
+
+def _without_standing_faces(scene):
     objects, changed = list(scene.objects), False
     for i, obj in enumerate(objects):
         plane = standing_plane(scene, obj) if obj.material.kind == "glass" else None
