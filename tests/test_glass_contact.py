@@ -7,7 +7,7 @@ import numpy as np
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.raytrace.environment_bake import bake_floor, standing_plane, without_standing_faces
 from caustica.raytrace.paths import interface
-from caustica.scene import Camera, Diffuse, Environment, Glass, Scene, SceneObject, Transform
+from caustica.scene import Camera, Diffuse, Environment, Glass, PointLight, Scene, SceneObject, Transform
 from caustica.scene.shapes import box, plane, sphere
 from caustica.techniques.exact import Exact, ExactParams
 
@@ -117,6 +117,27 @@ def test_exact_sees_the_floor_under_standing_glass():
     scene.objects[1].transform.rotation = np.array([0.0, 33.0, 0.0])  # axis-aligned, Embree took the floor always
     image = Exact().render(scene, camera, ExactParams(caustic_photons=0, environment_samples=16), 1)
     assert np.abs(image - ALBEDO).max() < 0.01
+
+
+def test_exact_photons_through_standing_glass_give_the_light_back():
+    """Under a point light (black sky) an IOR-1 box standing on the floor changes nothing: the floor seen through it
+    has exact's photon estimate of E = I cos / d^2 (albedo / pi times it), 1.00 of it on average (0.93 before, the
+    photons that met the coplanar bottom face leaving below the floor)."""
+    camera = Camera(position=[0.0, 6.0, 0.01], look_at=[0.0, 0.0, 0.0], fov_y=30.0, size=(32, 32))
+    scene = standing_scene(Glass(ior=1.0), camera)
+    scene.objects[1].transform.rotation = np.array([0.0, 33.0, 0.0])
+    light = np.array([0.0, 4.0, 0.0])
+    scene = Scene(camera=camera, objects=scene.objects, lights=[PointLight(position=light, intensity=[16.0] * 3)],
+                  environment=Environment(np.zeros((64, 128, 3), np.float32)))
+    image = Exact().render(scene, camera, ExactParams(caustic_photons=200_000), 1).reshape(-1, 3).mean(axis=1)
+    origins, dirs = (a.reshape(-1, 3) for a in camera.primary_rays(1))
+    through = ray_scene_for(scene).intersect(origins, dirs).object_index == 1
+    floor = origins - (origins[:, 1] / dirs[:, 1])[:, None] * dirs
+    to_light = light - floor
+    distance = np.linalg.norm(to_light, axis=1)
+    expected = ALBEDO / np.pi * 16.0 * to_light[:, 1] / distance**3
+    assert through.sum() > 100
+    assert abs((image[through] / expected[through]).mean() - 1.0) < 0.03
 
 
 def test_light_reaching_the_standing_face_lands_on_the_floor(renderer):
