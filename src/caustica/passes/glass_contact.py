@@ -14,24 +14,28 @@ the receiver from the exit point put on its plane, weight 1, and the path ends.
 """
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 
-from ..cache import scene_state_key
 from ..gpu.meshes import set_uniform
-from ..raytrace.environment_bake import CONTACT_TOLERANCE, standing_plane
+from ..raytrace.environment_bake import CONTACT_TOLERANCE, standing_key, standing_plane
 
-_PLANES: dict = {}  # scene_state_key -> ((4,) plane or None per object)
+_PLANES: OrderedDict = OrderedDict()  # standing_key -> ((4,) plane or None per object), the newest PLANES_KEPT
+PLANES_KEPT = 8  # scene states kept: a frame's impostor views draw scenes of their own
 
 
 def contact_plane(scene, obj) -> np.ndarray | None:
     """(4,) float32 :func:`~caustica.raytrace.environment_bake.standing_plane` of ``obj`` in ``scene``, kept per
-    scene state; None where it stands on nothing."""
-    key = scene_state_key(scene)
+    geometry (standing_key); None where it stands on nothing."""
+    key = standing_key(scene)
     planes = _PLANES.get(key)
     if planes is None:
-        _PLANES.clear()  # the newest scene state alone
         planes = _PLANES[key] = [standing_plane(scene, o) if o.material.kind == "glass" else None
                                  for o in scene.objects]
+        while len(_PLANES) > PLANES_KEPT:
+            _PLANES.popitem(last=False)
+    _PLANES.move_to_end(key)
     plane = next((plane for o, plane in zip(scene.objects, planes) if o is obj), None)
     return None if plane is None else plane.astype(np.float32)
 
@@ -46,5 +50,6 @@ def bind_contact_plane(program, scene, obj) -> None:
     """Set the shader's contact_plane (n = 0: none) and contact_tolerance for ``obj``."""
     plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
     set_uniform(program, "contact_plane", np.zeros(4, np.float32) if plane is None else plane)
-    vertices = obj.world_mesh().vertices
-    set_uniform(program, "contact_tolerance", float(CONTACT_TOLERANCE * 0.5 * np.linalg.norm(np.ptp(vertices, axis=0))))
+    if plane is not None:
+        extent = np.ptp(obj.world_mesh().bounds, axis=0)
+        set_uniform(program, "contact_tolerance", float(CONTACT_TOLERANCE * 0.5 * np.linalg.norm(extent)))

@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..cache import kept_on, scene_state_key
+from ..cache import kept_on
 from ..progress import progress
 from ..scene.codes import MATERIAL_GLASS
 from ..scene.mesh import Mesh
@@ -171,17 +171,20 @@ def standing_plane(scene, glass) -> np.ndarray | None:
     it; None where it stands on none (a ball touches in a point)."""
     mesh = glass.world_mesh()
     vertices = mesh.vertices.astype(np.float64)
-    corners = vertices[mesh.faces]
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
     tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    area = None
     for other in scene.objects:
         if other is glass or other.material.kind != "diffuse":
             continue
         for origin, u, v, normal in receiver_rectangles(other):
             height = (vertices - origin) @ normal
-            if height.min() < -tolerance:
+            touching = np.abs(height) <= tolerance
+            if height.min() < -tolerance or touching.sum() < 3:
                 continue
-            lying = (np.abs(height) <= tolerance)[mesh.faces].all(axis=1)
+            if area is None:
+                corners = vertices[mesh.faces]
+                area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+            lying = touching[mesh.faces].all(axis=1)
             if area[lying].sum() < STANDING_SHARE * area.sum():
                 continue
             touching = vertices[mesh.faces[lying].ravel()] - origin
@@ -194,8 +197,13 @@ def standing_plane(scene, glass) -> np.ndarray | None:
 def without_standing_faces(scene):
     """``scene`` with each glass object's faces that lie on the receiver it stands on (:func:`standing_plane`) taken
     out of its mesh, or ``scene`` itself where no glass stands on one; kept on the scene while its state stays."""
-    key = (scene_state_key(scene), tuple(o.material.kind for o in scene.objects))
-    return kept_on(scene, "_without_standing_faces", key, lambda: _without_standing_faces(scene))
+    return kept_on(scene, "_without_standing_faces", standing_key(scene), lambda: _without_standing_faces(scene))
+
+
+def standing_key(scene) -> tuple:
+    """What :func:`standing_plane` depends on: each object's mesh, placement and material kind (cheap per frame)."""
+    return tuple((id(o.mesh), o.mesh.content_hash(), o.world_from_object().tobytes(), o.material.kind)
+                 for o in scene.objects)
 
 
 def _without_standing_faces(scene):
