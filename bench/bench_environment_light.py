@@ -10,7 +10,9 @@ shadow maps of the opaque objects only (part 2 as first built), with the glass's
 where a lobe is blocked, and, auto now, the floor's light map (raytrace/environment_bake.py) in place of the
 lobes; ``plain`` gives the cost floor (with the sun and no lobes, as it renders now). The light map's bake
 time (once per scene state, not in the frame times) is printed per scene.
-``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out).
+``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out),
+``resting_scenes`` two of clear glass standing on the floor under a point light; ``--scenes a,b`` picks some;
+``--exact`` gives exact's row per scene instead (its time in the ms column).
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
     .venv/bin/python bench/bench_environment_light.py --cost-rounds 5  # the cost alone, in blocks
@@ -35,8 +37,9 @@ from caustica.passes import environment_lights, lights  # noqa: E402
 from caustica.passes.environment_lights import environment_sun  # noqa: E402
 from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
-from caustica.scene import Camera, Diffuse, Glass, SceneObject, Transform  # noqa: E402
-from caustica.scene.shapes import box, sphere  # noqa: E402
+from caustica.scene import Camera, Diffuse, Glass, PointLight, SceneObject, Transform  # noqa: E402
+from caustica.scene.shapes import box, cylinder, sphere  # noqa: E402
+from caustica.techniques.exact import Exact, ExactParams  # noqa: E402
 
 
 def scenes(size, tinted: bool = True):
@@ -47,6 +50,37 @@ def scenes(size, tinted: bool = True):
         yield dataclasses.replace(scene, camera=low, name=scene.name + "-low")
     if tinted:
         yield from tinted_scenes(size)
+    yield from resting_scenes(size)
+
+
+def resting_scenes(size):
+    """Clear glass standing on the floor with a point light, where the view through the glass meets the floor
+    under it: env-cube-light, a cube 0.9 (IOR 1.5) turned 20 degrees about y beside the red box, from
+    mixed_scene's camera and light; env-cylinder-light (held out: tuned on nothing), a cylinder of radius 0.55 and
+    height 0.8, from a lower camera on the other side, its light elsewhere and warmer."""
+    base = mixed_scene(size, True)
+    floor, box_object = base.objects[0], base.objects[2]
+    cube = SceneObject("cube", box((0.9, 0.9, 0.9)), Glass(ior=1.5),
+                       Transform(position=[0.0, 0.45, 0.0], rotation=[0.0, 20.0, 0.0]))
+    yield dataclasses.replace(base, objects=[floor, cube, box_object], name="env-cube-light")
+    column = SceneObject("cylinder", cylinder(0.55, 0.8, 64), Glass(ior=1.5), Transform(position=[0.5, 0.4, 0.6]))
+    camera = Camera(position=[-2.2, 2.3, 4.2], look_at=[0.2, 0.2, 0.2], fov_y=40.0, size=size)
+    light = PointLight(position=[-2.0, 4.5, -1.0], intensity=[24.0, 20.0, 16.0])
+    yield dataclasses.replace(base, objects=[floor, column, box_object], lights=[light], camera=camera,
+                              name="env-cylinder-light")
+
+
+def chosen(all_scenes, names: str):
+    """The scenes named in ``names`` (comma-separated; empty: all), or SystemExit naming the known ones."""
+    if not names:
+        yield from all_scenes
+        return
+    wanted = names.split(",")
+    scenes_by_name = {scene.name: scene for scene in all_scenes}
+    unknown = [name for name in wanted if name not in scenes_by_name]
+    if unknown:
+        raise SystemExit(f"unknown scene {', '.join(unknown)}: choose from {', '.join(scenes_by_name)}")
+    yield from (scenes_by_name[name] for name in wanted)
 
 
 def tinted_scenes(size):
@@ -104,6 +138,8 @@ def main(argv=None) -> None:
     parser.add_argument("--frames", type=int, default=5)
     parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
     parser.add_argument("--spp", type=int, default=1, help="auto's and plain's samples a pixel")
+    parser.add_argument("--scenes", default="", help="comma-separated scene names (default: all)")
+    parser.add_argument("--exact", action="store_true", help="exact's row per scene (its defaults, --spp) instead of auto's")
     parser.add_argument("--last", type=int, default=0, help="only the last N states (0: all)")
     parser.add_argument("--cost-rounds", type=int, default=0,
                         help="only the cost: auto with the floor's light map and with the lobes over plain, "
@@ -111,10 +147,18 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     if args.cost_rounds:
-        return costs(size, not args.no_tinted, args.lobes, args.cost_rounds)
+        return costs(size, not args.no_tinted, args.lobes, args.cost_rounds, args.scenes)
     rows = []
-    for scene in scenes(size, not args.no_tinted):
+    for scene in chosen(scenes(size, not args.no_tinted), args.scenes):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
+        if args.exact:
+            start = time.perf_counter()
+            image = Exact().render(scene, scene.camera, ExactParams(), args.spp)
+            seconds = time.perf_counter() - start
+            rows.append(f"| {scene.name} | exact (defaults) | {region_cells(image, reference, masks)} | "
+                        f"{1000 * seconds:.0f} | - |")
+            print(rows[-1], file=sys.stderr, flush=True)
+            continue
         start = time.perf_counter()
         maps = environment_lights.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
         print(f"{scene.name}: light maps baked in {time.perf_counter() - start:.1f} s (the floor's {BAKE_SIZE}x"
@@ -134,7 +178,7 @@ def main(argv=None) -> None:
                 ["scene", "auto", "glass PSNR", "caustic PSNR", "diffuse PSNR", "PSNR all", "ms", "x plain"], rows)
 
 
-def costs(size, tinted: bool, lobes: int, rounds: int) -> None:
+def costs(size, tinted: bool, lobes: int, rounds: int, names: str = "") -> None:
     """auto's fastest frame (bench/timing.fastest_in_blocks: wall clock and process CPU time, 3 frames a block)
     over plain's, as planned now (the floor's light map, baked before the timing) and with the lobes instead."""
     variants = {"light map (now)": ("auto", {}), f"{lobes} lobes": ("auto", {"environment_lobes": lobes}),
@@ -142,7 +186,7 @@ def costs(size, tinted: bool, lobes: int, rounds: int) -> None:
     rows = []
     with Renderer() as renderer:
         gl = renderer.info()["renderer"]
-        for scene in scenes(size, tinted):
+        for scene in chosen(scenes(size, tinted), names):
             fastest = fastest_in_blocks(renderer, scene, variants, 1, rounds)
             for name in list(variants)[:-1]:
                 rows.append(f"| {scene.name} | {name} | {fastest[name]['wall']:.1f} | "

@@ -20,9 +20,13 @@ environment's SH. The rays carry a control variate: each adds what it brings les
 along it, and the open floor's irradiance is added back in closed form (a sum over the environment's
 texels), so a texel nothing shadows is exact and the noise stays where objects are.
 
-Texels whose centre lies inside an object (under a box resting on the floor: the ray straight up leaves the
+Texels whose centre lies inside an opaque object (under a box resting on the floor: the ray straight up leaves the
 object through its back face) take their nearest outside neighbours' mean, so bilinear filtering at an
-object's foot does not blend in the black of its inside.
+object's foot does not blend in the black of its inside. Texels inside glass (under a clear cube standing on the
+floor) are gathered as the others, their rays starting in the glass: the floor there is lit through it. The faces of
+glass that lie on the receiver it stands on (:func:`standing_plane`) are left out of the rays' scene: glass and
+floor touch there, so a ray inside the glass meets the floor, not an interface coplanar with it (which Embree would
+pick, or not, by its BVH build).
 
 Deterministic: the ray patterns are hashed from each texel's position (environment_light.rotated_pattern).
 """
@@ -32,7 +36,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..cache import kept_on
 from ..progress import progress
+from ..scene.codes import MATERIAL_GLASS
+from ..scene.mesh import Mesh
 from ..scene.environment import Environment, texel_grid
 from .embree_scene import ray_scene_for
 from .environment_light import EnvironmentLight
@@ -43,6 +50,8 @@ BAKE_SAMPLES = 256  # cosine rays a texel
 FACE_SIZE = 16  # texels a side of each face of a box's light maps
 VERTEX_CAP = 2048  # vertices of one mesh baked at most; the others take their baked neighbours' weighted mean
 PLANE_TOLERANCE = 1e-4  # a mesh is flat when its vertices lie within this share of its size off one plane
+CONTACT_TOLERANCE = 1e-3  # of glass's bounding radius: how far off a receiver's plane its touching vertices lie
+STANDING_SHARE = 0.01  # glass stands on a receiver where faces of at least this share of its area lie on it
 
 
 @dataclass(frozen=True)
@@ -142,15 +151,89 @@ def plane_rectangle(objects: list, centre: np.ndarray, normal: np.ndarray) -> tu
     return origin, (s.max() - s.min()) * u, (t.max() - t.min()) * v, normal
 
 
+def receiver_rectangles(obj) -> list[tuple]:
+    """(origin, u, v, unit normal of the front side) of each flat side the diffuse ``obj`` offers: a box's six
+    faces, outward; a flat object's plane, both sides; none otherwise."""
+    faces = box_faces(obj)
+    if faces is not None:
+        return faces
+    plane = plane_of(obj)
+    if plane is None:
+        return []
+    origin, u, v, normal = plane_rectangle([obj], *plane)
+    return [(origin, u, v, normal), (origin, u, v, -normal)]
+
+
+def standing_plane(scene, glass) -> np.ndarray | None:
+    """(4,) float64: the front normal n and offset w (n . x = w on it) of the flat diffuse receiver (a flat object, a
+    box's face) that ``glass`` stands on: faces of it making at least STANDING_SHARE of its area lie on that plane
+    (their vertices within CONTACT_TOLERANCE of its radius) and inside the receiver's rectangle, no vertex behind
+    it; None where it stands on none (a ball touches in a point)."""
+    mesh = glass.world_mesh()
+    vertices = mesh.vertices.astype(np.float64)
+    tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    area = None
+    for other in scene.objects:
+        if other is glass or other.material.kind != "diffuse":
+            continue
+        for origin, u, v, normal in receiver_rectangles(other):
+            height = (vertices - origin) @ normal
+            touching = np.abs(height) <= tolerance
+            if height.min() < -tolerance or touching.sum() < 3:
+                continue
+            if area is None:
+                corners = vertices[mesh.faces]
+                area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+            lying = touching[mesh.faces].all(axis=1)
+            if area[lying].sum() < STANDING_SHARE * area.sum():
+                continue
+            touching = vertices[mesh.faces[lying].ravel()] - origin
+            st = np.stack([touching @ u / (u @ u), touching @ v / (v @ v)])
+            if st.min() >= -CONTACT_TOLERANCE and st.max() <= 1.0 + CONTACT_TOLERANCE:
+                return np.append(normal, origin @ normal)
+    return None
+
+
+def without_standing_faces(scene):
+    """``scene`` with each glass object's faces that lie on the receiver it stands on (:func:`standing_plane`) taken
+    out of its mesh, or ``scene`` itself where no glass stands on one; kept on the scene while its state stays."""
+    return kept_on(scene, "_without_standing_faces", standing_key(scene), lambda: _without_standing_faces(scene))
+
+
+def standing_key(scene) -> tuple:
+    """What :func:`standing_plane` depends on: each object's mesh, placement and material kind (cheap per frame)."""
+    return tuple((id(o.mesh), o.mesh.content_hash(), o.world_from_object().tobytes(), o.material.kind)
+                 for o in scene.objects)
+
+
+def _without_standing_faces(scene):
+    objects, changed = list(scene.objects), False
+    for i, obj in enumerate(objects):
+        plane = standing_plane(scene, obj) if obj.material.kind == "glass" else None
+        if plane is None:
+            continue
+        world = obj.world_mesh()
+        tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(world.vertices, axis=0)))
+        on_plane = np.abs(world.vertices.astype(np.float64) @ plane[:3] - plane[3]) <= tolerance
+        keep = ~on_plane[obj.mesh.faces].all(axis=1)
+        mesh = obj.mesh
+        objects[i] = replace(obj, mesh=Mesh(mesh.vertices, mesh.normals, mesh.faces[keep], mesh.name + "-standing",
+                                            uvs=mesh.uvs))
+        changed = True
+    return replace(scene, objects=objects) if changed else scene
+
+
 def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambient: Environment, sun=None,
                     samples: int = BAKE_SAMPLES, label: str = "") -> list[LightMap]:
     """A :class:`LightMap` of ``size`` (columns, rows) per rectangle (origin, u, v, normal) under the ``ambient``
-    environment (see the module docstring), texels inside an object filled from their neighbours."""
+    environment (see the module docstring), texels inside an opaque object filled from their neighbours, those
+    inside glass gathered from within it."""
     columns, rows = size
     # The rays see the ambient environment; the surfaces they bounce off are lit by the lights and the sun.
     lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
-    rays = ray_scene_for(scene)
+    rays = ray_scene_for(without_standing_faces(scene))
     materials = Materials.of(scene)
+    glass = materials.kind == MATERIAL_GLASS
     sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
     maps = [LightMap(o, u, v, n, np.zeros((rows, columns, 3), np.float32)) for o, u, v, n in rectangles]
     with progress(len(maps) * rows * columns, f"baking the environment's light on {label} ({len(maps)} x "
@@ -158,20 +241,23 @@ def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambie
         for k, light_map in enumerate(maps):
             points = light_map.texel_centres().reshape(-1, 3)
             normal = np.broadcast_to(light_map.normal, points.shape)
-            shadowed = cosine_gather(rays, lit, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0],
-                                     less_open=True, done=bar.update)
-            irradiance = open_irradiance(ambient.image, light_map.normal) + np.pi * shadowed
             inside = _inside(rays, points + normal * rays.epsilon)
-            filled = _fill(irradiance.reshape(rows, columns, 3), inside.reshape(rows, columns))
+            in_glass = np.where(inside >= 0, glass[np.maximum(inside, 0)], False)
+            shadowed = cosine_gather(rays, lit, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0],
+                                     less_open=True, done=bar.update, medium=np.where(in_glass, inside, -1))
+            irradiance = open_irradiance(ambient.image, light_map.normal) + np.pi * shadowed
+            opaque = (inside >= 0) & ~in_glass
+            filled = _fill(irradiance.reshape(rows, columns, 3), opaque.reshape(rows, columns))
             maps[k] = replace(light_map, irradiance=np.maximum(filled, 0.0).astype(np.float32))
     return maps
 
 
 def _inside(rays, origins: np.ndarray) -> np.ndarray:
-    """Whether each origin lies inside a closed object: the ray straight up leaves one through a back face."""
+    """Per origin, the index of the closed object it lies inside (the ray straight up leaves it through a back
+    face), -1 where none."""
     up = np.tile([0.0, 1.0, 0.0], (len(origins), 1))
     hits = rays.intersect(origins, up)
-    return hits.hit & (hits.geometric_normal[:, 1] > 0.0)
+    return np.where(hits.hit & (hits.geometric_normal[:, 1] > 0.0), hits.object_index, -1)
 
 
 def _fill(values: np.ndarray, invalid: np.ndarray) -> np.ndarray:
@@ -211,7 +297,7 @@ def bake_vertices(scene, obj, ambient: Environment, sun=None, samples: int = BAK
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
     chosen = _spread(points, normals, cap)
     lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
-    rays = ray_scene_for(scene)
+    rays = ray_scene_for(without_standing_faces(scene))
     materials = Materials.of(scene)
     sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
     with progress(len(chosen), f"baking the environment's light on {obj.name} ({len(chosen)} of {len(points)} "

@@ -222,12 +222,12 @@ def _environment_radiance(ray_scene, scene, position, normal, geometric_normal, 
 
 
 def cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling, materials, ior,
-                  less_open: bool = False, done=None) -> np.ndarray:
+                  less_open: bool = False, done=None, medium=None) -> np.ndarray:
     """Mean radiance (n, 3) of ``sampling.samples`` stratified cosine-weighted rays per point (pi times it is the
     irradiance), traced through glass and off mirrors; escaping rays read the rest of ``sampling.light``.
     ``less_open``: each ray less what it would read unblocked (the rest along its direction), so a point
     nothing shadows gives exactly 0 (a control variate: add the open irradiance back). ``done(points)`` is
-    called after each batch."""
+    called after each batch; ``medium`` (n,): the glass object each point lies in (its absorption), -1 air."""
     k, light = sampling.samples, sampling.light
     origin = position + geometric_normal * ray_scene.epsilon
     out = np.zeros((len(position), 3))
@@ -240,7 +240,8 @@ def cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling
         d = np.where((dot(d, ng) < 0)[:, None], d - 2.0 * dot(d, ng)[:, None] * ng, d)
         radiance = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), np.repeat(origin[sl], k, axis=0), d,
                                 sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
-                                environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce)
+                                environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce,
+                                medium=None if medium is None else np.repeat(medium[sl], k))
         if less_open:
             radiance -= light.rest.lookup(d) * scene.intensity_scale
         out[sl] = radiance.reshape(-1, k, 3).mean(axis=1)
@@ -347,14 +348,16 @@ def trace(
 
 def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_depth, min_weight, stats,
                  caustics=None, sample_angle: float = 0.0, environment: EnvironmentSampling | None = None,
-                 escape=None, diffuse: bool = True) -> np.ndarray:
+                 escape=None, diffuse: bool = True, medium=None) -> np.ndarray:
     """The wavefront loop over one batch of primary rays and one IOR per object. Escaped rays read
-    ``escape`` (default: the scene's environment); ``diffuse`` False: diffuse hits bring nothing."""
+    ``escape`` (default: the scene's environment); ``diffuse`` False: diffuse hits bring nothing; ``medium``
+    (n,): the glass object each ray starts in, -1 air (the default)."""
     n = len(o)
     out = np.zeros((n, 3))
     pixel = np.arange(n)
     weight = np.broadcast_to(channel_weight, (n, 3)).copy()
-    medium = np.full(n, -1, np.int64)  # glass object the ray travels in, -1 for air
+    # glass object the ray travels in, -1 for air
+    medium = np.full(n, -1, np.int64) if medium is None else np.asarray(medium, np.int64).copy()
     travelled = np.zeros(n)  # path length from the eye (the footprint of caustic estimates)
     scale = scene.intensity_scale
     escape = scene.environment if escape is None else escape

@@ -45,6 +45,7 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from ..passes.convex_exits import bind_convex_shape, convex_defines
+from ..passes.glass_contact import bind_contact_plane, contact_defines
 from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
@@ -89,6 +90,7 @@ class DepthSearch(RasterTechnique):
             if obj is not None:
                 if params.convex_exits:
                     bind_convex_shape(program, obj)
+                bind_contact_plane(program, frame.scene, obj)
                 return
             set_uniform(program, "world_from_clip", np.linalg.inv(frame.camera.clip_from_world()))
             set_uniform(program, "search_steps", params.search_steps)
@@ -109,7 +111,7 @@ class DepthSearch(RasterTechnique):
             ShadeSurfaces("passes/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
                           set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",),
-                          frame_defines=chain_defines(nearby.frame_defines,
+                          frame_defines=chain_defines(nearby.frame_defines, contact_defines,
                                                       convex_defines if params.convex_exits else None),
                           captures_front_surface=True,
                           # Back faces first: the search runs in a second resolve stage, only where needed.

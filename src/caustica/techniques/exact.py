@@ -43,6 +43,7 @@ from ..cache import LruCache, array_digest, material_state_key, scene_state_key
 from ..progress import progress, status
 from ..raytrace.caustic_gather import CausticGather
 from ..raytrace.embree_scene import ray_scene_for
+from ..raytrace.environment_bake import without_standing_faces
 from ..raytrace.environment_light import BRIGHT_RATIO, environment_light
 from ..raytrace.paths import BATCH_SIZE, EnvironmentSampling, Materials, caustic_footprint, facing, trace
 from ..scene.codes import MATERIAL_DIFFUSE
@@ -101,8 +102,10 @@ class Exact(Technique):
         if sampling is not None:  # each diffuse hit traces its environment rays: smaller bands, finer progress
             rays_per_row *= 1 + (sampling.samples + sampling.bright_samples) // 8
         band = max(1, BATCH_SIZE // rays_per_row)
-        rays = ray_scene_for(scene)
-        caustics = caustic_gather(scene, params)
+        # Glass standing on a floor touches it: its faces on the floor leave the rays (a ray inside meets the floor).
+        traced = without_standing_faces(scene)
+        rays = ray_scene_for(traced)
+        caustics = caustic_gather(traced, params)
         sample_angle = _sample_angle(camera, spp)
         image = np.empty((height, width, 3), dtype=np.float32)
         label = "" if sampling is None else f" ({sampling.samples}+{sampling.bright_samples} environment rays a hit)"

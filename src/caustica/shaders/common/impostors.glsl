@@ -121,11 +121,14 @@ vec3 impostor_radiance(int k, vec2 pixel) {
 }
 
 // Prect: where the ray meets rectangle k (t along it, pixel on its texture); false when it
-// misses the texture, and so (the paper's assumption) the object.
+// misses the texture, and so (the paper's assumption) the object. A ray starting on the rectangle's
+// plane (glass standing on a floor leaves it there) meets it at t = 0, within ON_RECTANGLE radii.
+const float ON_RECTANGLE = 1e-4;
 bool impostor_prect(int k, vec3 o, vec3 d, out float t, out vec2 pixel) {
     float dw = dot(d, impostor_axis[k]);
     t = abs(dw) < 1e-6 ? -1.0 : (impostor_depth(k, impostor_center[k]) - impostor_depth(k, o)) / dw;
-    return t > 0.0 && impostor_pixel(k, o + t * d, pixel);
+    if (t <= 0.0 && t * abs(dw) > -ON_RECTANGLE * impostor_radius[k]) t = 0.0;
+    return t >= 0.0 && impostor_pixel(k, o + t * d, pixel);
 }
 
 // One rectangle, corrected (IMPOSTOR_ITERATIONS > 0; uncorrected lookups stop at Prect in

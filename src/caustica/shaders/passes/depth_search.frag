@@ -15,7 +15,7 @@
 // nearby_radiance of common/impostors.glsl instead of the environment.
 // Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
 // INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1), BACK_SPHERE_START (0/1),
-// CONVEX_EXITS (0/1/2), ASSUME_BACK_FIRST (0/1; compile-time, since
+// CONVEX_EXITS (0/1/2), GLASS_CONTACT (0/1: contact_plane, contact_tolerance), ASSUME_BACK_FIRST (0/1; compile-time, since
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
@@ -36,6 +36,9 @@
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
 #endif
+#ifndef GLASS_CONTACT
+#define GLASS_CONTACT 0  // ours: exits through a face lying on the receiver the glass stands on land on it (passes/glass_contact.py)
+#endif
 #include "common/surface_inputs.glsl"
 #include "common/impostors.glsl"
 #if CONVEX_EXITS
@@ -49,6 +52,10 @@ uniform int search_steps;
 uniform float search_start;
 uniform int iterations;
 uniform float tolerance;
+#if GLASS_CONTACT && NEARBY != NEARBY_NONE
+uniform vec4 contact_plane;       // the receiver this glass stands on: unit normal n (0: none), n . x = w on it
+uniform float contact_tolerance;  // how far off that plane an exit still lies on it (scene units)
+#endif
 
 // Buffer pixel (continuous, origin at the lower left) of a world point; false behind the eye.
 bool buffer_pixel(vec3 p, out vec2 pixel) {
@@ -219,7 +226,14 @@ vec3 inside_radiance(vec3 d, float ior) {
         float f = fresnel_dielectric(dot(d, nk), ior, 1.0);  // 1 on TIR
         // One lookup per exit (llvmpipe runs both sides of a branch): TIR leaves along R, and only at the last exit.
         float leaving = tir ? (k == exit_count - 1 ? 1.0 : 0.0) : 1.0 - f;
-        vec3 seen = nearby_cached(exit_point[k], tir ? r : t);
+        vec3 from = exit_point[k], along = tir ? r : t;
+#if GLASS_CONTACT && NEARBY != NEARBY_NONE
+        // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
+        float off_plane = dot(contact_plane.xyz, from) - contact_plane.w;
+        bool contact = abs(off_plane) < contact_tolerance && dot(nk, contact_plane.xyz) < -0.5;
+        if (contact) { leaving = 1.0; f = 0.0; from -= off_plane * contact_plane.xyz; along = nk; }
+#endif
+        vec3 seen = nearby_cached(from, along);
         if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * exit_length[k]) * seen;
         weight *= f;
         d = r;

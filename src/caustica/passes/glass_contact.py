@@ -1,0 +1,55 @@
+"""Glass standing on a diffuse surface: depth-search's exits through a face that lies on it (ours).
+
+Hu and Qin (TVCG 2007, 2.1.4) leave the glass at its exit P2 along the refracted T2 with the share 1 - F, and our
+internal bounces send the share F (all of it past the critical angle) on inside. A clear cube resting on a floor has
+its bottom face in the floor's plane: no air lies between glass and floor there, so the light that reaches that face
+lands on the floor at P2, all of it, and none is reflected back, as in the light maps' rays
+(raytrace/environment_bake.py, which leave such faces out). Before, that face reflected totally what arrived past
+the critical angle, and the refracted rest started on the floor's own plane, which the impostor lookup missed.
+
+:func:`contact_plane` is the receiver's plane that a glass object stands on
+(``raytrace.environment_bake.standing_plane``); the shader (``depth_search.frag``, GLASS_CONTACT) takes an exit
+within ``contact_tolerance`` of it through a face turned into it as landing there: the nearby lookup straight into
+the receiver from the exit point put on its plane, weight 1, and the path ends.
+"""
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+from ..gpu.meshes import set_uniform
+from ..raytrace.environment_bake import CONTACT_TOLERANCE, standing_key, standing_plane
+
+_PLANES: OrderedDict = OrderedDict()  # standing_key -> ((4,) plane or None per object), the newest PLANES_KEPT
+PLANES_KEPT = 8  # scene states kept: a frame's impostor views draw scenes of their own
+
+
+def contact_plane(scene, obj) -> np.ndarray | None:
+    """(4,) float32 :func:`~caustica.raytrace.environment_bake.standing_plane` of ``obj`` in ``scene``, kept per
+    geometry (standing_key); None where it stands on nothing."""
+    key = standing_key(scene)
+    planes = _PLANES.get(key)
+    if planes is None:
+        planes = _PLANES[key] = [standing_plane(scene, o) if o.material.kind == "glass" else None
+                                 for o in scene.objects]
+        while len(_PLANES) > PLANES_KEPT:
+            _PLANES.popitem(last=False)
+    _PLANES.move_to_end(key)
+    plane = next((plane for o, plane in zip(scene.objects, planes) if o is obj), None)
+    return None if plane is None else plane.astype(np.float32)
+
+
+def contact_defines(frame) -> dict:
+    """GLASS_CONTACT 1 where some glass object of the frame stands on a receiver, else 0 (the shader unchanged)."""
+    return {"GLASS_CONTACT": int(any(contact_plane(frame.scene, o) is not None
+                                     for o in frame.scene.objects_of("glass")))}
+
+
+def bind_contact_plane(program, scene, obj) -> None:
+    """Set the shader's contact_plane (n = 0: none) and contact_tolerance for ``obj``."""
+    plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
+    set_uniform(program, "contact_plane", np.zeros(4, np.float32) if plane is None else plane)
+    if plane is not None:
+        extent = np.ptp(obj.world_mesh().bounds, axis=0)
+        set_uniform(program, "contact_tolerance", float(CONTACT_TOLERANCE * 0.5 * np.linalg.norm(extent)))
