@@ -86,6 +86,24 @@ def test_auto_renders_the_plan_and_every_quality():
         assert not np.array_equal(auto, draft)  # no internal bounces, smaller maps
 
 
+def test_the_plans_parameters_reproduce_auto_with_its_light_maps():
+    """Where auto bakes the environment's light, the plan says so (environment_bake), and the planned technique
+    named with the plan's parameters renders auto's image; without them the diffuse pixels differ."""
+    block = SceneObject("block", box((0.5, 0.5, 0.5)), Diffuse(color=[0.5, 0.5, 0.5]),
+                        Transform(position=[-0.4, 0.25, 0]))
+    scene = scene_of([marble(), table(), block], size=(48, 36))
+    with Renderer() as renderer:
+        auto = renderer.render(scene, "auto")
+        chosen = renderer.last_plan
+        assert chosen.params.get("environment_bake", 0) > 0 and chosen.params == plan(scene).params
+        assert np.array_equal(auto, renderer.render(scene, chosen.technique, **chosen.params))
+        unbaked = {k: v for k, v in chosen.params.items() if k != "environment_bake"}
+        assert np.abs(auto - renderer.render(scene, chosen.technique, **unbaked)).max() > 0.01
+        # auto's own environment_bake=0 takes it out of the plan as well.
+        renderer.render(scene, "auto", environment_bake=0)
+        assert "environment_bake" not in renderer.last_plan.params
+
+
 def test_auto_sees_the_floor_through_glass_far_better_than_depth_search():
     """A glass ball over a table, lit by the environment alone (so the oracle, which has no caustics,
     is the whole truth): auto's glass pixels against exact. Measured on llvmpipe: auto 27.6 dB,

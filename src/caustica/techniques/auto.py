@@ -176,6 +176,10 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         params.update({f"{TABLE}.exit_rays": "traced", f"{TABLE}.photon_budget": table_photons})
     baked = _baked_receivers(scene)
     occluded = not baked and _occluded_ambient(scene)
+    if baked:
+        params["environment_bake"] = BAKE_SIZE
+    elif occluded:
+        params["environment_lobes"] = LOBES
     entries = []
     for obj in objects:
         kind = obj.material.kind
@@ -428,17 +432,23 @@ class Auto(Technique):
             reason = str(exc).split("; its parameters are:")[0]
             raise TechniqueError(f"auto planned '{chosen.technique}' for this scene: {reason}; "
                                  f"see 'caustica techniques {chosen.technique}'") from None
-        # Not a field of the planned technique's parameters: ShadowMaps reads it (environment_lights.lobe_settings).
+        # The environment's light (ShadowMaps reads the view's: environment_lights.bake_settings, lobe_settings).
         view_values = values[0] if isinstance(values, tuple) else values  # a composite's: (view, caustics)
         given = getattr(params, "given", ())
         # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
-        view_values.environment_bake = params.environment_bake if "environment_bake" in given or (
+        bake = params.environment_bake if "environment_bake" in given or (
             "environment_lobes" not in given and _baked_receivers(scene)) else 0
         # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
         # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
-        view_values.environment_lobes = params.environment_lobes if "environment_lobes" in given or (
-            not view_values.environment_bake and _occluded_ambient(scene)) else 0
-        for name in ("environment_lobes", "environment_bake"):
+        lobes = params.environment_lobes if "environment_lobes" in given or (
+            not bake and _occluded_ambient(scene)) else 0
+        for name, value in (("environment_bake", bake), ("environment_lobes", lobes)):
+            for half in values if isinstance(values, tuple) else (values,):
+                setattr(half, name, value if half is view_values else 0)
+            # The plan's parameters are what renders: the planned technique named with them gives auto's image.
+            chosen.params.pop(name, None)
+            if value:
+                chosen.params[name] = value
             if name in given:
                 chosen.notes.append(f"{name}={getattr(params, name)} as given (the plan's rule set aside)")
         return technique, values

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..passes.environment_lights import MAX_BAKE_SIZE, MAX_LOBES
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
@@ -27,6 +28,13 @@ class ShadowedParams(Params):
 
     shadow_map_size: int = param(1024, range=(16, 8192), unit="texels",
                                  help="shadow map texels a side (per cube face for point lights)")
+    environment_bake: int = param(0, range=(0, MAX_BAKE_SIZE), special={0: "none: the environment's SH irradiance"},
+                                  unit="texels", help="light maps of the environment's light on the diffuse "
+                                                      "receivers, the floor's this many texels a side (what auto "
+                                                      "plans; docs/environment-light.md)")
+    environment_lobes: int = param(0, range=(0, MAX_LOBES), special={0: "none"},
+                                   help="the environment's light on diffuse surfaces as this many shadowed strata "
+                                        "(docs/environment-light.md); light maps, where given, take their place")
 
 
 class EnvMap(RasterTechnique):
