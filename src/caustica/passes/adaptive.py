@@ -59,15 +59,5 @@ def preset_depth(frame: Frame, depth, flags) -> None:
 def combined(frame: Frame, single, averaged, flags):
     """The adaptive image: ``averaged`` (the 4-spp colour box-filtered to the output size) at the pixels
     ``flags`` flags, ``single`` (the 1-spp colour) elsewhere; a new rgba32f texture lent to ``frame``."""
-    import moderngl
-
-    gpu = frame.gpu
-    out = frame.texture(single.size, "rgba32f")
-    gpu.targets.framebuffer([out]).use()
-    gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-    program = gpu.shaders.program("passes/fullscreen.vert", "passes/adaptive_resolve.frag")
-    for unit, (name, texture) in enumerate((("single", single), ("averaged", averaged), ("adaptive_flags", flags))):
-        texture.use(unit)
-        set_uniform(program, name, unit)
-    gpu.draw_fullscreen(program)
-    return out
+    return fullscreen_pass(frame, single, "passes/adaptive_resolve.frag", {}, 1,
+                           inputs={"averaged": averaged, "adaptive_flags": flags})

@@ -40,9 +40,10 @@ def resolved(frame: Frame, texture, k: int, antialias: str = "none"):
     return texture
 
 
-def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, fmt: str = "rgba32f"):
-    """A fullscreen pass of ``shader`` reading ``texture`` (as ``source``) into a new ``fmt`` texture k
-    times smaller, lent to ``frame``."""
+def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, fmt: str = "rgba32f",
+                    inputs: dict | None = None):
+    """A fullscreen pass of ``shader`` reading ``texture`` (as ``source``) and ``inputs`` ({sampler name:
+    texture}) into a new ``fmt`` texture k times smaller, lent to ``frame``."""
     import moderngl
 
     from ..gpu.meshes import set_uniform
@@ -53,7 +54,8 @@ def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, f
     gpu.targets.framebuffer([out]).use()
     gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
     program = gpu.shaders.program("passes/fullscreen.vert", shader, defines)
-    texture.use(0)
-    set_uniform(program, "source", 0)
+    for unit, (name, source) in enumerate({"source": texture, **(inputs or {})}.items()):
+        source.use(unit)
+        set_uniform(program, name, unit)
     gpu.draw_fullscreen(program)
     return out
