@@ -269,7 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--size", type=_size, help="view size WxH (default: the scene camera's)")
     view.add_argument("--spp", type=SPP, default=1, help="samples per pixel, a square (1, 4, 9, ...): a k x k grid (box filter)")
     view.add_argument("--antialias", choices=ANTIALIAS_MODES, default="none",
-                      help="as 'render --antialias', but adaptive (the A key and the panel switch it)")
+                      help="as 'render --antialias' except adaptive, which is for still images (the A key and the "
+                           "panel switch it)")
     view.add_argument("--exposure", type=EXPOSURE, default=0.0, help="exposure in stops")
     view.add_argument("--tonemap", choices=TONEMAPS, default="clip",
                       help="tone curve after the exposure, of the view and PNG screenshots: clip (default) or filmic "

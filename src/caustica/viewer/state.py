@@ -13,9 +13,8 @@ import inspect
 
 import numpy as np
 
-from ..errors import CausticaError
+from ..errors import CausticaError, RenderOptionError
 from ..images import TONEMAPS
-from ..errors import RenderOptionError
 from ..passes.resolve import ANTIALIAS_MODES, check_antialias
 from ..scene import Scene
 from ..techniques.base import check_spp, get_technique
