@@ -123,7 +123,7 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
     glass = [o for o in objects if o.material.kind == "glass"]
     mirrors = [o for o in objects if o.material.kind == "mirror"]
     diffuse = [o for o in objects if o.material.kind == "diffuse"]
-    lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    lit = _lit_lights(scene)
     sun = environment_sun(scene.environment).light  # a light of the shadow and caustic maps too
     if sun is not None and np.any(sun.intensity > 0):
         lit.append(sun)
@@ -220,6 +220,16 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
     return Plan(technique, params, quality, entries, notes)
 
 
+def _lit_lights(scene) -> list:
+    """The scene's lights that shine (some intensity above 0)."""
+    return [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+
+
+def _sheds_light(environment) -> bool:
+    """Whether the environment sheds any light (its SH irradiance's constant term above 0 in some channel)."""
+    return bool(np.any(environment.irradiance_sh()[0] > 0))
+
+
 OCCLUDED = (f"; the sky's light shadowed by the other objects: environment_lobes ({LOBES} by default) sky strata "
             "of equal power, each a directional shadow map, glass passing its transmittance, the blocked sky showing "
             "the occluders' bounce and the light from below a floor's (docs/environment-light.md: diffuse +1.1 to "
@@ -237,7 +247,7 @@ def _occluded_ambient(scene) -> bool:
     (spectacle-convex: a lens before a flat chart)."""
     diffuse = [o for o in scene.objects if o.material.kind == "diffuse"]
     return (bool(diffuse) and len(scene.objects) > 1 and not scene.lights
-            and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
+            and _sheds_light(scene.environment)
             and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE))
 
 
@@ -245,7 +255,7 @@ def _baked(obj, scene) -> str:
     """The plan's reason for the light maps (environment_lights.bake_plan), on each diffuse object's entry."""
     receiver = bake_plan(scene).receivers[next(i for i, o in enumerate(scene.objects) if o is obj)]
     how = "baked with exact's rays: occluded, through glass (the sky's caustic), one bounce (docs/environment-light.md)"
-    if not np.any(scene.environment.irradiance_sh()[0] > 0):
+    if not _sheds_light(scene.environment):
         how += "; the environment is black: the lights' light on the floor, come back to it through the glass"
     if receiver.kind == "floor":
         return f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by default) {how}"
@@ -266,7 +276,7 @@ def _baked_receivers(scene) -> bool:
     lens, spectacle-convex's 0.4 %, keeps the unoccluded SH); in any environment, where a light shines through
     glass onto a floor (:func:`_bounced_through_glass`)."""
     return (len(scene.objects) > 1 and any(o.material.kind == "diffuse" for o in scene.objects)
-            and bool(np.any(scene.environment.irradiance_sh()[0] > 0))
+            and _sheds_light(scene.environment)
             and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE)) or _bounced_through_glass(scene)
 
 
@@ -275,7 +285,7 @@ def _bounced_through_glass(scene) -> bool:
     least of the flux lands: _caustic_paths): then the floor's own diffuse light comes back to it through the
     glass, which no raster pass carries and the light maps' one bounce does (raytrace/environment_bake.py),
     even in a black environment (docs/auto.md, "The floor's light back through the glass")."""
-    lit = [light for light in scene.lights if np.any(np.asarray(light.intensity) > 0)]
+    lit = _lit_lights(scene)
     return (bool(lit) and scene_floor(scene) is not None and any(o.material.kind == "glass" for o in scene.objects)
             and _caustic_paths(scene, lit).landed)
 
@@ -437,7 +447,7 @@ class Auto(Technique):
         given = getattr(params, "given", ())
         # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
         bake = params.environment_bake if "environment_bake" in given or (
-            "environment_lobes" not in given and _baked_receivers(scene)) else 0
+            "environment_lobes" not in given and "environment_bake" in chosen.params) else 0
         # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
         # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
         lobes = params.environment_lobes if "environment_lobes" in given or (
