@@ -14,15 +14,14 @@ the receiver from the exit point put on its plane, weight 1, and the path ends.
 """
 from __future__ import annotations
 
-from collections import OrderedDict
-
 import numpy as np
 
+from ..cache import LruCache
 from ..gpu.meshes import set_uniform
-from ..raytrace.environment_bake import CONTACT_TOLERANCE, standing_key, standing_plane
+from ..raytrace.environment_bake import contact_tolerance, standing_key, standing_plane
 
-_PLANES: OrderedDict = OrderedDict()  # standing_key -> ((4,) plane or None per object), the newest PLANES_KEPT
 PLANES_KEPT = 8  # scene states kept: a frame's impostor views draw scenes of their own
+_PLANES = LruCache(PLANES_KEPT)  # standing_key -> ((4,) plane or None per object)
 
 
 def contact_plane(scene, obj) -> np.ndarray | None:
@@ -33,9 +32,6 @@ def contact_plane(scene, obj) -> np.ndarray | None:
     if planes is None:
         planes = _PLANES[key] = [standing_plane(scene, o) if o.material.kind == "glass" else None
                                  for o in scene.objects]
-        while len(_PLANES) > PLANES_KEPT:
-            _PLANES.popitem(last=False)
-    _PLANES.move_to_end(key)
     plane = next((plane for o, plane in zip(scene.objects, planes) if o is obj), None)
     return None if plane is None else plane.astype(np.float32)
 
@@ -51,5 +47,4 @@ def bind_contact_plane(program, scene, obj) -> None:
     plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
     set_uniform(program, "contact_plane", np.zeros(4, np.float32) if plane is None else plane)
     if plane is not None:
-        extent = np.ptp(obj.world_mesh().bounds, axis=0)
-        set_uniform(program, "contact_tolerance", float(CONTACT_TOLERANCE * 0.5 * np.linalg.norm(extent)))
+        set_uniform(program, "contact_tolerance", contact_tolerance(obj.world_mesh().bounds))

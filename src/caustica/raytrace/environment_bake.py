@@ -164,6 +164,12 @@ def receiver_rectangles(obj) -> list[tuple]:
     return [(origin, u, v, normal), (origin, u, v, -normal)]
 
 
+def contact_tolerance(points: np.ndarray) -> float:
+    """How far off a receiver's plane the glass whose vertices (or bounds) are ``points`` still touches it:
+    CONTACT_TOLERANCE of its bounding radius."""
+    return CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(np.asarray(points, np.float64), axis=0)))
+
+
 def standing_plane(scene, glass) -> np.ndarray | None:
     """(4,) float64: the front normal n and offset w (n . x = w on it) of the flat diffuse receiver (a flat object, a
     box's face) that ``glass`` stands on: faces of it making at least STANDING_SHARE of its area lie on that plane
@@ -171,7 +177,7 @@ def standing_plane(scene, glass) -> np.ndarray | None:
     it; None where it stands on none (a ball touches in a point)."""
     mesh = glass.world_mesh()
     vertices = mesh.vertices.astype(np.float64)
-    tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    tolerance = contact_tolerance(vertices)
     area = None
     for other in scene.objects:
         if other is glass or other.material.kind != "diffuse":
@@ -213,8 +219,7 @@ def _without_standing_faces(scene):
         if plane is None:
             continue
         world = obj.world_mesh()
-        tolerance = CONTACT_TOLERANCE * 0.5 * float(np.linalg.norm(np.ptp(world.vertices, axis=0)))
-        on_plane = np.abs(world.vertices.astype(np.float64) @ plane[:3] - plane[3]) <= tolerance
+        on_plane = np.abs(world.vertices.astype(np.float64) @ plane[:3] - plane[3]) <= contact_tolerance(world.vertices)
         keep = ~on_plane[obj.mesh.faces].all(axis=1)
         mesh = obj.mesh
         objects[i] = replace(obj, mesh=Mesh(mesh.vertices, mesh.normals, mesh.faces[keep], mesh.name + "-standing",
