@@ -348,3 +348,32 @@ def test_auto_bakes_the_bounce_only_under_a_light_through_glass():
     assert planned(bounce_scene())[0].environment_bake > 0
     assert planned(bounce_scene(lights=False)).environment_bake == 0
     assert planned(bounce_scene(glass=False)).environment_bake == 0
+
+
+def test_less_open_gathers_trace_only_the_blocked_rays_and_give_what_tracing_all_gives():
+    """cosine_gather's control variate (each ray less the open sky along it) traces only the rays something
+    blocks: the rest bring exactly 0. Over a glass ball and a box under the sky-checker, with the bounce, it
+    equals tracing every ray and subtracting the open sky ray by ray; a texel nothing shadows is exactly 0."""
+    from caustica.raytrace.embree_scene import ray_scene_for
+    from caustica.raytrace.environment_light import EnvironmentLight, cosine_directions
+    from caustica.raytrace.paths import EnvironmentSampling, Materials, cosine_gather
+    from caustica.scene.environment import sky_checker
+
+    sky = Environment(sky_checker(128, 64))
+    ball = SceneObject("ball", sphere(0.8), Glass(1.5), Transform(position=[0.0, 1.0, 0.0]))
+    block = SceneObject("block", box((0.6, 0.6, 0.6)), Diffuse([0.7, 0.2, 0.2]), Transform(position=[1.2, 0.3, 0.0]))
+    scene = floor_scene([ball, block], sky)
+    rays, materials = ray_scene_for(scene), Materials.of(scene)
+    x, z = np.meshgrid(np.linspace(-3.5, 3.5, 12), np.linspace(-3.5, 3.5, 12))
+    points = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], axis=1)
+    normal = np.tile([0.0, 1.0, 0.0], (len(points), 1))
+    sampling = EnvironmentSampling(EnvironmentLight(sky, bright=0.0), 64, 0, True)
+    less_open = cosine_gather(rays, scene, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0],
+                              less_open=True)
+    every_ray = cosine_gather(rays, scene, points, normal, normal, sampling, materials, materials.ior_rgb[:, 0])
+    directions = cosine_directions(points, normal, 64)
+    open_sky = sampling.light.rest.lookup(directions.reshape(-1, 3)).reshape(len(points), 64, 3).mean(axis=1)
+    assert np.allclose(less_open, every_ray - open_sky, rtol=0.0, atol=1e-6)
+    corner = np.argmin(np.linalg.norm(points - [-3.5, 0.0, -3.5], axis=1))
+    assert np.all(less_open[corner] == 0.0)
+    assert np.abs(less_open).max() > 0.05  # the ball's and the box's shadows and the sky's caustic are there

@@ -42,7 +42,7 @@ from ..scene.codes import MATERIAL_GLASS
 from ..scene.mesh import Mesh
 from ..scene.environment import Environment, texel_grid
 from .embree_scene import ray_scene_for
-from .environment_light import EnvironmentLight
+from .environment_light import environment_light
 from .paths import EnvironmentSampling, Materials, cosine_gather
 
 BAKE_SIZE = 64  # texels a side of the floor's light map
@@ -239,7 +239,7 @@ def bake_rectangles(scene, rectangles: list[tuple], size: tuple[int, int], ambie
     rays = ray_scene_for(without_standing_faces(scene))
     materials = Materials.of(scene)
     glass = materials.kind == MATERIAL_GLASS
-    sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
+    sampling = EnvironmentSampling(environment_light(ambient, bright=0.0), samples, 0, True)
     maps = [LightMap(o, u, v, n, np.zeros((rows, columns, 3), np.float32)) for o, u, v, n in rectangles]
     with progress(len(maps) * rows * columns, f"baking the environment's light on {label} ({len(maps)} x "
                   f"{columns}x{rows} texels, {samples} rays)", unit="texels") as bar:
@@ -304,7 +304,7 @@ def bake_vertices(scene, obj, ambient: Environment, sun=None, samples: int = BAK
     lit = replace(scene, lights=[*scene.lights, *([sun] if sun is not None else [])], intensity_scale=1.0)
     rays = ray_scene_for(without_standing_faces(scene))
     materials = Materials.of(scene)
-    sampling = EnvironmentSampling(EnvironmentLight(ambient, bright=0.0), samples, 0, True)
+    sampling = EnvironmentSampling(environment_light(ambient, bright=0.0), samples, 0, True)
     with progress(len(chosen), f"baking the environment's light on {obj.name} ({len(chosen)} of {len(points)} "
                   f"vertices, {samples} rays)", unit="vertices") as bar:
         at, towards = points[chosen], normals[chosen]

@@ -104,8 +104,10 @@ class EnvironmentLight:
         self.rest = Environment(np.where(mask[..., None], 0.0, image).astype(np.float32), source=environment.source)
         # Cells of the bilinear grid that touch a bright texel, cut into SUBCELLS x SUBCELLS parts weighted by
         # the bilinear radiance (mean of the channels) and sin(theta) at their centres.
-        corners = self._corner_values(np.arange(h - 1)[:, None], np.arange(w)[None, :])
-        j, i = np.nonzero(corners.max(axis=(2, 3, 4)) > 0)
+        j = i = np.zeros(0, np.int64)
+        if mask.any():
+            corners = self._corner_values(np.arange(h - 1)[:, None], np.arange(w)[None, :])
+            j, i = np.nonzero(corners.max(axis=(2, 3, 4)) > 0)
         part = (np.arange(SUBCELLS) + 0.5) / SUBCELLS
         fy, fx = (g.reshape(-1) for g in np.meshgrid(part, part, indexing="ij"))
         j, i = np.repeat(j, len(fx)), np.repeat(i, len(fx))

@@ -238,12 +238,17 @@ def cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling
         # Below the face (the shading normal tilts past it): mirrored above it.
         ng = np.repeat(geometric_normal[sl], k, axis=0)
         d = np.where((dot(d, ng) < 0)[:, None], d - 2.0 * dot(d, ng)[:, None] * ng, d)
-        radiance = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), np.repeat(origin[sl], k, axis=0), d,
-                                sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
-                                environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce,
-                                medium=None if medium is None else np.repeat(medium[sl], k))
+        o = np.repeat(origin[sl], k, axis=0)
+        inside = None if medium is None else np.repeat(medium[sl], k)
+        # Less the open sky, a ray nothing blocks brings exactly 0: only the blocked ones are traced.
+        traced = ray_scene.occluded(o, d, np.inf) if less_open else slice(None)
+        radiance = np.zeros((len(d), 3))
+        radiance[traced] = _trace_batch(ray_scene, scene, materials, ior, np.ones(3), o[traced], d[traced],
+                                        sampling.max_depth, sampling.min_weight, TraceStats(sampling.max_depth),
+                                        environment=sampling.secondary, escape=light.rest, diffuse=sampling.bounce,
+                                        medium=None if inside is None else inside[traced])
         if less_open:
-            radiance -= light.rest.lookup(d) * scene.intensity_scale
+            radiance[traced] -= light.rest.lookup(d[traced]) * scene.intensity_scale
         out[sl] = radiance.reshape(-1, k, 3).mean(axis=1)
         if done is not None:
             done(len(out[sl]))

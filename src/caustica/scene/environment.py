@@ -13,6 +13,7 @@ see one image; docs/scenes.md gives the convention.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -172,12 +173,17 @@ def irradiance_sh_of(image: np.ndarray) -> np.ndarray:
     return (coeffs * band[:, None]).astype(np.float32)
 
 
+@lru_cache(maxsize=4)
 def texel_grid(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """(h, w, 3) unit directions of an (h, w) equirectangular image's texel centres and (h, w) their solid angles."""
+    """(h, w, 3) unit directions of an (h, w) equirectangular image's texel centres and (h, w) their solid angles
+    (read-only, kept for the next call: every light-map bake and light split of a batch asks again)."""
     v = (np.arange(h) + 0.5) / h
     u = (np.arange(w) + 0.5) / w
     uu, vv = np.meshgrid(u, v)
-    return uv_to_direction(np.stack([uu, vv], axis=-1)), (2 * np.pi / w) * (np.pi / h) * np.sin(vv * np.pi)
+    directions = uv_to_direction(np.stack([uu, vv], axis=-1))
+    solid_angle = (2 * np.pi / w) * (np.pi / h) * np.sin(vv * np.pi)
+    directions.flags.writeable = solid_angle.flags.writeable = False
+    return directions, solid_angle
 
 
 def _sh_grid(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
