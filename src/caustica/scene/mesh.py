@@ -198,15 +198,48 @@ class Mesh:
     def face_planes(self, max_planes: int, tolerance: float = 1e-4) -> np.ndarray | None:
         """The planes of a convex polyhedron's faces, (K, 4) float64: outward unit normal xyz and offset w
         (n . x = w on the face, n . x <= w inside), one row per distinct plane; None when the mesh is not
-        convex (:meth:`is_convex`) or its faces lie on more than ``max_planes`` planes (a tessellated curve).
+        convex (:meth:`is_convex`) or its faces lie on more than ``max_planes`` planes.
         The body is the intersection of these half-spaces, so a ray inside leaves it where it crosses the
         first plane it moves towards (Haines, "Fast ray-convex polyhedron intersection", Graphics Gems II)."""
+        found = self._grouped_planes(max_planes, tolerance)
+        return None if found is None else found[0]
+
+    def face_plane_normals(self, max_planes: int, tolerance: float = 1e-4) -> np.ndarray | None:
+        """The shading normal on each of :meth:`face_planes`' planes as an affine field, (K, 3, 4) float64: row i
+        of plane k gives component i, ``field[k] @ (x, y, z, 1)`` (unnormalised), fitted by least squares to the
+        vertex normals of the faces on that plane. Barycentric interpolation is affine on one triangle; a plane of
+        several triangles has one field where their normals agree with it (flat faces, a cylinder's side quads,
+        normals (x - c) / r of a sphere or a capsule). None where :meth:`face_planes` is, or where some plane's
+        vertex normals miss their field by more than 1e-3."""
+        found = self._grouped_planes(max_planes, tolerance)
+        if found is None:
+            return None
+        key = (int(max_planes), float(tolerance), "normals")
+        if key not in self._planes:
+            self._planes[key] = self._plane_normals(found[1], len(found[0]))
+        return self._planes[key]
+
+    def _plane_normals(self, label: np.ndarray, count: int) -> np.ndarray | None:
+        fields = np.zeros((count, 3, 4))
+        for k in range(count):
+            corners = np.unique(self.faces[label == k].ravel())
+            centre = self.vertices[corners].astype(np.float64).mean(axis=0)  # about it a flat face's field is constant
+            points = np.column_stack([self.vertices[corners] - centre, np.ones(len(corners))])
+            normals = self.normals[corners].astype(np.float64)
+            fit = np.linalg.lstsq(points, normals, rcond=None)[0].T
+            if np.abs(points @ fit.T - normals).max() > 1e-3:
+                return None
+            fields[k] = np.column_stack([fit[:, :3], fit[:, 3] - fit[:, :3] @ centre])
+        return fields
+
+    def _grouped_planes(self, max_planes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(planes (K, 4), the plane of each face (M,), -1 for degenerate faces), or None; cached."""
         key = (int(max_planes), float(tolerance))
         if key not in self._planes:
             self._planes[key] = self._face_planes(*key)
         return self._planes[key]
 
-    def _face_planes(self, max_planes: int, tolerance: float) -> np.ndarray | None:
+    def _face_planes(self, max_planes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:
         if not self.is_convex(tolerance):
             return None
         v = self.vertices.astype(np.float64)
@@ -214,16 +247,20 @@ class Mesh:
         normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         length = np.linalg.norm(normal, axis=1)
         size = float(np.ptp(v, axis=0).max())
-        usable = length > 1e-12 * size * size
+        usable = np.flatnonzero(length > 1e-12 * size * size)
         normal = normal[usable] / length[usable, None]
         offset = np.einsum("ij,ij->i", normal, corners[usable, 0])
-        planes = []
-        for n, w in zip(normal, offset):  # group the faces by plane, giving up past max_planes
-            if not any(np.dot(n, p[:3]) > 1.0 - tolerance and abs(w - p[3]) <= tolerance * size for p in planes):
-                if len(planes) == max_planes:
+        planes, label = np.zeros((max_planes, 4)), np.full(len(self.faces), -1)
+        count = 0
+        for face, n, w in zip(usable, normal, offset):  # group the faces by plane, giving up past max_planes
+            same = np.flatnonzero((planes[:count, :3] @ n > 1.0 - tolerance) & (np.abs(planes[:count, 3] - w) <= tolerance * size))
+            if len(same) == 0:
+                if count == max_planes:
                     return None
-                planes.append(np.append(n, w))
-        return np.array(planes)
+                planes[count] = np.append(n, w)
+                same, count = [count], count + 1
+            label[face] = same[0]
+        return planes[:count], label
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""

@@ -9,7 +9,7 @@
 // Our extension, not in the paper: INTERNAL_BOUNCES > 0 follows the light reflected inside at
 // each exit (weight F) to the next exit, found against the nearer of the two buffers.
 // Ours too: CONVEX_EXITS computes every exit exactly where the glass is an analytic sphere or a
-// convex polyhedron of few planes (common/convex_exits.glsl; 1: every glass object, 2: per object).
+// convex mesh of few planes (common/convex_exits.glsl; 1: every glass object, 2: per object).
 //
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
@@ -334,14 +334,18 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
 }
 
 // Ours (passes/convex_exits.py): every exit exact, where the glass is an analytic sphere or a convex
-// polyhedron of few planes; the internal bounces go from exact point to exact point.
+// mesh of few planes; the internal bounces go from exact point to exact point. The shading normal
+// there, unless the light it reflects would leave through the face or the light it refracts (green)
+// stay inside: then the face's own (as exact's paths, raytrace/paths.py).
 #if CONVEX_EXITS
-void convex_exits(vec3 p1, vec3 t1) {
+void convex_exits(vec3 p1, vec3 t1, float ior) {
     vec3 p = p1, d = t1;
     float travelled = 0.0;
     for (int k = 0; k < MAX_EXITS; ++k) {
-        vec3 normal;
-        float t = convex_exit(p, d, normal);
+        vec3 normal, face;
+        float t = convex_exit(p, d, normal, face);
+        vec3 leaving = refract_direction(d, -normal, ior);
+        if (dot(reflect_direction(d, -normal), face) >= 0.0 || dot(leaving, face) < 0.0) normal = face;
         p += t * d;
         travelled += t;
         exit_point[k] = p;
@@ -362,9 +366,9 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     // Entry TIR (n_t < n_i at grazing incidence): the surface only reflects.
     if (dot(t1, t1) == 0.0) return reflected;
 #if CONVEX_EXITS == 1
-    convex_exits(world_position, t1);
+    convex_exits(world_position, t1, ior);
 #elif CONVEX_EXITS == 2
-    if (convex_kind != 0) convex_exits(world_position, t1);
+    if (convex_kind != 0) convex_exits(world_position, t1, ior);
     else searched_exits(v, n, world_position, t1);
 #else
     searched_exits(v, n, world_position, t1);
