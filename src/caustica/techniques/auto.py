@@ -36,6 +36,7 @@ from ..errors import TechniqueError
 from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
                                         lobe_occlusion, scene_floor)
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
+from ..scene.scene import invisible_objects, without_invisible_glass
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels, table photons)
@@ -118,6 +119,25 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
 
         raise TechniqueError(f"unknown quality {quality!r}{closest_name(str(quality), QUALITY)}; "
                              f"use one of {', '.join(QUALITY)}")
+    if not invisible_objects(scene):
+        return _plan_visible(scene, quality, frame_size)
+    visible = without_invisible_glass(scene)
+    chosen = _plan_visible(visible, quality, frame_size)
+    chosen.params["drop_invisible_glass"] = True
+    planned = {id(o): entry for o, entry in zip(visible.objects, chosen.objects)}
+    chosen.objects = [planned.get(id(o)) or PlanEntry(o.name, o.material.kind, "left out", INVISIBLE)
+                      for o in scene.objects]
+    return chosen
+
+
+INVISIBLE = ("IOR 1 and no absorption: it neither reflects (Fresnel 0), bends nor tints light, so a path tracer "
+             "renders it as air (Hu and Qin fig. 18); left out of every pass (drop_invisible_glass): no glass "
+             "pixels, no shadow or caustic, hides nothing from the other objects' impostors, light maps and "
+             "shadow maps, and the plan is made for the scene without it")
+
+
+def _plan_visible(scene, quality: str, frame_size) -> Plan:
+    """:func:`plan` for a scene without invisible glass."""
     bounces, impostor_size, map_size, shadow_size, table_photons = QUALITY[quality]
     objects = list(scene.objects)
     glass = [o for o in objects if o.material.kind == "glass"]
@@ -451,7 +471,7 @@ class Auto(Technique):
         # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
         # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
         lobes = params.environment_lobes if "environment_lobes" in given or (
-            not bake and _occluded_ambient(scene)) else 0
+            not bake and _occluded_ambient(without_invisible_glass(scene))) else 0
         for name, value in (("environment_bake", bake), ("environment_lobes", lobes)):
             for half in values if isinstance(values, tuple) else (values,):
                 setattr(half, name, value if half is view_values else 0)
