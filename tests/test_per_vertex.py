@@ -283,3 +283,21 @@ def test_markers_sit_at_exact_hits():
 def test_bad_parameters_are_refused(renderer, bad):
     with pytest.raises(TechniqueError):
         renderer.render(presets.mirror_series(size=(16, 16)), "per-vertex", **bad)
+
+
+def test_viewpoint_parallax_is_the_mean_angle_from_the_least_squares_viewpoint():
+    """Two skew lines (through y = -a along x, through y = +a along z) have their least-squares viewpoint at the
+    origin; each hit s along its line is seen from there atan(a / s) off the line; a third line through
+    the origin that escapes adds 0 and leaves the viewpoint: the mean is 2 atan(a / s) / 3. Lines through one
+    point (a flat mirror's) give 0."""
+    from caustica.per_vertex.viewpoint import viewpoint_parallax
+
+    a, s = 0.5, 2.0
+    lines = Lines(np.array([[0.0, -a, 0.0], [0.0, a, 0.0], [0.0, 0.0, 0.0]]),
+                  np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]), np.array([s, s, np.inf]))
+    assert viewpoint_parallax(lines) == pytest.approx(2.0 * math.degrees(math.atan(a / s)) / 3.0, rel=1e-9)
+    rng = np.random.default_rng(3)
+    directions = normalize(rng.normal(size=(20, 3)))
+    through = Lines(np.array([1.0, 2.0, 3.0]) + 2.0 * directions, directions, rng.uniform(0.5, 3.0, 20))
+    assert viewpoint_parallax(through) == pytest.approx(0.0, abs=1e-5)
+    assert viewpoint_parallax(Lines(through.origins, through.directions, np.full(20, np.inf))) == 0.0

@@ -122,7 +122,7 @@ def situation(chosen) -> str:
     kinds = {entry.kind for entry in chosen.objects}
     words = {"depth-search": "Glass alone in the environment",
              "per-vertex": "Flat and convex mirrors, no glass",
-             "env-map": "Nothing specular"}.get(view)
+             "env-map": "Nothing specular (glass of IOR 1 that absorbs nothing left out)"}.get(view)
     if view == "impostors":
         words = ("Glass near other geometry" + (" and mirrors" if "mirror" in kinds else "") if "glass" in kinds
                  else "A concave mirror, no glass")

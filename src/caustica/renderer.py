@@ -11,13 +11,13 @@ from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, 
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
 from .passes.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
-from .passes.base import Frame
+from .passes.base import Frame, frame_setting
 from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import check_antialias, resolved
 from .passes.subpixel import check_multisampling
 from .scene import Scene, rules
-from .scene.scene import check_scene, recentred
+from .scene.scene import check_scene, recentred, without_invisible_glass
 from .techniques.base import check_spp, get_technique
 
 
@@ -182,6 +182,8 @@ class Renderer:
         ``channels``: what the frame starts with (the caller's, not lent to it)."""
         k = supersampling_factor(spp)
         width, height = camera.size
+        if frame_setting(parameters, "drop_invisible_glass"):  # the passes never see it (labels still do)
+            scene = without_invisible_glass(scene)
         frame = Frame(self.device, scene, camera.with_size(width * k, height * k), parameters,
                       channels=dict(channels or {}), pass_ms={} if self.profile_passes else None)
         try:

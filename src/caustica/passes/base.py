@@ -63,6 +63,12 @@ class Pass:
         raise NotImplementedError
 
 
+def frame_setting(params, name: str):
+    """A setting of a frame's parameters (the view's of a composite's pair, which auto sets), or None."""
+    first = params[0] if isinstance(params, tuple) and params else params
+    return getattr(first, name, None)
+
+
 class PassWiringError(RuntimeError):
     """A pass reads a channel nobody wrote, or fails to write what it declares."""
 

@@ -30,6 +30,7 @@ from ..progress import detail
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
+from .base import frame_setting
 
 SUN_SAMPLES = 16384  # stratified samples of the bright part (its integral to about 1e-4 on sky-checker's sun)
 SUN_SPREAD = 10.0  # degrees: the largest angular radius (from the mean resultant length) of a sun
@@ -197,17 +198,10 @@ def lobe_settings(params) -> tuple[int, int]:
     """(lobes, texels a side of each map) a frame's parameters ask for: the ``environment_lobes`` and
     ``environment_lobe_size`` attributes auto sets on the planned technique's parameters (on the view's of a
     composite's pair), else (0, LOBE_MAP_SIZE)."""
-    count = int(_frame_setting(params, "environment_lobes") or 0)
+    count = int(frame_setting(params, "environment_lobes") or 0)
     if not 0 <= count <= MAX_LOBES:
         raise ValueError(f"environment_lobes must be 0 to {MAX_LOBES} (got {count})")
-    return count, int(_frame_setting(params, "environment_lobe_size") or LOBE_MAP_SIZE)
-
-
-def _frame_setting(params, name: str):
-    """An attribute auto sets on the planned technique's parameters (on the view's of a composite's pair), or
-    None."""
-    first = params[0] if isinstance(params, tuple) and params else params
-    return getattr(first, name, None)
+    return count, int(frame_setting(params, "environment_lobe_size") or LOBE_MAP_SIZE)
 
 
 @dataclass
@@ -427,7 +421,7 @@ class SceneBake:
 def bake_settings(params) -> int:
     """Texels a side of the floor's light map the frame's parameters ask for (``environment_bake``, which auto
     sets on the planned technique's parameters); 0: none."""
-    size = int(_frame_setting(params, "environment_bake") or 0)
+    size = int(frame_setting(params, "environment_bake") or 0)
     if not 0 <= size <= MAX_BAKE_SIZE:
         raise ValueError(f"environment_bake must be 0 to {MAX_BAKE_SIZE} texels (got {size})")
     return size

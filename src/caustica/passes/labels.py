@@ -36,11 +36,14 @@ class LabelSurfaces(Pass):
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES", "light_samples": None,
                 "shadow_maps": None}
 
-    def __init__(self, supersampling: int, materials: list, caustic: bool = False, coverage: bool = False):
+    def __init__(self, supersampling: int, materials: list, caustic: bool = False, coverage: bool = False,
+                 objects: list | None = None):
         """``supersampling``: the frame's k (its camera is k times the output size); ``materials``: the
         material index of each object (caustica.labels.material_indices); ``caustic``, ``coverage``:
-        write those buffers too."""
+        write those buffers too; ``objects``: the scene's, which the labels describe (None: the frame's; a
+        frame that leaves out invisible glass still labels it)."""
         self.k, self.materials, self.caustic, self.coverage = int(supersampling), list(materials), caustic, coverage
+        self.objects = objects
         self.writes = (SURFACE, IDS) + ((CAUSTIC,) if caustic else ()) + ((COVERAGE,) if coverage else ())
 
     def run(self, frame: Frame) -> None:
@@ -52,7 +55,8 @@ class LabelSurfaces(Pass):
         # One variant for the diffuse receivers, which look the caustics up, one for the rest.
         programs = {receiver: self._program(frame, camera, with_caustics, receiver)
                     for receiver in ((False, True) if with_caustics else (False,))}
-        draw_first_surfaces(frame, camera, targets, programs, self.materials, None if caustic_maps is not None else tiles)
+        draw_first_surfaces(frame, camera, targets, programs, self.materials, None if caustic_maps is not None else tiles,
+                            objects=self.objects)
         frame.write(SURFACE.name, targets[0])
         frame.write(IDS.name, targets[1])
         if self.caustic:
@@ -85,7 +89,7 @@ class LabelSurfaces(Pass):
         program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/labels.frag", {"COVERAGE_ONLY": 1})
         with _drawing(frame, frame.camera.size, [target]):
             clip_from_world = frame.camera.clip_from_world()
-            for obj in frame.scene.objects:
+            for obj in frame.scene.objects if self.objects is None else self.objects:
                 with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):
                     draw_objects(frame, program, [obj], clip_from_world)
         return target
@@ -100,14 +104,14 @@ def label_program(frame: Frame, camera, defines: dict | None = None):
 
 
 def draw_first_surfaces(frame: Frame, camera, targets, programs: dict, materials: list, tiles=None,
-                        samples: int = 1) -> None:
+                        samples: int = 1, objects: list | None = None) -> None:
     """Every object's first surface seen by ``camera`` into ``targets`` (labels.frag's surface, ids and
     caustic; ``samples`` per pixel): ``programs`` maps receiver (a diffuse object looking the caustics up,
     key True when given) to its program; ``materials`` the objects' material indices; ``tiles`` the caustic
-    tiles bound per receiver (None: caustic maps or none)."""
+    tiles bound per receiver (None: caustic maps or none); ``objects`` (None: the frame scene's)."""
     clip_from_world = camera.clip_from_world()
     with _drawing(frame, camera.size, targets, samples):
-        for index, obj in enumerate(frame.scene.objects):
+        for index, obj in enumerate(frame.scene.objects if objects is None else objects):
             receiver = True in programs and obj.material.kind == "diffuse"
             program = programs[receiver]
             set_uniform(program, "object_id", float(index + 1))
@@ -152,4 +156,4 @@ def label_pass(scene, names, supersampling: int) -> LabelSurfaces:
     from ..labels import material_indices
 
     return LabelSurfaces(supersampling, material_indices(scene), caustic="caustic" in names,
-                         coverage="alpha" in names and supersampling > 1)
+                         coverage="alpha" in names and supersampling > 1, objects=list(scene.objects))

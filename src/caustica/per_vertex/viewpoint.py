@@ -70,6 +70,22 @@ def closest_point_to_lines(origins: np.ndarray, directions: np.ndarray) -> np.nd
     return np.linalg.lstsq(a, b, rcond=None)[0]
 
 
+def viewpoint_parallax(lines: Lines) -> float:
+    """The mean angle, in degrees, between each line and the direction from the lines' least-squares viewpoint E
+    (3.2) to its exact hit (0 for a line that escapes: any viewpoint sees the environment along it): how far from
+    E's view the reflection is, which a map rendered from E warps back only at the vertices (exact at every
+    vertex, 3.4; occlusion and the texture between them come from E, section 6). 0 where the lines meet in one
+    point (a flat mirror); largest where they pass apart (cylinders and saddles, whose two principal curvatures
+    differ); 0 for no lines."""
+    finite = lines.finite
+    if not finite.any():
+        return 0.0
+    position = closest_point_to_lines(lines.origins, lines.directions)
+    sight = normalize(lines.hit_points[finite] - position)
+    cosine = np.clip(np.einsum("ij,ij->i", sight, lines.directions[finite]), -1.0, 1.0)
+    return float(np.degrees(np.arccos(cosine)).sum() / len(finite))
+
+
 def frustum_clip_from_view(left: float, right: float, bottom: float, top: float, near: float, far: float) -> np.ndarray:
     """General (off-axis) OpenGL perspective projection, glFrustum's matrix: the near-plane
     rectangle [left, right] x [bottom, top] at distance ``near``."""

@@ -47,6 +47,9 @@ class Mirror:
         self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
 
 
+INVISIBLE_TOLERANCE = 1e-6  # an IOR and a transmittance this close to 1 count as air's (Glass.invisible)
+
+
 @dataclass
 class Glass:
     """Smooth dielectric in air.
@@ -87,6 +90,13 @@ class Glass:
                 raise SceneError(f"abbe {self.abbe:g} spreads ior {self.ior:g} to per-channel IORs "
                                  f"{short(np.round(channels, 3))} outside [{low:g}, {high:g}]; use a larger abbe "
                                  "number (crown glass is about 60)")
+
+    @property
+    def invisible(self) -> bool:
+        """IOR 1 in every channel and no absorption: the glass neither reflects (F = 0), bends nor tints light,
+        so a path tracer renders it as the air around it (Hu and Qin fig. 18's refractors of index 1)."""
+        return bool(np.all(np.abs(self.ior_rgb - 1.0) <= INVISIBLE_TOLERANCE)
+                    and np.all(self.absorption_color >= 1.0 - INVISIBLE_TOLERANCE))
 
     @property
     def absorption_coefficient(self) -> np.ndarray:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..cache import kept_on
 from ..errors import SceneError, closest_name, short
 from . import rules
 from .camera import Camera
@@ -183,6 +184,27 @@ def recentred(scene: Scene) -> tuple[Scene, np.ndarray]:
         return scene, np.zeros(3)
     shift = -np.round(center)
     return (scene.translated(shift), shift) if shift.any() else (scene, shift)
+
+
+def invisible_objects(scene: Scene) -> list[SceneObject]:
+    """The objects of glass that no light can see (:attr:`Glass.invisible`: IOR 1, no absorption)."""
+    return [o for o in scene.objects if o.material.kind == "glass" and o.material.invisible]
+
+
+def without_invisible_glass(scene: Scene) -> Scene:
+    """``scene`` less its :func:`invisible_objects`, or ``scene`` itself where it has none: what a frame renders
+    with ``drop_invisible_glass`` (auto plans it). Kept on the scene while its objects and their invisibility stay,
+    so that what passes and rays cache on the scene holds across frames; camera, lights and environment are the
+    scene's of the call."""
+    hidden = {id(o) for o in invisible_objects(scene)}
+    if not hidden:
+        return scene
+    key = tuple((id(o), id(o) in hidden) for o in scene.objects)
+    kept = kept_on(scene, "_visible_cache", key,
+                   lambda: dataclasses.replace(scene, objects=[o for o in scene.objects if id(o) not in hidden]))
+    for name in ("camera", "lights", "environment", "intensity_scale", "name"):
+        setattr(kept, name, getattr(scene, name))
+    return kept
 
 
 def _light_moved(light, offset: np.ndarray):

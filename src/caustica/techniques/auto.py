@@ -8,7 +8,9 @@ technique each part needs; docs/auto.md gives the table and the measurements beh
 - glass alone in the environment: ``depth-search`` with internal bounces (Hu and Qin 2.1);
 - mirrors without glass: ``per-vertex`` (Kakimoto et al.: exact at every vertex, and exact for a
   flat mirror, whose least-squares viewpoint is its mirror image); a concave mirror, which focuses
-  the reflected rays, takes ``impostors`` instead;
+  the reflected rays, and one whose rays pass far from one viewpoint (a cylinder, a saddle: PARALLAX)
+  take ``impostors`` instead, unless a mirror shows another (NESTED);
+- glass of IOR 1 that absorbs nothing: left out (``drop_invisible_glass``), the plan made without it;
 - nothing specular: ``env-map`` (diffuse shading with shadow maps);
 - lights whose light reaches diffuse receivers through or off glass and mirrors: ``caustic-mapping``
   (Shah et al.) is composed with the view technique, or ``transport-table`` (Iwasaki et al.) where
@@ -36,6 +38,7 @@ from ..errors import TechniqueError
 from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
                                         lobe_occlusion, scene_floor)
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
+from ..scene.scene import invisible_objects, without_invisible_glass
 from .base import Params, Technique, get_technique, param
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels, table photons)
@@ -118,6 +121,25 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
 
         raise TechniqueError(f"unknown quality {quality!r}{closest_name(str(quality), QUALITY)}; "
                              f"use one of {', '.join(QUALITY)}")
+    if not invisible_objects(scene):
+        return _plan_visible(scene, quality, frame_size)
+    visible = without_invisible_glass(scene)
+    chosen = _plan_visible(visible, quality, frame_size)
+    chosen.params["drop_invisible_glass"] = True
+    planned = {id(o): entry for o, entry in zip(visible.objects, chosen.objects)}
+    chosen.objects = [planned.get(id(o)) or PlanEntry(o.name, o.material.kind, "left out", INVISIBLE)
+                      for o in scene.objects]
+    return chosen
+
+
+INVISIBLE = ("IOR 1 and no absorption: it neither reflects (Fresnel 0), bends nor tints light, so a path tracer "
+             "renders it as air (Hu and Qin fig. 18); left out of every pass (drop_invisible_glass): no glass "
+             "pixels, no shadow or caustic, hides nothing from the other objects' impostors, light maps and "
+             "shadow maps, and the plan is made for the scene without it")
+
+
+def _plan_visible(scene, quality: str, frame_size) -> Plan:
+    """:func:`plan` for a scene without invisible glass."""
     bounces, impostor_size, map_size, shadow_size, table_photons = QUALITY[quality]
     objects = list(scene.objects)
     glass = [o for o in objects if o.material.kind == "glass"]
@@ -145,12 +167,11 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
                      f"polyhedra), {bounces} internal "
                      f"bounce{'' if bounces == 1 else 's'}")
         why_mirror = ""
-    elif hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:
+    elif failing := _per_vertex_fails(mirrors, scene):
         view = "impostors"
         view_params.update(impostor_size=impostor_size, merge_planes=True)
-        why_mirror = (f"a concave mirror ({', '.join(hollow)}) focuses the reflected rays, where per-vertex's least-squares "
-                      "viewpoint fails: each pixel's reflected ray searches the nearby objects as impostors "
-                      "(Hu and Qin 2.2)")
+        why_mirror = (f"{failing}, where per-vertex's least-squares viewpoint fails: each pixel's reflected ray "
+                      "searches the nearby objects as impostors (Hu and Qin 2.2)")
         why_glass = ""
     elif mirrors:
         view = "per-vertex"
@@ -369,6 +390,59 @@ def _lights(lit: list, sun) -> str:
 
 
 CONCAVE = 0.25  # a mirror is concave when this fraction of its surface bends towards the camera
+# Per-vertex pays while its least-squares viewpoint sees the mirror's hits within this many degrees of the reflected
+# rays on average (per_vertex.viewpoint_parallax): mirror-flat 0, door-mirror 0.04 (a street far from a small
+# mirror, whose houses outnumber max_impostors), where it is ahead of impostors; from mirror-convex's 0.47 up
+# (mirror-patches 0.77 and 0.92, cylinder-mirror 3.3, saddle-mirror 10, nine held-out mirrors 0.45 to 8.5)
+# impostors is 0.6 to 7.5 dB ahead, both with auto's light maps, against the completed reference (docs/auto.md,
+# "Mirrors far from one viewpoint").
+PARALLAX = 0.3
+NESTED = 0.01  # a mirror whose vertices' rays meet another mirror this often keeps per-vertex (Kakimoto et al. 4.4)
+
+
+def _per_vertex_fails(mirrors: list, scene) -> str:
+    """Why per-vertex would fail on these mirrors, in words, or '' where it serves: a concave mirror
+    (:func:`_concave`) focuses the reflected rays; a mirror whose rays pass far from one viewpoint (above
+    PARALLAX: :func:`_mirror_rays`) is seen from it with the nearby objects shifted, unless one of the mirrors
+    shows another (NESTED): per-vertex renders a mirror in a mirror exact at its vertices level by level (4.4),
+    where impostors' recursive textures are distorted (Hu and Qin 2.2.1); mirror-in-mirror, 0.53 degrees, 0.3 dB
+    ahead with per-vertex."""
+    if hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:
+        return f"a concave mirror ({', '.join(hollow)}) focuses the reflected rays"
+    rays = _mirror_rays(mirrors, scene)
+    if any(nested >= NESTED for _, nested in rays):
+        return ""
+    astray = {o.name: angle for o, (angle, _) in zip(mirrors, rays) if angle > PARALLAX}
+    if astray:
+        angles = ", ".join(f"{name} {angle:.2f}" for name, angle in astray.items())
+        return (f"the reflected rays pass far from one viewpoint ({angles} degrees, the mean angle between a "
+                f"vertex's ray and its hit seen from the least-squares viewpoint, above {PARALLAX:g}: Kakimoto et "
+                "al. 3.2, 6)")
+    return ""
+
+
+def _mirror_rays(mirrors: list, scene) -> list[tuple[float, float]]:
+    """Per mirror, (its :func:`~caustica.per_vertex.viewpoint.viewpoint_parallax`, the share of its vertices' rays
+    that meet another mirror): the eye's rays reflected at its vertices (as per-vertex issues them, Kakimoto et
+    al. 3.1), traced by Embree. Cached on the scene by its state and camera."""
+    from ..per_vertex.rays import reflection_rays, trace_lines
+    from ..per_vertex.viewpoint import viewpoint_parallax
+    from ..raytrace.embree_scene import ray_scene_for
+
+    def traced() -> list[tuple[float, float]]:
+        eye, ray_scene = np.asarray(scene.camera.position, np.float64), ray_scene_for(scene)
+        mirror = np.array([o.material.kind == "mirror" for o in scene.objects] + [False])  # [-1]: no hit
+        out = []
+        for obj in mirrors:
+            mesh = obj.world_mesh()
+            lines, hits = trace_lines(ray_scene, *reflection_rays(eye, mesh.vertices.astype(np.float64),
+                                                                  mesh.normals.astype(np.float64)))
+            index = np.where(hits.hit, hits.object_index, -1)
+            out.append((viewpoint_parallax(lines), float(mirror[index].mean()) if len(index) else 0.0))
+        return out
+
+    key = (scene_state_key(scene), scene.camera._state(), tuple(id(o) for o in mirrors))
+    return kept_on(scene, "_mirror_rays_cache", key, traced)
 
 
 def _concave(obj, camera) -> bool:
@@ -451,7 +525,7 @@ class Auto(Technique):
         # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
         # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
         lobes = params.environment_lobes if "environment_lobes" in given or (
-            not bake and _occluded_ambient(scene)) else 0
+            not bake and _occluded_ambient(without_invisible_glass(scene))) else 0
         for name, value in (("environment_bake", bake), ("environment_lobes", lobes)):
             for half in values if isinstance(values, tuple) else (values,):
                 setattr(half, name, value if half is view_values else 0)

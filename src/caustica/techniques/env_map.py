@@ -35,6 +35,9 @@ class ShadowedParams(Params):
     environment_lobes: int = param(0, range=(0, MAX_LOBES), special={0: "none"},
                                    help="the environment's light on diffuse surfaces as this many shadowed strata "
                                         "(docs/environment-light.md); light maps, where given, take their place")
+    drop_invisible_glass: bool = param(False, help="leave out glass of IOR 1 that absorbs nothing, which neither "
+                                                   "reflects, bends nor tints light (a path tracer renders it as air): "
+                                                   "no glass pixel, shadow, caustic or impostor of it (what auto plans)")
 
 
 class EnvMap(RasterTechnique):
