@@ -413,3 +413,32 @@ def test_texture_units_of_the_shading_do_not_overlap():
     used = [unit for units in ranges.values() for unit in units]
     assert len(used) == len(set(used)), ranges
     assert max(used) < 80
+
+
+def test_flat_patches_are_looked_up_at_prect_with_the_full_search_s_hits(renderer, monkeypatch):
+    """A flat patch lies on its rectangle, so Prect is its hit (Hu and Qin 2.2.1): its lookup skips the seeds and
+    the steps (``Impostor.flat``), and lands where the full search does; a slab (a box) and a ball keep it."""
+    from dataclasses import replace
+
+    import caustica.passes.impostors as impostors
+
+    center = np.zeros(3)
+    assert impostors.make_impostor(center, _tiled_wall(1)[0], 1, 64).flat
+    assert not impostors.make_impostor(center, _box(), 1, 64).flat
+    assert not impostors.make_impostor(center, _ball(), 1, 64).flat
+    scene = _scene([_ball(1.5, (0.0, 0.0, 0.0)), *_tiled_wall()])
+    scene.camera = Camera(position=[0.0, 0.3, 3.5], look_at=[0.0, 0.0, 0.0], fov_y=30.0, size=(64, 64))
+    params = dict(write_hits=True, merge_planes=True)
+    flat_hits, flat_valid = renderer.exit_directions(scene, "impostors", **params)
+    flat_image = renderer.render(scene, "impostors", merge_planes=True)
+    made = impostors.make_impostor
+    built = []
+    monkeypatch.setattr(impostors, "make_impostor", lambda *a, **k: built.append(1) or replace(made(*a, **k), flat=False))
+    from caustica.renderer import Renderer
+
+    with Renderer() as fresh:  # the session renderer keeps the flat rectangles cached
+        full_hits, full_valid = fresh.exit_directions(scene, "impostors", **params)
+        full_image = fresh.render(scene, "impostors", merge_planes=True)
+    assert built and np.array_equal(flat_valid, full_valid) and flat_valid.sum() > 1000
+    assert np.abs(flat_hits - full_hits)[flat_valid].max() < 1e-4
+    np.testing.assert_allclose(flat_image, full_image, atol=1e-3)

@@ -68,6 +68,7 @@ class Impostor:
     texture: object = None  # the reflector's atlas, rgba32f: radiance rgb, depth from origin along axis (0: empty)
     cell: tuple[int, int] = (0, 0)  # texel offset of this rectangle's square in the atlas
     others: tuple = ()  # world indices of the coplanar patches drawn into this rectangle with ``index`` (merge_planes)
+    flat: bool = False  # a flat patch (no thickness) lying on the rectangle: Prect is its hit (2.2.1)
 
     def texel_area(self, resolution: int) -> float:
         """Area on the rectangle of one texel of a ``resolution``-square texture over it (scene units squared)."""
@@ -190,7 +191,7 @@ def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect
     slab = ((depth - 0.01 * radius, depth + thickness + 0.01 * radius) if plane is not None
             else (depth - radius, depth + radius))
     return Impostor(index, rect_center, axis, half_u, half_v, radius, origin, slab, camera, plane is not None,
-                    others=tuple(i for i, _ in merged))
+                    others=tuple(i for i, _ in merged), flat=plane is not None and thickness == 0.0)
 
 
 def pack_texture(frame: Frame, color, depth, camera, origin, axis, radial: bool = False, into=None):
@@ -366,11 +367,11 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
     clips = np.tile(np.eye(4, dtype="f4"), (n, 1, 1))
     vec = {name: np.zeros((n, 3), "f4") for name in ("origin", "axis", "center")}
     slab, radius = np.zeros((n, 2), "f4"), np.ones(n, "f4")
-    cells = np.zeros((n, 2), "i4")
+    cells, flat = np.zeros((n, 2), "i4"), np.zeros(n, "i4")
     for k, imp in enumerate(group):
         clips[k] = imp.camera.clip_from_world().T
         vec["origin"][k], vec["axis"][k], vec["center"][k] = imp.origin, imp.axis, imp.center
-        slab[k], radius[k], cells[k] = imp.slab, imp.radius, imp.cell
+        slab[k], radius[k], cells[k], flat[k] = imp.slab, imp.radius, imp.cell, imp.flat
     group[0].texture.use(IMPOSTOR_UNIT)
     set_uniform(program, "impostor_atlas", IMPOSTOR_UNIT)
     set_uniform(program, "impostor_size", int(group[0].camera.size[0]))
@@ -380,6 +381,7 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
         write_uniform_array(program, f"impostor_{name}", values)
     write_uniform_array(program, "impostor_slab", slab)
     write_uniform_array(program, "impostor_radius", radius)
+    write_uniform_array(program, "impostor_flat", flat)
 
 
 def impostor_defines(frame: Frame) -> dict:

@@ -503,7 +503,8 @@ def exit_shares(scene, camera, exits: int) -> np.ndarray:
     """(exits,) the share of the light refracted into glass at the camera's glass pixels that leaves it at the
     first, second, ... exit (green channel's IOR; 1 - F at each exit, the reflected F going on inside, TIR
     reflecting all), averaged over ``camera``'s pixels whose primary ray meets glass: what each internal bounce
-    of depth-search's extension adds to the image. Zeros where no pixel sees glass."""
+    of depth-search's extension adds to the image. NaN where no pixel sees glass; zeros where the refracted
+    light meets no glass surface again (an open sheet such as a water surface: it lands on what lies below)."""
     o, d = (a[:, :, 0].reshape(-1, 3) for a in camera.primary_rays())
     ray_scene = ray_scene_for(scene)
     materials = Materials.of(scene)
@@ -513,7 +514,7 @@ def exit_shares(scene, camera, exits: int) -> np.ndarray:
     shares = np.zeros(exits)
     count = int(glass.sum())
     if not count:
-        return shares
+        return np.full(exits, np.nan)
     entry = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[hits.object_index[glass]])
     weight = np.where(entry.tir, 0.0, 1.0)
     o, d = hits.position[glass], entry.refracted

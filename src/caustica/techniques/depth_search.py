@@ -21,7 +21,8 @@ refractors (outward normal and eye distance). For each glass fragment:
    fits the thickness d_V at P1 and step by secants.
 4. N2 from the front or back normal buffer at P2 (2.1.4), T2 = refract(T1, N2),
    environment lookup (fig. 10c); where no buffer holds P2, T2 = T1.
-5. Ours: ``internal_bounces`` follows the light reflected inside at each exit.
+5. Ours: ``internal_bounces`` follows the light reflected inside at each exit; on dispersive glass
+   red and blue reuse green's lookups there (``shared_bounce_lookups``), their own at the first exit.
 6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a convex
    polyhedron of at most 16 planes (``passes/convex_exits.py``), the depth search elsewhere.
 
@@ -76,6 +77,9 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                      "or the paper's depth-step")
     internal_bounces: int = param(0, range=(0, MAX_INTERNAL_BOUNCES),
                                   help="our extension: internal reflections followed to further exits (0: the paper)")
+    shared_bounce_lookups: bool = param(True, help="ours, for dispersive glass with internal_bounces: red and blue "
+                                                   "reuse green's lookups at the bounced exits (False: each channel "
+                                                   "its own, 3 lookups a bounce)")
     convex_exits: bool = param(False, help="ours: exact exits from analytic spheres and convex polyhedra of at most "
                                            "16 planes, every bounce (False: the depth search for all glass; auto sets it)")
 
@@ -100,6 +104,7 @@ class DepthSearch(RasterTechnique):
 
         nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
         defines = {**nearby.defines, "INTERNAL_BOUNCES": params.internal_bounces,
+                   "SHARED_BOUNCES": int(params.shared_bounce_lookups),
                    "ASSUME_BACK_FIRST": int(params.assume_back_first),
                    "BACK_SECANT": int(params.back_iteration != "depth-step"),
                    "BACK_SPHERE_START": int(params.back_iteration == "sphere-secant")}

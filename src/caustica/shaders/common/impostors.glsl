@@ -80,6 +80,7 @@ uniform vec3 impostor_axis[MAX_IMPOSTORS];                // w: reflector centre
 uniform vec3 impostor_center[MAX_IMPOSTORS];              // rectangle centre (its plane is perpendicular to w)
 uniform vec2 impostor_slab[MAX_IMPOSTORS];                // object's depth range from O along w
 uniform float impostor_radius[MAX_IMPOSTORS];             // object's bounding radius
+uniform int impostor_flat[MAX_IMPOSTORS];                 // 1: a flat patch on its rectangle, exact at Prect (2.2.1)
 uniform sampler2D impostor_atlas;                         // rgb radiance, a depth from O along w (0: empty)
 uniform ivec2 impostor_cell[MAX_IMPOSTORS];               // texel offset of each rectangle's square in the atlas
 uniform int impostor_size;                                // texels a side of each square
@@ -134,12 +135,15 @@ bool impostor_prect(int k, vec3 o, vec3 d, out float t, out vec2 pixel) {
 // One rectangle, corrected (IMPOSTOR_ITERATIONS > 0; uncorrected lookups stop at Prect in
 // nearby_radiance): Prect, the initial-point rule (2.2.2), the iterative lookup (fig. 16).
 // (t, pixel, s) is always the current point along the ray, its texel position and its texel.
+// A flat patch lies on its rectangle, so Prect is its hit (2.2.1: a plane's texture is exact):
+// neither seeds nor steps (their loops end at once for every pixel).
 bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit) {
     float t;
     vec2 pixel;
     if (!impostor_prect(k, o, d, t, pixel)) return false;
     float dw = dot(d, impostor_axis[k]);
     float o_depth = impostor_depth(k, o);
+    bool curved = impostor_flat[k] == 0;
     vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.
@@ -148,7 +152,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
         float t0 = (impostor_slab[k].x - o_depth) / dw, t1 = (impostor_slab[k].y - o_depth) / dw;
         float lo = max(min(t0, t1), 0.0), hi = max(t0, t1);
         float best_gap = s.a > 0.0 ? abs(o_depth + t * dw - s.a) : 1e30;
-        for (int j = 0; j < IMPOSTOR_SAMPLES && hi > lo; ++j) {
+        for (int j = 0; j < IMPOSTOR_SAMPLES && hi > lo && curved; ++j) {
             float tj = mix(lo, hi, (float(j) + 0.5) / float(IMPOSTOR_SAMPLES));
             vec2 pj;
             vec4 sj = impostor_texel(k, o + tj * d, pj);
@@ -164,7 +168,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
     float last = -1.0;
     vec2 last_pixel = pixel;
     vec4 last_s = s;
-    for (int i = 0; i < IMPOSTOR_ITERATIONS; ++i) {
+    for (int i = 0; i < IMPOSTOR_ITERATIONS && curved; ++i) {
         if (s.a <= 0.0) break;
         last = t; last_pixel = pixel; last_s = s;
         float next = (s.a - o_depth) / dw;

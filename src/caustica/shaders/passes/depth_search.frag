@@ -6,6 +6,8 @@
 // texture (2.1.4); T2 = refract(T1, N2) per RGB channel; environment lookup.
 // Geometry (P2, N2) follows the green channel's IOR; each channel refracts with its own IOR
 // at every interface (dispersion). TIR at the last exit reflects once (at the entry: reflect only).
+// Ours, SHARED_BOUNCES: red and blue look up only their first exit, where the channels part most,
+// and reuse green's lookups at the bounced exits (weighted by their own Fresnel terms).
 // Our extension, not in the paper: INTERNAL_BOUNCES > 0 follows the light reflected inside at
 // each exit (weight F) to the next exit, found against the nearer of the two buffers.
 // Ours too: CONVEX_EXITS computes every exit exactly where the glass is an analytic sphere or a
@@ -14,7 +16,7 @@
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
 // Host defines: ShadeSurfaces' own (MAX_LIGHTS, CAUSTICS, SURFACE_KIND, DISPERSION);
-// INTERNAL_BOUNCES (0: the paper's two interfaces), BACK_SECANT (0/1), BACK_SPHERE_START (0/1),
+// INTERNAL_BOUNCES (0: the paper's two interfaces), SHARED_BOUNCES (0/1), BACK_SECANT (0/1), BACK_SPHERE_START (0/1),
 // CONVEX_EXITS (0/1/2), GLASS_CONTACT (0/1: contact_plane, contact_tolerance), ASSUME_BACK_FIRST (0/1; compile-time, since
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
@@ -35,6 +37,9 @@
 #endif
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
+#endif
+#ifndef SHARED_BOUNCES
+#define SHARED_BOUNCES 1  // ours, with DISPERSION: red and blue reuse green's lookups at the bounced exits (0: their own)
 #endif
 #ifndef GLASS_CONTACT
 #define GLASS_CONTACT 0  // ours: exits through a face lying on the receiver the glass stands on land on it (passes/glass_contact.py)
@@ -210,11 +215,17 @@ vec3 exit_normal[MAX_EXITS];
 float exit_length[MAX_EXITS];
 int exit_count = 0;
 
+// What each exit's lookup saw on the last inside_radiance call: the green channel's, which the
+// other channels reuse at their bounced exits (SHARED_BOUNCES).
+vec3 exit_seen[MAX_EXITS];
+
 // Light leaving the glass for refractive index `ior` along the exits (the geometry is the
 // green channel's): d is T1 for this ior. At each exit the transmitted share (1 - F) leaves
 // (2.1.4) and the reflected share F goes on inside to the next exit (our extension; the paper
 // stops at the first). TIR at the last exit: the light leaves in the reflected direction.
-vec3 inside_radiance(vec3 d, float ior) {
+// Exits k >= own_exits (a constant at each call) reuse exit_seen[k] instead of their own lookup,
+// with this ior's Fresnel weights.
+vec3 inside_radiance(vec3 d, float ior, int own_exits) {
     vec3 radiance = vec3(0.0);
     float weight = 1.0;
     // A fixed trip count (unrolled, constant indices); exits past exit_count add nothing.
@@ -233,7 +244,8 @@ vec3 inside_radiance(vec3 d, float ior) {
         bool contact = abs(off_plane) < contact_tolerance && dot(nk, contact_plane.xyz) < -0.5;
         if (contact) { leaving = 1.0; f = 0.0; from -= off_plane * contact_plane.xyz; along = nk; }
 #endif
-        vec3 seen = nearby_cached(from, along);
+        vec3 seen = k < own_exits ? nearby_cached(from, along) : exit_seen[k];
+        exit_seen[k] = seen;
         if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * exit_length[k]) * seen;
         weight *= f;
         d = r;
@@ -357,6 +369,17 @@ void convex_exits(vec3 p1, vec3 t1, float ior) {
 }
 #endif
 
+#if DISPERSION
+// Channel c of a dispersive refractor: Snell and Fresnel with its own IOR at every interface; its
+// exits k >= own_exits reuse the last lookups (inside_radiance).
+float channel_radiance(vec3 v, vec3 n, vec3 reflected, int c, int own_exits) {
+    float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
+    vec3 t1c = refract_direction(v, n, 1.0 / ior_rgb[c]);
+    float inside = inside_radiance(t1c, ior_rgb[c], own_exits)[c];
+    return dot(t1c, t1c) == 0.0 ? reflected[c] : f1 * reflected[c] + (1.0 - f1) * inside;
+}
+#endif
+
 vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     vec3 reflected_dir = reflect_direction(v, n);
     vec3 reflected = nearby_reflection(world_position, reflected_dir);
@@ -376,15 +399,14 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     // Per channel Snell and Fresnel at every interface (dispersion), or one IOR for all.
     vec3 result;
 #if DISPERSION
-    for (int c = 0; c < 3; ++c) {
-        float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
-        vec3 t1c = refract_direction(v, n, 1.0 / ior_rgb[c]);
-        float inside = inside_radiance(t1c, ior_rgb[c])[c];
-        result[c] = dot(t1c, t1c) == 0.0 ? reflected[c] : f1 * reflected[c] + (1.0 - f1) * inside;
-    }
+    // Green first: with SHARED_BOUNCES red and blue look up their first exit along their own
+    // direction and take green's lookups at the bounced exits.
+    result.g = channel_radiance(v, n, reflected, 1, MAX_EXITS);
+    result.r = channel_radiance(v, n, reflected, 0, SHARED_BOUNCES != 0 ? 1 : MAX_EXITS);
+    result.b = channel_radiance(v, n, reflected, 2, SHARED_BOUNCES != 0 ? 1 : MAX_EXITS);
 #else
     float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior);
-    result = f1 * reflected + (1.0 - f1) * inside_radiance(t1, ior);
+    result = f1 * reflected + (1.0 - f1) * inside_radiance(t1, ior, MAX_EXITS);
 #endif
     vec3 t2 = refract_direction(t1, -exit_normal[0], ior);
     exit_dir = nearby_output(vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -exit_normal[0]), 1.0));
