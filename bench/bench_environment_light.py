@@ -11,8 +11,10 @@ where a lobe is blocked, and, auto now, the floor's light map (raytrace/environm
 lobes; ``plain`` gives the cost floor (with the sun and no lobes, as it renders now). The light map's bake
 time (once per scene state, not in the frame times) is printed per scene.
 ``tinted_scenes`` adds two scenes under the sky alone with coloured glass (``--no-tinted`` leaves them out),
-``resting_scenes`` two of clear glass standing on the floor under a point light; ``--scenes a,b`` picks some;
-``--exact`` gives exact's row per scene instead (its time in the ms column).
+``resting_scenes`` two of clear glass standing on the floor under a point light, ``convex_scenes`` two more convex
+shapes (held out); ``--scenes a,b`` picks some; ``--exact`` gives exact's row per scene instead (its time in the ms
+column); ``--completed`` adds the glass and overall PSNR against the reference completed with the lights' caustics
+seen through glass, which Mitsuba's composite lacks.
 
     .venv/bin/python bench/bench_environment_light.py [--size 128x96] [--reference-spp 1024] [--seeds 2]
     .venv/bin/python bench/bench_environment_light.py --cost-rounds 5  # the cost alone, in blocks
@@ -29,10 +31,12 @@ from unittest import mock
 import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from bench_auto import completed_reference  # noqa: E402
 from bench_exact_caustics import print_table  # noqa: E402
 from bench_exact_environment import mixed_scene, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import fastest_in_blocks, timed_render  # noqa: E402
+from caustica.metrics.images import psnr_linear  # noqa: E402
 from caustica.passes import environment_lights, lights  # noqa: E402
 from caustica.passes.environment_lights import environment_sun  # noqa: E402
 from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: E402
@@ -51,6 +55,7 @@ def scenes(size, tinted: bool = True):
     if tinted:
         yield from tinted_scenes(size)
     yield from resting_scenes(size)
+    yield from convex_scenes(size)
 
 
 def resting_scenes(size):
@@ -68,6 +73,25 @@ def resting_scenes(size):
     light = PointLight(position=[-2.0, 4.5, -1.0], intensity=[24.0, 20.0, 16.0])
     yield dataclasses.replace(base, objects=[floor, column, box_object], lights=[light], camera=camera,
                               name="env-cylinder-light")
+
+
+def convex_scenes(size):
+    """Two more convex glass shapes, held out (tuned on nothing) for depth-search's exact exits of any convex mesh
+    (passes/convex_exits.py): env-prism-light, an 8-sided smooth-shaded column (shapes.cylinder r 0.45, h 1.1)
+    standing on the floor turned 10 degrees, from the right, under a cooler point light; env-log, a 32-sided
+    cylinder (r 0.35, length 1.4) lying on the floor along x, touching it along an edge, under the sky alone."""
+    base = mixed_scene(size, True)
+    floor, box_object = base.objects[0], base.objects[2]
+    prism = SceneObject("prism", cylinder(0.45, 1.1, 8), Glass(ior=1.5),
+                        Transform(position=[0.3, 0.55, 0.3], rotation=[0.0, 10.0, 0.0]))
+    camera = Camera(position=[3.4, 1.5, 3.0], look_at=[0.0, 0.45, 0.0], fov_y=42.0, size=size)
+    light = PointLight(position=[2.5, 4.0, 2.0], intensity=[18.0, 20.0, 24.0])
+    yield dataclasses.replace(base, objects=[floor, prism, box_object], lights=[light], camera=camera,
+                              name="env-prism-light")
+    log = SceneObject("log", cylinder(0.35, 1.4, 32), Glass(ior=1.5),
+                      Transform(position=[0.4, 0.35, 0.5], rotation=[0.0, 0.0, 90.0]))
+    camera = Camera(position=[-1.0, 2.2, 4.0], look_at=[0.3, 0.3, 0.3], fov_y=40.0, size=size)
+    yield dataclasses.replace(base, objects=[floor, log, box_object], lights=[], camera=camera, name="env-log")
 
 
 def chosen(all_scenes, names: str):
@@ -141,6 +165,9 @@ def main(argv=None) -> None:
     parser.add_argument("--scenes", default="", help="comma-separated scene names (default: all)")
     parser.add_argument("--exact", action="store_true", help="exact's row per scene (its defaults, --spp) instead of auto's")
     parser.add_argument("--last", type=int, default=0, help="only the last N states (0: all)")
+    parser.add_argument("--completed", action="store_true",
+                        help="also score against the reference completed with exact's caustics of the lights seen "
+                             "through glass (bench_auto.completed_reference): glass and overall PSNR")
     parser.add_argument("--cost-rounds", type=int, default=0,
                         help="only the cost: auto with the floor's light map and with the lobes over plain, "
                              "fastest_in_blocks over this many rounds")
@@ -151,11 +178,17 @@ def main(argv=None) -> None:
     rows = []
     for scene in chosen(scenes(size, not args.no_tinted), args.scenes):
         reference, masks = seeded_reference(scene, args.reference_spp, args.seeds)
+        completed = completed_reference(scene, reference, size, 4) if args.completed else None
+
+        def cells(image):  # the regions' PSNR, then glass and overall against the completed reference
+            extra = "" if completed is None else (f" | {psnr_linear(image, completed, masks['glass']):.1f} / "
+                                                  f"{psnr_linear(image, completed):.1f}")
+            return region_cells(image, reference, masks) + extra
         if args.exact:
             start = time.perf_counter()
             image = Exact().render(scene, scene.camera, ExactParams(), args.spp)
             seconds = time.perf_counter() - start
-            rows.append(f"| {scene.name} | exact (defaults) | {region_cells(image, reference, masks)} | "
+            rows.append(f"| {scene.name} | exact (defaults) | {cells(image)} | "
                         f"{1000 * seconds:.0f} | - |")
             print(rows[-1], file=sys.stderr, flush=True)
             continue
@@ -171,11 +204,12 @@ def main(argv=None) -> None:
             # shadow maps cached with the sun must not serve the state without it.
             with context, Renderer() as renderer:
                 image, ms = timed_render(renderer, scene, "auto", args.spp, args.frames, params)
-            rows.append(f"| {scene.name} | {label} | {region_cells(image, reference, masks)} | {ms:.0f} | "
+            rows.append(f"| {scene.name} | {label} | {cells(image)} | {ms:.0f} | "
                         f"{ms / plain_ms:.2f} |")
             print(rows[-1], file=sys.stderr, flush=True)
     print_table(f"{args.size}, auto {args.spp} spp, Mitsuba {args.reference_spp} spp x {args.seeds} seeds averaged",
-                ["scene", "auto", "glass PSNR", "caustic PSNR", "diffuse PSNR", "PSNR all", "ms", "x plain"], rows)
+                ["scene", "auto", "glass PSNR", "caustic PSNR", "diffuse PSNR", "PSNR all",
+                 *(["completed: glass / all"] if args.completed else []), "ms", "x plain"], rows)
 
 
 def costs(size, tinted: bool, lobes: int, rounds: int, names: str = "") -> None:
