@@ -5,6 +5,8 @@ PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+# Test workers (pytest-xdist): one per core, at most four; PYTEST_WORKERS=0 runs in one process.
+PYTEST_WORKERS ?= auto
 
 .PHONY: demo test bench setup sysdeps clean docs gallery gpu-suite
 
@@ -13,7 +15,7 @@ demo: $(STAMP)
 	$(VENV)/bin/caustica render caustic-sphere -o out/demo.png --explain
 
 test: $(STAMP)
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --maxprocesses=4 $(PYTEST_ARGS)
 
 # The docs site (mkdocs.yml) into site/; --strict: any warning (a broken link, an unreadable docstring) fails.
 docs: $(STAMP)
