@@ -398,8 +398,9 @@ CONCAVE = 0.25  # a mirror is concave when this fraction of its surface bends to
 # rays on average (per_vertex.viewpoint_parallax): mirror-flat 0, door-mirror 0.04 (a street far from a small
 # mirror, whose houses outnumber max_impostors), where it is ahead of impostors; from mirror-convex's 0.47 up
 # (mirror-patches 0.77 and 0.92, cylinder-mirror 3.3, saddle-mirror 10, nine held-out mirrors 0.45 to 8.5)
-# impostors is 0.6 to 7.5 dB ahead, both with auto's light maps, against the completed reference (docs/auto.md,
-# "Mirrors far from one viewpoint").
+# impostors is 0.6 to 7.5 dB ahead, both with auto's light maps, against the completed reference (docs/benchmarks.md,
+# "Mirrors far from one viewpoint, and invisible glass"). No hysteresis: the plan is a function of the scene's state
+# and camera, so that batch workers rendering frames in any order plan alike (docs/determinism.md).
 PARALLAX = 0.3
 NESTED = 0.01  # a mirror whose vertices' rays meet another mirror this often keeps per-vertex (Kakimoto et al. 4.4)
 
