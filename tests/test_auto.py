@@ -259,6 +259,25 @@ def test_budget_options_are_checked(tmp_path, capsys):
     assert "named" in capsys.readouterr().out
 
 
+def test_plan_with_a_budget_names_the_quality_that_fits_and_the_smallest_budget_that_works(tmp_path, monkeypatch,
+                                                                                          capsys):
+    from caustica.cli import main
+
+    monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path))
+    assert main(["plan", "glass-sphere", "--size", "32x24", "--budget", "100000", "--json"]) == 0
+    planned = json.loads(capsys.readouterr().out)
+    assert planned["quality"] == "high"
+    assert any(note.startswith("budget 100000 ms: high, the highest quality that fits") for note in planned["notes"])
+    assert main(["plan", "glass-sphere", "--size", "32x24", "--budget", "0.001"]) == 2
+    err = capsys.readouterr().err
+    assert "below the cheapest plan's" in err and "give a budget of" in err and "Traceback" not in err
+    with Renderer((32, 24)) as renderer:  # the API: the same plan as a render with that budget takes
+        chosen = renderer.plan(caustica.load_scene("glass-sphere"), budget_ms=1e5)
+        renderer.render(caustica.load_scene("glass-sphere"), "auto", budget_ms=1e5)
+        assert (chosen.quality, chosen.technique, chosen.params) == (
+            renderer.last_plan.quality, renderer.last_plan.technique, renderer.last_plan.params)
+
+
 def knot_of_glass():
     """A glass (2, 3) torus knot standing over the table under a light: half the caustic light crosses it four
     times or more (measured 0.49 of the flux beyond two interfaces)."""

@@ -348,6 +348,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--quality", choices=QUALITIES, default="balanced", help="draft, balanced (default) or high")
     plan.add_argument("--size", type=_size, help="the image size WxH it plans for (default: the scene camera's; "
                                                  "the caustic map follows it)")
+    plan.add_argument("--budget", type=BUDGET, metavar="MS",
+                      help="the highest quality whose frame time here fits MS milliseconds (measured on this "
+                           "device at --size and --spp, cached); instead of --quality")
+    plan.add_argument("--spp", type=SPP, default=1, help="the samples per pixel a --budget's frames render (default 1)")
     plan.add_argument("--json", action="store_true", help="the plan as JSON")
     graph = sub.add_parser("graph", help="a technique's render graph: passes, channels, formats, caching")
     graph.add_argument("name", help="a technique (or view+caustics)")
@@ -720,7 +724,18 @@ def cmd_plan(args) -> int:
     from . import load_scene
     from .techniques.auto import plan
 
-    chosen = plan(load_scene(args.scene), args.quality, args.size)
+    scene = load_scene(args.scene)
+    if args.budget is None:
+        from .gpu.readback import supersampling_factor
+
+        k = supersampling_factor(args.spp)
+        width, height = args.size or scene.camera.size
+        chosen = plan(scene, args.quality, (width * k, height * k))
+    else:
+        from .renderer import Renderer
+
+        with Renderer(args.size) as renderer:
+            chosen = renderer.plan(scene, budget_ms=args.budget, spp=args.spp)
     _say(chosen.to_json() if args.json else chosen.describe())
     return 0
 

@@ -166,6 +166,21 @@ class Renderer:
         self.last_plan = getattr(tech, "plan_used", None)
         return resolved, values
 
+    def plan(self, scene: Scene, quality: str = "balanced", budget_ms: float = 0.0, spp: int = 1):
+        """auto's Plan (techniques/auto.py) for ``scene`` at this renderer's size and ``spp``: at ``quality``,
+        or with ``budget_ms`` the highest quality whose frame time here (measured, cached) fits it; a budget
+        below the cheapest plan's is a TechniqueError naming the smallest that works."""
+        self._check_open()
+        tech = get_technique("auto")
+        parameters = tech.make_params(quality=quality, budget_ms=budget_ms)
+        check_scene(scene)
+        check_spp(tech, spp)
+        scene, _ = recentred(scene)
+        camera = self.camera_for(scene)
+        self._check_size(camera.size, spp, True)
+        self.resolve(tech, scene, camera, parameters, spp)
+        return self.last_plan
+
     def render_frame(self, tech, scene: Scene, camera, parameters, spp: int = 1, keep=None) -> Frame:
         """Run a rasterized technique's graph (a planner's resolved first) at the supersampled size
         (``supersampling_factor(spp)`` times ``camera``'s) and return its frame, whose channels stay lent

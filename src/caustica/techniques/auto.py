@@ -506,6 +506,9 @@ class Auto(Technique):
             technique, values = self._planned(scene, quality, params, frame_size)
             costs[quality] = frame_ms(technique, values)
             if costs[quality] <= params.budget_ms:
+                measured = ", ".join(f"{name} {ms:.1f} ms" for name, ms in costs.items())
+                self.plan_used.notes.append(f"budget {params.budget_ms:g} ms: {quality}, the highest quality that "
+                                            f"fits (measured here: {measured})")
                 return technique, values
         raise TechniqueError(f"budget {params.budget_ms:g} ms is below the cheapest plan's {costs['draft']:.1f} ms "
                              f"per frame here (draft); give a budget of {costs['draft'] * 1.1:.0f} ms or more, "
