@@ -10,14 +10,17 @@ the critical angle, and the refracted rest started on the floor's own plane, whi
 :func:`contact_plane` is the receiver's plane that a glass object stands on
 (``raytrace.environment_bake.standing_plane``); the shader (``depth_search.frag``, GLASS_CONTACT) takes an exit
 within ``contact_tolerance`` of it through a face turned into it as landing there: the nearby lookup straight into
-the receiver from the exit point put on its plane, weight 1, and the path ends.
+the receiver from the exit point put on its plane, weight 1, and the path ends. From the light the same holds
+(:func:`bind_caster_contacts`, ``caustic_trace.comp``): caustic mapping's photon (Shah et al. III-C) that reaches
+such a face, at once or after internal reflections, lands at its exit with the flux it carries, where before it
+left the glass below the receiver's plane and was lost (the floor under a standing cube dark but for the sky).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..cache import LruCache
-from ..gpu.meshes import set_uniform
+from ..gpu.meshes import set_uniform, write_uniform_array
 from ..raytrace.environment_bake import contact_tolerance, standing_key, standing_plane
 
 PLANES_KEPT = 8  # scene states kept: a frame's impostor views draw scenes of their own
@@ -48,3 +51,14 @@ def bind_contact_plane(program, scene, obj) -> None:
     set_uniform(program, "contact_plane", np.zeros(4, np.float32) if plane is None else plane)
     if plane is not None:
         set_uniform(program, "contact_tolerance", contact_tolerance(obj.world_mesh().bounds))
+
+
+def bind_caster_contacts(program, scene, objects: list, size: int) -> None:
+    """Set ``contact_plane[size]`` (n = 0: none) and ``contact_tolerance[size]`` for the casters ``objects``."""
+    planes, tolerances = np.zeros((size, 4), np.float32), np.zeros(size, np.float32)
+    for i, obj in enumerate(objects[:size]):
+        plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
+        if plane is not None:
+            planes[i], tolerances[i] = plane, contact_tolerance(obj.world_mesh().bounds)
+    write_uniform_array(program, "contact_plane", planes)
+    write_uniform_array(program, "contact_tolerance", tolerances)

@@ -111,6 +111,7 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..errors import TechniqueError
 from ..passes.base import Channel, Frame, Pass
+from ..passes.glass_contact import bind_caster_contacts
 from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from ..gpu.shaders import run_compute
 from ..passes.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
@@ -220,6 +221,7 @@ class TracePhotons(Pass):
         set_uniform(program, "iterations", estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
         set_uniform(program, "exit_reflections", reflections)
+        bind_caster_contacts(program, scene, casters(scene), MAX_CASTERS)
         set_uniform(program, "second_layer", int(self.layered))
         set_uniform(program, "estimator", ESTIMATORS[estimator[0]])
         set_uniform(program, "fallback_distance", half_diagonal(scene.objects))

@@ -47,6 +47,8 @@ uniform int channel_count;  // 3: one photon per RGB channel (dispersion), 1: on
 uniform int iterations;
 uniform int exit_iterations;
 uniform int exit_reflections[MAX_CASTERS];  // total internal reflections a photon may take inside the caster
+uniform vec4 contact_plane[MAX_CASTERS];  // the receiver the caster stands on: unit normal n (0: none), n . x = w on it
+uniform float contact_tolerance[MAX_CASTERS];  // how far off that plane an exit still lies on it (passes/glass_contact.py)
 uniform int second_layer;  // 1: photons leaving through the nearest back faces may enter the glass again
 uniform sampler2D second_position;  // view 0: the glass's front faces behind its nearest back faces
 uniform sampler2D second_normal;
@@ -195,6 +197,16 @@ float internal_exit(vec3 p, vec3 r, ivec2 s, out vec3 n) {
     return -1.0;
 }
 
+// Ours (passes/glass_contact.py): whether the exit p2 through the face of outward normal n2 lies on the receiver
+// caster id stands on; then `landing` is p2 put on that plane, where all the light that reaches the face lands
+// (no air between glass and receiver: no refraction, Fresnel reflection or total internal reflection there).
+bool on_contact(int id, vec3 p2, vec3 n2, out vec3 landing) {
+    vec4 plane = contact_plane[id];
+    float off_plane = dot(plane.xyz, p2) - plane.w;
+    landing = p2 - off_plane * plane.xyz;
+    return dot(plane.xyz, plane.xyz) > 0.0 && abs(off_plane) < contact_tolerance[id] && dot(n2, plane.xyz) < -0.5;
+}
+
 // Whether the 3 x 3 texels around s see caster id: s lies inside its silhouette from the light, not on
 // the rim (where the front- and back-face rasterizations may differ by a texel).
 bool inside_silhouette(ivec2 s, int id) {
@@ -253,15 +265,25 @@ bool trace_texel(ivec2 s, int id, vec4 front, vec3 fn, vec3 flux, int first) {
             if (dot(n2, t1) < 0.0) n2 = -n2;  // outward, along the leaving ray
             vec3 t2 = refract(t1, -n2, eta);
             inside = d;
+            // A face on the receiver the glass stands on passes all the light to it: it lands at the exit.
+            vec3 landing;
+            bool contact = on_contact(id, p2, n2, landing);
             // Total internal reflection at the exit: reflect inside and leave further on, up to
             // exit_reflections times (0: the photon is dropped).
-            for (int b = 0; b < exit_reflections[id] && dot(t2, t2) == 0.0; ++b) {
+            for (int b = 0; b < exit_reflections[id] && !contact && dot(t2, t2) == 0.0; ++b) {
                 t1 = reflect(t1, n2);
                 float run = internal_exit(p2 - 1e-4 * length_unit * n2, t1, s, n2);
                 if (run < 0.0) break;
                 p2 += run * t1;
                 inside += run;
                 t2 = refract(t1, -n2, eta);
+                contact = on_contact(id, p2, n2, landing);
+            }
+            if (contact) {
+                photons[first + c] = Photon(vec4(landing, 1.0),
+                                            vec4(flux * transmit * exp(-caster_sigma[id] * inside) * mask, 0.0));
+                landed = true;
+                continue;
             }
             if (dot(t2, t2) == 0.0) continue;  // total internal reflection at the exit: dropped
             transmit *= 1.0 - fresnel_dielectric(dot(t1, n2), eta, 1.0);
