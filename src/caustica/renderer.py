@@ -119,13 +119,9 @@ class Renderer:
         names = None if labels is None else check_labels(labels)
         tech = get_technique(technique)
         parameters = tech.make_params(**params)
-        check_scene(scene)
-        scene, shift = recentred(scene)  # float32 on the GPU and in Embree: far scenes render moved to the origin
-        camera = self.camera_for(scene)
         adaptive = antialias == "adaptive" and tech.uses_gl
         frame_spp = 4 if adaptive else spp  # adaptive plans and checks its frames as its 4-spp one
-        self._check_size(camera.size, frame_spp, tech.uses_gl)
-        check_spp(tech, frame_spp)
+        scene, shift, camera = self._placed(tech, scene, frame_spp)
         tech, parameters = self.resolve(tech, scene, camera, parameters, frame_spp)
         self._check_frame(tech, scene, camera, parameters, frame_spp, "none" if adaptive else antialias)
         if names is not None:
@@ -173,13 +169,19 @@ class Renderer:
         self._check_open()
         tech = get_technique("auto")
         parameters = tech.make_params(quality=quality, budget_ms=budget_ms)
-        check_scene(scene)
-        check_spp(tech, spp)
-        scene, _ = recentred(scene)
-        camera = self.camera_for(scene)
-        self._check_size(camera.size, spp, True)
+        scene, _, camera = self._placed(tech, scene, spp)
         self.resolve(tech, scene, camera, parameters, spp)
         return self.last_plan
+
+    def _placed(self, tech, scene: Scene, spp: int):
+        """(scene, shift, camera): ``scene`` checked and moved to the origin where it is far (float32 on the GPU
+        and in Embree), its camera at this renderer's size, size and ``spp`` checked for ``tech``."""
+        check_scene(scene)
+        scene, shift = recentred(scene)
+        camera = self.camera_for(scene)
+        self._check_size(camera.size, spp, tech.uses_gl)
+        check_spp(tech, spp)
+        return scene, shift, camera
 
     def render_frame(self, tech, scene: Scene, camera, parameters, spp: int = 1, keep=None) -> Frame:
         """Run a rasterized technique's graph (a planner's resolved first) at the supersampled size

@@ -45,20 +45,27 @@ def contact_defines(frame) -> dict:
                                      for o in frame.scene.objects_of("glass")))}
 
 
+def glass_contact(scene, obj) -> tuple[np.ndarray, float]:
+    """(contact plane (4,), contact tolerance) of ``obj`` in ``scene``; a zero plane and 0 where it is no glass
+    standing on a receiver."""
+    plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
+    if plane is None:
+        return np.zeros(4, np.float32), 0.0
+    return plane, contact_tolerance(obj.world_mesh().bounds)
+
+
 def bind_contact_plane(program, scene, obj) -> None:
     """Set the shader's contact_plane (n = 0: none) and contact_tolerance for ``obj``."""
-    plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
-    set_uniform(program, "contact_plane", np.zeros(4, np.float32) if plane is None else plane)
-    if plane is not None:
-        set_uniform(program, "contact_tolerance", contact_tolerance(obj.world_mesh().bounds))
+    plane, tolerance = glass_contact(scene, obj)
+    set_uniform(program, "contact_plane", plane)
+    if plane.any():
+        set_uniform(program, "contact_tolerance", tolerance)
 
 
 def bind_caster_contacts(program, scene, objects: list, size: int) -> None:
     """Set ``contact_plane[size]`` (n = 0: none) and ``contact_tolerance[size]`` for the casters ``objects``."""
     planes, tolerances = np.zeros((size, 4), np.float32), np.zeros(size, np.float32)
     for i, obj in enumerate(objects[:size]):
-        plane = contact_plane(scene, obj) if obj.material.kind == "glass" else None
-        if plane is not None:
-            planes[i], tolerances[i] = plane, contact_tolerance(obj.world_mesh().bounds)
+        planes[i], tolerances[i] = glass_contact(scene, obj)
     write_uniform_array(program, "contact_plane", planes)
     write_uniform_array(program, "contact_tolerance", tolerances)

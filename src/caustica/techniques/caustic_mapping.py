@@ -199,7 +199,8 @@ class TracePhotons(Pass):
                                        np.zeros((MAX_CASTERS, 3), "f4"), np.zeros((MAX_CASTERS, 3), "f4"))
         reflections = np.zeros(MAX_CASTERS, "i4")
         dispersive = False
-        for i, obj in enumerate(casters(scene)):
+        objects = casters(scene)
+        for i, obj in enumerate(objects):
             material = obj.material
             types[i] = caster_code(obj)
             if material.kind == "mirror":
@@ -221,7 +222,7 @@ class TracePhotons(Pass):
         set_uniform(program, "iterations", estimator[1])
         set_uniform(program, "exit_iterations", p.exit_iterations)
         set_uniform(program, "exit_reflections", reflections)
-        bind_caster_contacts(program, scene, casters(scene), MAX_CASTERS)
+        bind_caster_contacts(program, scene, objects, MAX_CASTERS)
         set_uniform(program, "second_layer", int(self.layered))
         set_uniform(program, "estimator", ESTIMATORS[estimator[0]])
         set_uniform(program, "fallback_distance", half_diagonal(scene.objects))
