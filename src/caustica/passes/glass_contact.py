@@ -14,6 +14,10 @@ the receiver from the exit point put on its plane, weight 1, and the path ends. 
 (:func:`bind_caster_contacts`, ``caustic_trace.comp``): caustic mapping's photon (Shah et al. III-C) that reaches
 such a face, at once or after internal reflections, lands at its exit with the flux it carries, where before it
 left the glass below the receiver's plane and was lost (the floor under a standing cube dark but for the sky).
+Photon splats (Wyman, ``photon_refract.frag``) land a photon whose exit face seen from the light lies on the plane
+where T1 meets it, with no exit Fresnel; the transport table (Iwasaki et al.) traces the glass without those faces
+(``raytrace.environment_bake.without_standing_faces``), so its rays leave through the opening into the receiver.
+The shaders share the test, ``common/glass_contact.glsl``.
 """
 from __future__ import annotations
 

@@ -25,6 +25,7 @@ import numpy as np
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from .base import Channel, Frame, Pass
 from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
+from .glass_contact import bind_contact_plane, contact_defines
 from .image_space import DN_ATTRIBUTE, distance_along_normal
 from .light_space import dispatch_photons
 from .light_views import LightView, bind_views
@@ -72,7 +73,8 @@ class RefractFromLight(Pass):
         gpu, ctx, scene = frame.gpu, frame.gpu.ctx, frame.scene
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode)}
+        defines = {"CHANNELS": channels, "USE_DN": int(self.use_dn), "TIR_MODE": TIR_MODES.index(self.tir_mode),
+                   **contact_defines(frame)}
         program = gpu.shaders.program("passes/image_space.vert", "passes/photon_refract.frag", defines)
         view.bind(program)
         set_uniform(program, "length_unit", length_unit(scene))
@@ -86,9 +88,9 @@ class RefractFromLight(Pass):
             fbo.viewport = (face * view.size, 0, view.size, view.size)
             set_uniform(program, "clip_from_world", view.clips[face])
             for obj in scene.objects:
-                self._draw(frame, program, obj, makers)
+                self._draw(frame, program, obj, makers, defines["GLASS_CONTACT"])
 
-    def _draw(self, frame: Frame, program, obj, makers: list) -> None:
+    def _draw(self, frame: Frame, program, obj, makers: list, contact: int) -> None:
         kind = caster_code(obj) if obj in makers else CASTER_NONE
         gpu_mesh = frame.gpu.meshes.get(obj.mesh)
         if kind == CASTER_SOLID and self.use_dn and DN_ATTRIBUTE not in gpu_mesh.attributes:
@@ -101,6 +103,8 @@ class RefractFromLight(Pass):
             set_uniform(program, "object_sigma", np.asarray(material.absorption_coefficient, "f4"))
         if material.kind == "mirror":
             set_uniform(program, "object_color", np.asarray(material.color, "f4"))
+        if contact:
+            bind_contact_plane(program, frame.scene, obj)
         set_object_transform(program, obj.world_from_object())
         gpu_mesh.render(program)
 

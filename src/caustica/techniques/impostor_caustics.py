@@ -50,7 +50,9 @@ buffer's resolution (the paper: 128^2 acceptable); no visibility test from the
 rectangle to the receiver (as in the paper: a part of a receiver facing the
 caster but hidden from it by the receiver itself takes its tile's caustic);
 Wyman's nearby planes seen through glass show no caustic; point lights
-inside the casters' bounding sphere make none.
+inside the casters' bounding sphere make none; glass standing on a receiver
+passes no light through the face lying on it (caustic mapping, photon splats
+and the transport table land it: passes/glass_contact.py).
 """
 from __future__ import annotations
 

@@ -90,8 +90,14 @@ class TransportTableParams(TableParams):
 
 
 def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
-    """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays)."""
+    """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays).
+
+    Glass standing on a receiver is traced without its faces on it (ours, passes/glass_contact.py): light reaching
+    such a face passes into the receiver there, with no interface between them."""
+    from ..raytrace.environment_bake import without_standing_faces
     from ..transport.runtime import caustic_photons, object_exit_rays, receiver_scene
+
+    scene = without_standing_faces(scene)
 
     glass = [o for o in scene.objects if o.material.kind == "glass"]
     receivers = [o for o in scene.objects if o.material.kind == "diffuse"]

@@ -25,6 +25,7 @@
 #define ADAPTIVE 0
 #endif
 #include "common/optics.glsl"
+#include "common/glass_contact.glsl"
 #include "passes/caustic_light_space.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -197,14 +198,10 @@ float internal_exit(vec3 p, vec3 r, ivec2 s, out vec3 n) {
     return -1.0;
 }
 
-// Ours (passes/glass_contact.py): whether the exit p2 through the face of outward normal n2 lies on the receiver
-// caster id stands on; then `landing` is p2 put on that plane, where all the light that reaches the face lands
-// (no air between glass and receiver: no refraction, Fresnel reflection or total internal reflection there).
+// Whether caster id's exit p2 through the face of outward normal n2 lies on the receiver it stands on
+// (common/glass_contact.glsl), and `landing`, where all the light reaching that face lands.
 bool on_contact(int id, vec3 p2, vec3 n2, out vec3 landing) {
-    vec4 plane = contact_plane[id];
-    float off_plane = dot(plane.xyz, p2) - plane.w;
-    landing = p2 - off_plane * plane.xyz;
-    return dot(plane.xyz, plane.xyz) > 0.0 && abs(off_plane) < contact_tolerance[id] && dot(n2, plane.xyz) < -0.5;
+    return on_contact_plane(contact_plane[id], contact_tolerance[id], p2, n2, landing);
 }
 
 // Whether the 3 x 3 texels around s see caster id: s lies inside its silhouette from the light, not on

@@ -48,6 +48,7 @@
 #include "common/impostors.glsl"
 #if CONVEX_EXITS
 #include "common/convex_exits.glsl"
+#include "common/glass_contact.glsl"
 #endif
 
 uniform sampler2D front_surface;  // nearest front face: outward normal xyz, eye distance w (0: none)
@@ -240,9 +241,10 @@ vec3 inside_radiance(vec3 d, float ior, int own_exits) {
         vec3 from = exit_point[k], along = tir ? r : t;
 #if GLASS_CONTACT && NEARBY != NEARBY_NONE
         // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
-        float off_plane = dot(contact_plane.xyz, from) - contact_plane.w;
-        bool contact = abs(off_plane) < contact_tolerance && dot(nk, contact_plane.xyz) < -0.5;
-        if (contact) { leaving = 1.0; f = 0.0; from -= off_plane * contact_plane.xyz; along = nk; }
+        vec3 landing;
+        if (on_contact_plane(contact_plane, contact_tolerance, from, nk, landing)) {
+            leaving = 1.0; f = 0.0; from = landing; along = nk;
+        }
 #endif
         vec3 seen = k < own_exits ? nearby_cached(from, along) : exit_seen[k];
         exit_seen[k] = seen;

@@ -3,7 +3,8 @@
 // a texel) lands on the receivers: the intersection estimate (land_photon) against the receivers'
 // light-space position texture (view 0). The first guess is the distance to the receiver behind the
 // exit point, or, in a second pass, to where the first pass landed the photon. Photons of a single
-// surface (water) are absorbed (Beer-Lambert) from the surface down to the receiver.
+// surface (water) are absorbed (Beer-Lambert) from the surface down to the receiver; those with exit point w = 2
+// landed already (under glass standing on the receiver).
 // Writes the photon buffer in the layout of light_space.py's Photons: {vec4 position (w = 1 landed);
 // vec4 flux}, entry (texel row * width + column) * CHANNELS + channel.
 // Host defines: CHANNELS (1 or 3), MAX_CASTERS (32), VIEW_COUNT (1).
@@ -68,6 +69,10 @@ void main() {
         vec3 mask = CHANNELS == 1 ? vec3(1.0) : vec3(c == 0, c == 1, c == 2);
         vec3 carried = flux.rgb * mask;
         if (o.w <= 0.0 || all(equal(carried, vec3(0.0)))) continue;
+        if (o.w > 1.5) {  // landed already: on the receiver under a face the glass stands on (photon_refract.frag)
+            photons[index] = Photon(vec4(o.xyz, 1.0), vec4(carried, 0.0));
+            continue;
+        }
         // Land: from where the first pass landed, or the receiver seen through the exit point.
         float d0 = has_initial != 0 && initial[index].position.w > 0.0 ? max(dot(initial[index].position.xyz - o.xyz, r), 1e-4 * length_unit)
                                                                         : 0.0;

@@ -7,8 +7,9 @@
 // T2 = refract(T1, -N2, n_glass). Flux: the light's intensity times the texel's solid angle (or
 // irradiance times its area), times (1 - F1)(1 - F2) (exact Fresnel) and exp(-sigma_a d~).
 // Open meshes (water) refract once (Beer-Lambert to the receiver is left to the landing pass);
-// mirrors reflect once; diffuse objects occlude (no photon).
-// Host defines: CHANNELS (1: one RGB photon; 3: one photon per channel), USE_DN (1),
+// mirrors reflect once; diffuse objects occlude (no photon). Ours: a photon reaching a face that lies on the
+// receiver the glass stands on lands where T1 meets it, with no exit Fresnel (exit point w = 2: landed).
+// Host defines: CHANNELS (1: one RGB photon; 3: one photon per channel), USE_DN (1), GLASS_CONTACT (0/1),
 // TIR_MODE (1: TIR_KEEP_T1 0, TIR_CLAMP 1, TIR_REFLECT 2, TIR_DROP 3), VIEW_COUNT (1: the photon buffer's view),
 // CASTER_NONE, _MIRROR, _SOLID, _SURFACE (scene/codes.py, in every program: object_kind's codes).
 #version 430 core
@@ -25,7 +26,11 @@
 #ifndef TIR_MODE
 #define TIR_MODE TIR_CLAMP
 #endif
+#ifndef GLASS_CONTACT
+#define GLASS_CONTACT 0
+#endif
 #include "common/optics.glsl"
+#include "common/glass_contact.glsl"
 #include "passes/caustic_light_space.glsl"
 
 uniform sampler2D back_position;  // view 0: farthest back faces of the glass, world xyz + light distance (0: none)
@@ -35,6 +40,10 @@ uniform int object_index;         // its index among the casters (single surface
 uniform vec3 object_ior;          // per channel
 uniform vec3 object_sigma;        // Beer-Lambert absorption coefficient
 uniform vec3 object_color;        // mirror reflectance
+#if GLASS_CONTACT
+uniform vec4 contact_plane;       // the receiver the object stands on: unit normal n (0: none), n . x = w on it
+uniform float contact_tolerance;  // how far off that plane an exit still lies on it (passes/glass_contact.py)
+#endif
 
 in vec3 world_position;
 in vec3 world_normal;
@@ -62,7 +71,18 @@ vec3 exit_normal(vec3 p2, vec3 t1, vec3 l) {
     return dot(n2, n2) > 1e-12 ? normalize(n2) : t1;
 }
 
-// One channel's photon through a closed refractor: (exit point, w = 1 where it leaves), its direction
+#if GLASS_CONTACT
+// The back face seen from the light at p2's texel (p2 itself off the refractor).
+vec3 back_surface(vec3 p2) {
+    int face;
+    bool inside;
+    vec2 x = view_pixel(0, p2, face, inside);
+    vec4 back = inside ? fetch_surface(back_position, 0, face, x) : vec4(0.0);
+    return back.w > 0.0 ? back.xyz : p2;
+}
+#endif
+
+// One channel's photon through a closed refractor: (exit point, w = 1 where it leaves, 2 where it landed), its direction
 // (w: the Fresnel transmittance (1 - F1)(1 - F2)) and the distance d~ inside.
 vec4 refract_twice(vec3 p1, vec3 l, vec3 n1, float eta, float d_v, float d_n, bool has_dn,
                    out vec4 direction, out float d) {
@@ -83,6 +103,16 @@ vec4 refract_twice(vec3 p1, vec3 l, vec3 n1, float eta, float d_v, float d_n, bo
     vec3 p2 = p1 + d * t1;
     vec3 n2 = exit_normal(p2, t1, l);
     vec3 facing = dot(t1, n2) > 0.0 ? -n2 : n2;
+#if GLASS_CONTACT
+    // A face on the receiver the glass stands on: the light passes into it where T1 meets its plane.
+    vec3 landing;
+    float along = dot(contact_plane.xyz, t1);
+    if (on_contact_plane(contact_plane, contact_tolerance, back_surface(p2), -facing, landing) && along < 0.0) {
+        d = max((contact_plane.w - dot(contact_plane.xyz, p1)) / along, 0.0);
+        direction = vec4(t1, transmit);
+        return vec4(p1 + d * t1, 2.0);
+    }
+#endif
     // Refract out of the glass, or a TIR fallback.
     vec3 t2 = refract_direction(t1, facing, eta);
     if (dot(t2, t2) > 0.0) {
