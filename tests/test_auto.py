@@ -246,6 +246,20 @@ def test_a_budget_takes_the_highest_quality_that_fits(tmp_path, monkeypatch):
         auto.for_scene(scene, auto.make_params(budget_ms=10.0))
 
 
+def test_a_budget_too_small_names_the_cheapest_measured_plan():
+    """Frame times measured under a passing load may put draft above balanced: the smallest budget that works is
+    then balanced's, and the error names it (before: draft's 38.5 ms, a budget that balanced already fits)."""
+    from caustica.techniques import get_technique
+
+    auto = get_technique("auto")
+    scene = scene_of([marble(), table()], light=True, size=(40, 30))
+    times = iter([50.0, 20.7, 38.5])  # high, balanced, draft, in the order they are tried
+
+    with pytest.raises(TechniqueError, match=r"cheapest plan's 20.7 ms per frame here \(balanced\); give a budget "
+                                             r"of 23 ms"):
+        auto.for_scene(scene, auto.make_params(budget_ms=10.0), frame_ms=lambda technique, values: next(times))
+
+
 def test_budget_options_are_checked(tmp_path, capsys):
     from caustica.cli import main
 
