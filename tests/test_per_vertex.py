@@ -301,3 +301,24 @@ def test_viewpoint_parallax_is_the_mean_angle_from_the_least_squares_viewpoint()
     through = Lines(np.array([1.0, 2.0, 3.0]) + 2.0 * directions, directions, rng.uniform(0.5, 3.0, 20))
     assert viewpoint_parallax(through) == pytest.approx(0.0, abs=1e-5)
     assert viewpoint_parallax(Lines(through.origins, through.directions, np.full(20, np.inf))) == 0.0
+
+
+def test_a_mirror_shows_the_caustic_on_the_floor_it_reflects(renderer):
+    """mirror-in-mirror: the sun reflected off one flat mirror lights a patch of floor, which the other mirror shows.
+    per-vertex's reflection maps (Kakimoto et al. 3.2: the scene less the mirror, from the virtual viewpoint) shade
+    that floor with the frame's caustic maps, so its mirror pixels there match exact's (photons traced) to 6 % on
+    average; before, the maps left the caustic out and read exact's floor without its photons (ratio 0.84)."""
+    from caustica.reference.render import diffuse_coverage
+
+    from caustica import load_scene
+
+    scene = load_scene("mirror-in-mirror")
+    scene.camera = scene.camera.with_size(96, 72)
+    with_photons = renderer.render(scene, "exact", 4)
+    without = renderer.render(scene, "exact", 4, caustic_photons=0)
+    image = renderer.render(scene, "per-vertex+caustic-mapping")
+    mirrors = diffuse_coverage(scene, scene.camera) < 0.5
+    lit = mirrors & ((with_photons - without).mean(axis=-1) > 0.1 * without.mean(axis=-1))
+    assert lit.sum() >= 20
+    ratio = image[lit].mean(axis=-1) / with_photons[lit].mean(axis=-1)
+    assert abs(ratio.mean() - 1.0) < 0.06

@@ -346,7 +346,8 @@ class PerVertexReflectors(Pass):
     """Mirrors and lenses per vertex: exact hits, virtual viewpoints, reflection maps, warped textures."""
 
     reads = ("color", "exit_direction", "depth", "light_samples", "shadow_maps")
-    optional = {"environment_bake": None}  # the floor's light map, for the reflection maps
+    # The receivers' light maps and caustics, for the reflection maps (a mirror shows the caustic on the floor)
+    optional = {"environment_bake": None, "caustic_maps": None, "caustic_tiles": None}
     writes = (Channel("color", "rgba32f", "linear radiance seen by the camera, reflectors warped per vertex"),)
 
     def __init__(self, params: PerVertexParams, depth: int):
@@ -444,8 +445,8 @@ def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVer
     """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map of ``size`` (bilinear, clamped)."""
     view = volume.view_from_world
     camera = OffscreenCamera(volume.position, size, view[1, :3].copy(), view, volume.clip_from_world(reverse))
-    color = render_offscreen(frame, subscene, camera, view_passes(params, depth), share=("environment_bake",),
-                             params=params)["color"]
+    color = render_offscreen(frame, subscene, camera, view_passes(params, depth),
+                             share=("environment_bake", "caustic_maps", "caustic_tiles"), params=params)["color"]
     color.filter = (moderngl.LINEAR, moderngl.LINEAR)
     color.repeat_x = color.repeat_y = False
     return color
