@@ -99,6 +99,7 @@ def test_parameters_have_an_effect(renderer):
     {"tolerance": -1e-3}, {"assume_back_first": "yes"}, {"shadow_map_size": 8}, {"steps": 8},
     {"internal_bounces": -1}, {"internal_bounces": 9}, {"internal_bounces": 1.5}, {"internal_bounces": True},
     {"internal_reflection": True}, {"back_iteration": "newton"},
+    {"bounce_iterations": -2}, {"bounce_iterations": 33}, {"bounce_iterations": 1.5},
 ])
 def test_bad_parameters_raise(renderer, params):
     with pytest.raises(TechniqueError):
@@ -194,6 +195,46 @@ def test_internal_bounces_with_dispersion(renderer):
     plain = psnr_linear(renderer.render(scene, "depth-search", spp=4), exact)
     bounced = psnr_linear(renderer.render(scene, "depth-search", spp=4, internal_bounces=2), exact)
     assert bounced > plain + 4.0, (plain, bounced)
+
+
+def test_bounce_iterations_default_to_iterations(renderer):
+    """bounce_iterations -1 (the default) gives the bounced exits as many dT corrections as the first exit."""
+    scene = ball_scene(1.5, size=32)
+    for iterations in (5, 2):
+        default = renderer.render(scene, "depth-search", internal_bounces=2, iterations=iterations)
+        same = renderer.render(scene, "depth-search", internal_bounces=2, iterations=iterations,
+                               bounce_iterations=iterations)
+        assert np.array_equal(default, same)
+
+
+def test_a_bounced_exit_starts_from_the_last_chord(sphere_and_exact):
+    """On a sphere every chord of an internally reflected path is as long as the first (equal angles at
+    both ends of a chord), so the bounced exits start exact and need no dT correction: 0 corrections are
+    as close to exact (max_depth 4) as 5; a first guess other than the last chord would need them."""
+    from caustica.metrics import psnr_linear
+
+    small, scene, exact = sphere_and_exact
+    corrected = psnr_linear(small.render(scene, "depth-search", spp=4, internal_bounces=2), exact[4])
+    uncorrected = psnr_linear(small.render(scene, "depth-search", spp=4, internal_bounces=2, bounce_iterations=0),
+                              exact[4])
+    assert uncorrected > corrected - 0.3, (corrected, uncorrected)
+
+
+def test_bounce_iterations_correct_the_bounced_exits_of_an_ellipsoid(renderer):
+    """Where successive chords differ (an ellipsoid, 1.3 x 0.8 x 1, turned 60 degrees) the last chord is only a
+    first guess and each dT correction brings the bounced exits closer to exact (max_depth 4). Measured at
+    48x48, 4 spp: 21.5, 24.0, 26.5 dB for 0, 2, 5 corrections."""
+    from caustica.metrics import psnr_linear
+    from caustica.scene.transform import Transform
+
+    scene = ball_scene(1.5, size=48)
+    scene.objects[0] = SceneObject("ellipsoid", sphere(1.0, 4), Glass(ior=1.5),
+                                   Transform(scale=(1.3, 0.8, 1.0), rotation=(60.0, 0.0, 0.0)))
+    scene.environment.filter = "bilinear"
+    exact = renderer.render(scene, "exact", spp=4, max_depth=4)
+    scores = [psnr_linear(renderer.render(scene, "depth-search", spp=4, internal_bounces=2, bounce_iterations=k),
+                          exact) for k in (0, 2, 5)]
+    assert np.all(np.diff(scores) > 1.0), scores
 
 
 def test_shared_bounce_lookups_are_the_per_channel_ones_without_dispersion(renderer):

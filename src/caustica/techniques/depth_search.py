@@ -21,8 +21,9 @@ refractors (outward normal and eye distance). For each glass fragment:
    fits the thickness d_V at P1 and step by secants.
 4. N2 from the front or back normal buffer at P2 (2.1.4), T2 = refract(T1, N2),
    environment lookup (fig. 10c); where no buffer holds P2, T2 = T1.
-5. Ours: ``internal_bounces`` follows the light reflected inside at each exit; on dispersive glass
-   red and blue reuse green's lookups there (``shared_bounce_lookups``), their own at the first exit.
+5. Ours: ``internal_bounces`` follows the light reflected inside at each exit, with
+   ``bounce_iterations`` dT corrections (2.1.3's tangent-plane step) from the last chord; on dispersive
+   glass red and blue reuse green's lookups there (``shared_bounce_lookups``), their own at the first exit.
 6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a convex
    mesh of at most ``MAX_CONVEX_PLANES`` planes (``passes/convex_exits.py``), the depth search elsewhere.
 
@@ -57,6 +58,7 @@ from .raster import RasterTechnique
 
 MAX_INTERNAL_BOUNCES = 8
 BACK_ITERATIONS = ("sphere-secant", "secant", "depth-step")
+AS_ITERATIONS = -1  # bounce_iterations: as many dT corrections at the bounced exits as at the first
 
 
 @dataclass
@@ -77,6 +79,9 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                      "or the paper's depth-step")
     internal_bounces: int = param(0, range=(0, MAX_INTERNAL_BOUNCES),
                                   help="our extension: internal reflections followed to further exits (0: the paper)")
+    bounce_iterations: int = param(AS_ITERATIONS, range=(0, 32), special={AS_ITERATIONS: "as iterations"},
+                                   help="ours, with internal_bounces: dT corrections at each bounced exit, which "
+                                        "starts from the last chord (exact on a sphere)")
     shared_bounce_lookups: bool = param(True, help="ours, for dispersive glass with internal_bounces: red and blue "
                                                    "reuse green's lookups at the bounced exits (False: each channel "
                                                    "its own, 3 lookups a bounce)")
@@ -101,6 +106,8 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "search_steps", params.search_steps)
             set_uniform(program, "search_start", params.search_start)
             set_uniform(program, "iterations", params.iterations)
+            set_uniform(program, "bounce_iterations", params.iterations if params.bounce_iterations == AS_ITERATIONS
+                        else params.bounce_iterations)
             set_uniform(program, "tolerance", params.tolerance)
 
         nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)

@@ -21,7 +21,8 @@
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
-//   tolerance (float, scene units), world_from_clip (mat4).
+//   bounce_iterations (int: the dT corrections at each bounced exit), tolerance (float, scene units),
+//   world_from_clip (mat4).
 #version 430 core
 #ifndef INTERNAL_BOUNCES
 #define INTERNAL_BOUNCES 0  // our extension: internal reflections followed to further exits (0: the paper)
@@ -57,6 +58,7 @@ uniform mat4 world_from_clip;
 uniform int search_steps;
 uniform float search_start;
 uniform int iterations;
+uniform int bounce_iterations;  // ours: the dT corrections at each bounced exit (INTERNAL_BOUNCES)
 uniform float tolerance;
 #if GLASS_CONTACT && NEARBY != NEARBY_NONE
 uniform vec4 contact_plane;       // the receiver this glass stands on: unit normal n (0: none), n . x = w on it
@@ -159,8 +161,9 @@ vec4 layer_surface(int layer, vec2 pixel, float depth) {
 // follows the face's tilt); |S - P1| where the slope is small. Front faces (steep near the silhouette, where front exits happen), and the nearer
 // layer: dT = the distance along T1 to the tangent plane at S. A point that leaves the
 // silhouette steps back halfway to the last point inside and sets `left`. A step shorter than
-// `tolerance` ends it (its dT kept, N_S the surface just read). Returns false if no point was inside.
-bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, out bool left) {
+// `tolerance` ends it (its dT kept, N_S the surface just read), as does the `steps`-th correction.
+// Returns false if no point was inside.
+bool correct_distance(int layer, int steps, vec3 p1, vec3 t1, inout float dt, out vec4 s2, out bool left) {
     bool tangent_plane = layer != BACK_LAYER;
     left = false;
     s2 = vec4(0.0);
@@ -176,12 +179,12 @@ bool correct_distance(int layer, vec3 p1, vec3 t1, inout float dt, out vec4 s2, 
             // iterates again: no need to go on here.
             if (DEFER_STAGE == 1 && layer == BACK_LAYER) break;
             dt = 0.5 * (dt + inside_dt);
-            if (i >= iterations) break;
+            if (i >= steps) break;
             continue;
         }
         inside_dt = dt;
         s2 = s;
-        if (i >= iterations) break;
+        if (i >= steps) break;
         vec3 sp = surface_point(pixel, s.w);
         vec3 ray = normalize(q - camera_position);
         float rate = dot(t1, ray);
@@ -282,7 +285,7 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
     bool left = true;
     bool found = false;
 #if ASSUME_BACK_FIRST
-    found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+    found = correct_distance(BACK_LAYER, iterations, p1, t1, dt, s2, left);
 #if DEFER_STAGE == 1
     // The first of two resolve stages (ShadeSurfaces' ``staged``): the pixels whose P2 left the
     // silhouette are shaded again, with the search, by the second stage, which runs on them alone
@@ -315,10 +318,10 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
 #else
             dt = max(length(chord), start);
 #endif
-            found = correct_distance(FRONT_LAYER, p1, t1, dt, s2, left);
+            found = correct_distance(FRONT_LAYER, iterations, p1, t1, dt, s2, left);
         } else if (ASSUME_BACK_FIRST == 0) {
             dt = first_back;
-            found = correct_distance(BACK_LAYER, p1, t1, dt, s2, left);
+            found = correct_distance(BACK_LAYER, iterations, p1, t1, dt, s2, left);
         }
     }
     // P2 with N2 from the buffer (2.1.4); outside every buffer N2 = T1, so T2 = T1 (env-map's
@@ -337,7 +340,7 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
     for (int k = 1; k < MAX_EXITS; ++k) {
         vec3 r = reflect_direction(d, -exit_normal[k - 1]);
         vec4 s;
-        found = correct_distance(NEAREST_LAYER, exit_point[k - 1], r, chord, s, left) && found;
+        found = correct_distance(NEAREST_LAYER, bounce_iterations, exit_point[k - 1], r, chord, s, left) && found;
         exit_point[k] = exit_point[k - 1] + chord * r;
         exit_normal[k] = found ? normalize(s.xyz) : r;
         exit_length[k] = exit_length[k - 1] + chord;
