@@ -68,6 +68,15 @@ def two_processes(tmp_path_factory):
     """({case id: image} of each of two fresh processes started together, {case id: why missing})."""
     folder = tmp_path_factory.mktemp("determinism")
     cases = json.dumps({case_id(c): c for c in CASES})
+    # The transport tables precomputed once first, so that both processes read them from the disk cache: two
+    # processes precomputing the bunny's table at once on a cold cache (CI's first run) were seen to get tables
+    # that differ (docs/determinism.md, "Not guaranteed"); what this test checks is the splats.
+    tables = json.dumps({case_id(c): c for c in CASES if c[1] == "transport-table"})
+    warm = subprocess.run([sys.executable, "-c", CHILD, str(folder / "tables.npz"), str(SIZE), tables],
+                          capture_output=True, text=True, timeout=600)
+    if warm.returncode == GL_UNAVAILABLE:
+        pytest.skip(f"no OpenGL: {warm.stdout.strip()}")
+    assert warm.returncode == 0, warm.stderr[-4000:]
     outputs = [folder / f"run{i}.npz" for i in range(2)]
     children = [subprocess.Popen([sys.executable, "-c", CHILD, str(out), str(SIZE), cases],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for out in outputs]
