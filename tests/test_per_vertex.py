@@ -322,3 +322,72 @@ def test_a_mirror_shows_the_caustic_on_the_floor_it_reflects(renderer):
     assert lit.sum() >= 20
     ratio = image[lit].mean(axis=-1) / with_photons[lit].mean(axis=-1)
     assert abs(ratio.mean() - 1.0) < 0.06
+
+
+def _straight_down_map(renderer, lit_texels):
+    """A 64 x 64 caustic map of a directional light shining straight down (-y) from (0, 10, 0) over a floor at
+    y = 0, 4 x 4 world units wide (ortho), with ``lit_texels`` (rows, cols slices) lit; and its light sample."""
+    from caustica.passes.caustics import CAUSTIC_PROJECTIVE, CausticMap
+    from caustica.passes.lights import LightSample
+    from caustica.scene.codes import LIGHT_DIRECTIONAL
+    from caustica.scene.transform import orthographic_clip_from_view
+
+    view_from_world = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, -10.0], [0, 0, 0, 1.0]])  # looks down -y
+    texels = np.zeros((64, 64, 4), np.float32)
+    texels[..., 3] = 10.0  # every texel sees the floor 10 below the light
+    texels[lit_texels + (slice(0, 3),)] = 1.0
+    texture = renderer.device.ctx.texture((64, 64), 4, texels.tobytes(), dtype="f4")
+    caustic = CausticMap(texture, CAUSTIC_PROJECTIVE, orthographic_clip_from_view(2.0, 2.0, 0.1, 20.0) @ view_from_world)
+    sample = LightSample(LIGHT_DIRECTIONAL, np.array([0.0, 10.0, 0.0]), np.array([0.0, -1.0, 0.0]), np.ones(3))
+    return caustic, sample
+
+
+def test_lit_boxes_put_a_caustic_maps_light_on_its_receiver(renderer):
+    """Known answer: texels 30-33 lit in both directions, grown by LIT_MARGIN (2) to 28-35, lie on the floor
+    (y = 0) between x, z = +-(35.5 / 64 * 2 - 1) * 2 = +-0.21875."""
+    from caustica.passes.caustics import LIT_MARGIN, lit_boxes
+
+    assert LIT_MARGIN == 2
+    caustic, sample = _straight_down_map(renderer, (slice(30, 34), slice(30, 34)))
+    boxes = lit_boxes(caustic, sample)
+    low, high = boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)
+    assert np.allclose(low, [-0.21875, 0.0, -0.21875], atol=1e-6) and np.allclose(high, [0.21875, 0.0, 0.21875],
+                                                                                   atol=1e-6)
+    assert lit_boxes(caustic, sample) is boxes  # read back once
+
+
+def test_a_caustic_reaches_a_view_that_sees_its_light(renderer):
+    """maps_reaching: a camera looking at the lit patch sees it; one looking at the floor 3 units away, or up,
+    does not; an unlit map reaches nothing; a cube map (no box fitted) reaches everything."""
+    from caustica.passes.caustics import CAUSTIC_CUBE, CausticMap, maps_reaching
+
+    caustic, sample = _straight_down_map(renderer, (slice(30, 34), slice(30, 34)))
+    assert maps_reaching([caustic], [sample], _look([0.0, 2.0, 2.0], [0.0, 0.0, 0.0], fov=20.0))
+    assert not maps_reaching([caustic], [sample], _look([3.0, 2.0, 2.0], [3.0, 0.0, 0.0], fov=20.0))
+    assert not maps_reaching([caustic], [sample], _look([0.0, 1.0, 0.5], [0.0, 5.0, 0.0], fov=20.0))
+    dark, _ = _straight_down_map(renderer, (slice(0, 0), slice(0, 0)))
+    assert not maps_reaching([dark, None], [sample, sample], _look([0.0, 2.0, 2.0], [0.0, 0.0, 0.0]))
+    assert maps_reaching([CausticMap(dark.texture, CAUSTIC_CUBE)], [sample], _look([0.0, 1.0, 0.5], [0.0, 5.0, 0.0]))
+
+
+def _look(position, target, fov=40.0):
+    return np.asarray(Camera(position=list(position), look_at=list(target), fov_y=fov, size=(64, 64)).clip_from_world())
+
+
+def test_reflection_maps_take_only_caustic_maps_that_reach_them(renderer, monkeypatch):
+    """A reflection map takes the frame's caustic maps only where their light can land in its view
+    (maps_reaching): on mirror-flat none can (its reflected floor holds no caustic), and the image is the one
+    rendered with the maps shared anyway, bit for bit; on mirror-in-mirror one can, and the maps are shared
+    (test_a_mirror_shows_the_caustic_on_the_floor_it_reflects)."""
+    from caustica import load_scene
+
+    reaching = pv.maps_reaching
+    for name, reached in (("mirror-flat", False), ("mirror-in-mirror", True)):
+        scene = load_scene(name)
+        scene.camera = scene.camera.with_size(64, 48)
+        asked = []
+        monkeypatch.setattr(pv, "maps_reaching", lambda *args: asked.append(reaching(*args)) or asked[-1])
+        gated = renderer.render(scene, "per-vertex+caustic-mapping")
+        assert asked and any(asked) == reached, (name, asked)
+        monkeypatch.setattr(pv, "maps_reaching", lambda maps, samples, clip: bool(maps))
+        assert np.array_equal(gated, renderer.render(scene, "per-vertex+caustic-mapping")), name

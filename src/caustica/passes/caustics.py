@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform, write_uniform_array
-from .lights import MAX_LIGHTS
+from .lights import LIGHT_DIRECTIONAL, MAX_LIGHTS
 
 CAUSTIC_NONE, CAUSTIC_PROJECTIVE, CAUSTIC_CUBE = 0, 1, 2
 
@@ -32,6 +32,97 @@ class CausticMap:
     texture: object
     kind: int  # CAUSTIC_PROJECTIVE (clip_from_world) or CAUSTIC_CUBE (six-face atlas, 6N x N)
     clip_from_world: np.ndarray | None = None
+
+
+LIT_BLOCK = 16  # texels a side of the blocks whose lit receiver points lit_boxes bounds together
+LIT_MARGIN = 2  # texels the lit area is grown by first: a splat's light reaches past its photon's texel
+
+
+def _block_bounds(values: np.ndarray, block: int, reduce) -> np.ndarray:
+    """(rows, cols) ``reduce`` (np.min or np.max) of each block x block tile of the (H, W) ``values``, whose
+    sides are whole blocks."""
+    h, w = values.shape
+    return reduce(reduce(values.reshape(h // block, block, w // block, block), axis=3), axis=1)
+
+
+def _grown(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one texel into its 3 x 3 neighbourhood."""
+    rows = mask.copy()
+    rows[1:] |= mask[:-1]
+    rows[:-1] |= mask[1:]
+    grown = rows.copy()
+    grown[:, 1:] |= rows[:, :-1]
+    grown[:, :-1] |= rows[:, 1:]
+    return grown
+
+
+def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
+    """(k, 2, 3) world boxes (min, max) that hold the receiver points of every lit texel of a projective caustic
+    map, the lit area grown by LIT_MARGIN texels, a box per LIT_BLOCK x LIT_BLOCK block: each texel's point lies
+    along its ray at the distance its alpha holds (caustics.glsl's d: along the direction for a directional light,
+    from the light otherwise). Read back once per map and kept on it."""
+    kept = getattr(caustic, "_lit_boxes", None)
+    if kept is not None:
+        return kept
+    texture = caustic.texture
+    texels = np.frombuffer(texture.read(), np.float32).reshape(texture.height, texture.width, 4)
+    lit = (texels[..., 0] > 0.0) | (texels[..., 1] > 0.0) | (texels[..., 2] > 0.0)
+    for _ in range(LIT_MARGIN):
+        lit = _grown(lit)
+    rows, cols = np.nonzero(lit & (texels[..., 3] > 0.0))  # lit, with a receiver there
+    if not len(rows):
+        caustic._lit_boxes = np.zeros((0, 2, 3))
+        return caustic._lit_boxes
+    # Each texel's ray from the map's near plane to its far plane, and its point at the alpha's distance.
+    ndc = np.stack([(cols + 0.5) / texture.width * 2.0 - 1.0, (rows + 0.5) / texture.height * 2.0 - 1.0], axis=1)
+    world_from_clip = np.linalg.inv(np.asarray(caustic.clip_from_world, np.float64))
+    near, far = ((np.c_[ndc, np.full(len(ndc), z), np.ones(len(ndc))] @ world_from_clip.T) for z in (-1.0, 1.0))
+    near, far = near[:, :3] / near[:, 3:4], far[:, :3] / far[:, 3:4]
+    origin, direction = np.asarray(sample.position, np.float64), np.asarray(sample.direction, np.float64)
+    if sample.type == LIGHT_DIRECTIONAL:
+        d_near, d_far = (near - origin) @ direction, (far - origin) @ direction
+    else:
+        d_near, d_far = np.linalg.norm(near - origin, axis=1), np.linalg.norm(far - origin, axis=1)
+    span = np.where(np.abs(d_far - d_near) > 1e-12, d_far - d_near, 1e-12)
+    points = near + ((texels[rows, cols, 3] - d_near) / span)[:, None] * (far - near)
+    # The bounds of each block's points, an axis at a time (empty texels: +inf / -inf).
+    h, w = -(-texture.height // LIT_BLOCK) * LIT_BLOCK, -(-texture.width // LIT_BLOCK) * LIT_BLOCK
+    flat, bounds = rows * w + cols, []
+    for reduce, empty in ((np.min, np.inf), (np.max, -np.inf)):
+        axes = []
+        for axis in range(3):
+            values = np.full(h * w, empty)
+            values[flat] = points[:, axis]
+            axes.append(_block_bounds(values.reshape(h, w), LIT_BLOCK, reduce))
+        bounds.append(np.stack(axes, axis=-1))
+    filled = np.isfinite(bounds[0][..., 0])
+    caustic._lit_boxes = np.stack([bounds[0][filled], bounds[1][filled]], axis=1)
+    return caustic._lit_boxes
+
+
+def maps_reaching(maps: list | None, samples: list, clip_from_world: np.ndarray) -> bool:
+    """Whether any light's caustic map (``caustic_maps``, in the order of ``samples``) can put light inside the
+    view volume of ``clip_from_world``: a projective map where a box of its lit receiver points (lit_boxes) is
+    not wholly outside one face of the volume; a cube map anywhere."""
+    clip_from_world = np.asarray(clip_from_world, np.float64)
+    for caustic, sample in zip(maps or (), samples):
+        if caustic is None:
+            continue
+        if caustic.kind != CAUSTIC_PROJECTIVE or caustic.clip_from_world is None:
+            return True
+        boxes = lit_boxes(caustic, sample)
+        if not len(boxes):
+            continue
+        corners = np.stack([np.stack([boxes[:, i & 1, 0], boxes[:, (i >> 1) & 1, 1], boxes[:, (i >> 2) & 1, 2]], axis=1)
+                            for i in range(8)], axis=1)  # (k, 8, 3)
+        clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) @ clip_from_world.T
+        w = clip[..., 3]
+        outside = np.zeros(len(boxes), bool)
+        for axis in range(3):  # each face is a plane in world space: x > w, x < -w, ...
+            outside |= np.all(clip[..., axis] > w, axis=1) | np.all(clip[..., axis] < -w, axis=1)
+        if not outside.all():
+            return True
+    return False
 
 
 def bind_caustic_maps(program, maps: list, first_unit: int, distance_tolerance: float = 5e-3) -> None:

@@ -68,6 +68,7 @@ import numpy as np
 from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.base import Channel, Frame, Pass
+from ..passes.caustics import maps_reaching
 from ..passes.lights import ShadowMaps
 from ..passes.offscreen import OffscreenCamera, render_offscreen, scene_subset
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
@@ -444,9 +445,13 @@ def render_map(frame: Frame, subscene: Scene, volume: ViewVolume, params: PerVer
                size: tuple[int, int], reverse: bool = False):
     """Render ``subscene`` from the virtual viewpoint into a pooled rgba32f map of ``size`` (bilinear, clamped)."""
     view = volume.view_from_world
-    camera = OffscreenCamera(volume.position, size, view[1, :3].copy(), view, volume.clip_from_world(reverse))
+    clip_from_world = volume.clip_from_world(reverse)
+    camera = OffscreenCamera(volume.position, size, view[1, :3].copy(), view, clip_from_world)
+    # The caustic maps only where their light can land in the map's view: elsewhere their lookups add nothing.
+    reaching = maps_reaching(frame.optional("caustic_maps"), frame.read("light_samples"), clip_from_world)
     color = render_offscreen(frame, subscene, camera, view_passes(params, depth),
-                             share=("environment_bake", "caustic_maps", "caustic_tiles"), params=params)["color"]
+                             share=("environment_bake", *(("caustic_maps",) if reaching else ()), "caustic_tiles"),
+                             params=params)["color"]
     color.filter = (moderngl.LINEAR, moderngl.LINEAR)
     color.repeat_x = color.repeat_y = False
     return color
