@@ -19,8 +19,9 @@ and lens in the scene, each frame:
    nearer its lines). ``refine`` > 0 (ours) also splits mesh edges across
    reflected edges and hit/escape borders (per_vertex/refine.py).
 4. The reflection map: the scene without the reflector, rendered from E with
-   the off-axis frustum (ShadeSurfaces, the same shading as the eye view). The
-   paper's map is square and fixed (``map_size``); by default (``map_size`` 0,
+   the off-axis frustum (ShadeSurfaces, the same shading as the eye view; the
+   frame's caustic maps where their light can land in the map's view,
+   passes/caustics.maps_reaching). The paper's map is square and fixed (``map_size``); by default (``map_size`` 0,
    our extension) it holds ``map_density`` texels per screen pixel the patch
    covers, shaped like the frustum, since on a CPU rasterizer this second
    render is most of the frame's cost (1 texel: 0.5 blurred the box edges a
