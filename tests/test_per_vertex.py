@@ -354,6 +354,7 @@ def test_lit_boxes_put_a_caustic_maps_light_on_its_receiver(renderer):
     assert np.allclose(low, [-0.21875, 0.0, -0.21875], atol=1e-6) and np.allclose(high, [0.21875, 0.0, 0.21875],
                                                                                    atol=1e-6)
     assert lit_boxes(caustic, sample) is boxes  # read back once
+    caustic.texture.release()
 
 
 def test_a_caustic_reaches_a_view_that_sees_its_light(renderer):
@@ -368,6 +369,8 @@ def test_a_caustic_reaches_a_view_that_sees_its_light(renderer):
     dark, _ = _straight_down_map(renderer, (slice(0, 0), slice(0, 0)))
     assert not maps_reaching([dark, None], [sample, sample], _look([0.0, 2.0, 2.0], [0.0, 0.0, 0.0]))
     assert maps_reaching([CausticMap(dark.texture, CAUSTIC_CUBE)], [sample], _look([0.0, 1.0, 0.5], [0.0, 5.0, 0.0]))
+    caustic.texture.release()
+    dark.texture.release()
 
 
 def _look(position, target, fov=40.0):

@@ -15,11 +15,12 @@ fragment looks up by the rectangles' parallel projections as it is shaded.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..gpu.meshes import set_uniform, write_uniform_array
+from .deferred import clip_corners
 from .lights import LIGHT_DIRECTIONAL, MAX_LIGHTS
 
 CAUSTIC_NONE, CAUSTIC_PROJECTIVE, CAUSTIC_CUBE = 0, 1, 2
@@ -32,6 +33,7 @@ class CausticMap:
     texture: object
     kind: int  # CAUSTIC_PROJECTIVE (clip_from_world) or CAUSTIC_CUBE (six-face atlas, 6N x N)
     clip_from_world: np.ndarray | None = None
+    lit: np.ndarray | None = field(default=None, repr=False, compare=False)  # lit_boxes, read back once
 
 
 LIT_BLOCK = 16  # texels a side of the blocks whose lit receiver points lit_boxes bounds together
@@ -61,9 +63,8 @@ def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
     map, the lit area grown by LIT_MARGIN texels, a box per LIT_BLOCK x LIT_BLOCK block: each texel's point lies
     along its ray at the distance its alpha holds (caustics.glsl's d: along the direction for a directional light,
     from the light otherwise). Read back once per map and kept on it."""
-    kept = getattr(caustic, "_lit_boxes", None)
-    if kept is not None:
-        return kept
+    if caustic.lit is not None:
+        return caustic.lit
     texture = caustic.texture
     texels = np.frombuffer(texture.read(), np.float32).reshape(texture.height, texture.width, 4)
     lit = (texels[..., 0] > 0.0) | (texels[..., 1] > 0.0) | (texels[..., 2] > 0.0)
@@ -71,8 +72,8 @@ def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
         lit = _grown(lit)
     rows, cols = np.nonzero(lit & (texels[..., 3] > 0.0))  # lit, with a receiver there
     if not len(rows):
-        caustic._lit_boxes = np.zeros((0, 2, 3))
-        return caustic._lit_boxes
+        caustic.lit = np.zeros((0, 2, 3))
+        return caustic.lit
     # Each texel's ray from the map's near plane to its far plane, and its point at the alpha's distance.
     ndc = np.stack([(cols + 0.5) / texture.width * 2.0 - 1.0, (rows + 0.5) / texture.height * 2.0 - 1.0], axis=1)
     world_from_clip = np.linalg.inv(np.asarray(caustic.clip_from_world, np.float64))
@@ -96,15 +97,14 @@ def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
             axes.append(_block_bounds(values.reshape(h, w), LIT_BLOCK, reduce))
         bounds.append(np.stack(axes, axis=-1))
     filled = np.isfinite(bounds[0][..., 0])
-    caustic._lit_boxes = np.stack([bounds[0][filled], bounds[1][filled]], axis=1)
-    return caustic._lit_boxes
+    caustic.lit = np.stack([bounds[0][filled], bounds[1][filled]], axis=1)
+    return caustic.lit
 
 
 def maps_reaching(maps: list | None, samples: list, clip_from_world: np.ndarray) -> bool:
     """Whether any light's caustic map (``caustic_maps``, in the order of ``samples``) can put light inside the
     view volume of ``clip_from_world``: a projective map where a box of its lit receiver points (lit_boxes) is
     not wholly outside one face of the volume; a cube map anywhere."""
-    clip_from_world = np.asarray(clip_from_world, np.float64)
     for caustic, sample in zip(maps or (), samples):
         if caustic is None:
             continue
@@ -113,9 +113,7 @@ def maps_reaching(maps: list | None, samples: list, clip_from_world: np.ndarray)
         boxes = lit_boxes(caustic, sample)
         if not len(boxes):
             continue
-        corners = np.stack([np.stack([boxes[:, i & 1, 0], boxes[:, (i >> 1) & 1, 1], boxes[:, (i >> 2) & 1, 2]], axis=1)
-                            for i in range(8)], axis=1)  # (k, 8, 3)
-        clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) @ clip_from_world.T
+        clip = clip_corners(boxes, clip_from_world)  # (k, 8, 4)
         w = clip[..., 3]
         outside = np.zeros(len(boxes), bool)
         for axis in range(3):  # each face is a plane in world space: x > w, x < -w, ...

@@ -129,10 +129,15 @@ def set_ray_uniforms(program, camera) -> None:
     set_uniform(program, "deferred_viewport", np.array(camera.size, "f4"))
 
 
+_CORNER_SIDES = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])  # min (0) or max (1) per axis
+
+
 def clip_corners(bounds: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
-    """The eight corners of the box ``bounds`` (2, 3) in clip coordinates, (8, 4)."""
-    corners = np.array([[x, y, z, 1.0] for x in bounds[:, 0] for y in bounds[:, 1] for z in bounds[:, 2]])
-    return corners @ np.asarray(clip_from_world, np.float64).T
+    """The eight corners of the box ``bounds`` (2, 3) in clip coordinates, (8, 4); of each box of a stack
+    (..., 2, 3), (..., 8, 4)."""
+    corners = np.asarray(bounds, np.float64)[..., _CORNER_SIDES, np.arange(3)]  # (..., 8, 3)
+    return np.concatenate([corners, np.ones(corners.shape[:-1] + (1,))], axis=-1) @ np.asarray(clip_from_world,
+                                                                                                np.float64).T
 
 
 def screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
