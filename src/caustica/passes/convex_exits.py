@@ -18,8 +18,9 @@ Where a glass object's shape is known in closed form the shader computes every e
   towards (Haines, "Fast ray-convex polyhedron intersection", Graphics Gems II, 1991). The normal
   there is the mesh's shading normal, an affine field per plane (``Mesh.face_plane_normals``: the
   smooth side of a 64-sided cylinder, as the rasterized entry, ``exact`` and Mitsuba have it), or
-  the plane's own where the shading normal would send the light to the wrong side of the face (as
-  ``raytrace/paths.py`` does).
+  the plane's own where the shading normal would send the light to the wrong side of the face (exact,
+  ``raytrace/paths.py``, lets the shading normal decide the side there instead, as Mitsuba does: the two
+  differ only where the shading normal turns away from the ray, at grazing exits).
 
 ``shaders/common/convex_exits.glsl`` does the intersections; the internal bounces then follow the
 reflected light from exact point to exact point, off-screen too. Other glass keeps the depth search.

@@ -15,13 +15,14 @@ rays towards its bright part. Rays that escape read the environment.
 
 Conventions and limits:
 
-- A ray enters a glass object where dot(d, n_geom) < 0 and leaves it where
-  dot(d, n_geom) > 0; the medium outside every object is air (IOR 1). Nested
+- A ray enters a glass object where dot(d, n_shading) < 0 and leaves it where
+  dot(d, n_shading) > 0, as a path tracer's dielectric decides (see
+  :func:`interface`); the medium outside every object is air (IOR 1). Nested
   or touching dielectrics are not modelled.
-- Directions use the interpolated shading normal, flipped to the side the ray
-  comes from as decided by the geometric normal; where a shading-normal
+- Directions use the interpolated shading normal. At mirrors and diffuse
+  surfaces the geometric normal decides the side; where a shading-normal
   direction would cross to the wrong side of the face, the geometric normal
-  is used instead.
+  is used instead (and for glass's transmitted ray).
 - Glass with an Abbe number (per-channel IOR) is traced once per channel with
   that channel's IOR.
 - Light reaches diffuse surfaces directly (shadow rays, in which glass is opaque); the caustics, light
@@ -145,19 +146,26 @@ def reflect_above(d: np.ndarray, ns: np.ndarray, ng: np.ndarray) -> np.ndarray:
 
 
 def interface(d: np.ndarray, normal: np.ndarray, geometric: np.ndarray, ior: np.ndarray) -> Interface:
-    """Reflection, refraction and Fresnel reflectance where rays ``d`` meet glass of index ``ior``."""
-    entering, ns, ng = facing(d, normal, geometric)
+    """Reflection, refraction and Fresnel reflectance where rays ``d`` meet glass of index ``ior``.
+
+    The shading normal decides the side, as a path tracer's dielectric does (Mitsuba's works in the
+    shading frame): at a smooth-shaded silhouette, where it turns away from a ray that meets the face's
+    outside, the ray leaves the surface the normals describe at a grazing angle, is mostly totally
+    reflected, and reflects about the shading normal even where that crosses the face. The transmitted
+    ray stays on the face's far side (the geometric normal decides where the shading one would not)."""
+    entering = dot(d, normal) < 0
+    ns = normal * np.where(entering, 1.0, -1.0)[:, None]
+    ng = geometric * np.where(dot(d, geometric) < 0, 1.0, -1.0)[:, None]
     eta_i = np.where(entering, 1.0, ior)
     eta_t = np.where(entering, ior, 1.0)
     t, tir = refract(d, ns, eta_i / eta_t)
-    # Keep the transmitted ray on the far side of the face (the geometric normal decides).
     wrong_side = ~tir & (dot(t, ng) >= 0)
     if wrong_side.any():
         t_g, tir_g = refract(d[wrong_side], ng[wrong_side], (eta_i / eta_t)[wrong_side])
         t[wrong_side], tir[wrong_side] = t_g, tir_g
     cos_i = -dot(d, ns)
     reflectance = np.where(tir, 1.0, fresnel_dielectric(cos_i, eta_i, eta_t))
-    reflected = reflect_above(d, ns, ng)
+    reflected = reflect(d, ns)
     t = np.where(tir[:, None], reflected, t)
     return Interface(entering, ns, ng, reflectance, reflected, t, tir)
 

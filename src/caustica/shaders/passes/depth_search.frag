@@ -353,7 +353,7 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
 // Ours (passes/convex_exits.py): every exit exact, where the glass is an analytic sphere or a convex
 // mesh of few planes; the internal bounces go from exact point to exact point. The shading normal
 // there, unless the light it reflects would leave through the face or the light it refracts (green)
-// stay inside: then the face's own (as exact's paths, raytrace/paths.py).
+// stay inside: then the face's own (passes/convex_exits.py says where exact differs).
 #if CONVEX_EXITS
 void convex_exits(vec3 p1, vec3 t1, float ior) {
     vec3 p = p1, d = t1;
