@@ -51,8 +51,9 @@ from ..scene.mesh import Mesh
 from ..scene.scene import Scene, SceneObject
 
 # 2: a ray reflected totally and then leaking out of an open mesh was invalid; 3: light leaving through a
-# hole of an open mesh exits there (it was dropped: 15 % of the bunny scan's lit vertices under the bench's light)
-TABLE_VERSION = 3
+# hole of an open mesh exits there (it was dropped: 15 % of the bunny scan's lit vertices under the bench's light);
+# 4: the shading normal decides the side of each interface (raytrace/paths.interface), as in exact's images
+TABLE_VERSION = 4
 DEFAULT_DIRECTIONS = 129
 DEFAULT_MAX_DEPTH = 8
 BLOCK_RAYS = 1 << 19  # rays per block (bounded memory; each block uses every core)
