@@ -214,31 +214,6 @@ bool correct_distance(int layer, int steps, vec3 p1, vec3 t1, inout float dt, ou
 // The exits of the green channel's path: exit_point[k], outward exit_normal[k], path length
 // inside up to it, exit_length[k]; exit_count of them (1 + the internal bounces followed).
 const int MAX_EXITS = INTERNAL_BOUNCES + 1;
-// STEP(k) for k = 1 .. INTERNAL_BOUNCES (FOR_EACH_BOUNCE) or 0 .. INTERNAL_BOUNCES (FOR_EACH_EXIT), written out: a
-// loop over the exits, too long for the compiler to unroll, would index the arrays below with a variable, and
-// llvmpipe keeps such arrays in memory (aberration-lens: 36.8 -> 25.2 ms CPU a frame with the exits written out).
-#if INTERNAL_BOUNCES == 0
-#define FOR_EACH_BOUNCE(STEP)
-#elif INTERNAL_BOUNCES == 1
-#define FOR_EACH_BOUNCE(STEP) STEP(1)
-#elif INTERNAL_BOUNCES == 2
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2)
-#elif INTERNAL_BOUNCES == 3
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3)
-#elif INTERNAL_BOUNCES == 4
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3) STEP(4)
-#elif INTERNAL_BOUNCES == 5
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3) STEP(4) STEP(5)
-#elif INTERNAL_BOUNCES == 6
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3) STEP(4) STEP(5) STEP(6)
-#elif INTERNAL_BOUNCES == 7
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3) STEP(4) STEP(5) STEP(6) STEP(7)
-#elif INTERNAL_BOUNCES == 8
-#define FOR_EACH_BOUNCE(STEP) STEP(1) STEP(2) STEP(3) STEP(4) STEP(5) STEP(6) STEP(7) STEP(8)
-#else
-#error "INTERNAL_BOUNCES above 8: write out more steps in FOR_EACH_BOUNCE"
-#endif
-#define FOR_EACH_EXIT(STEP) STEP(0) FOR_EACH_BOUNCE(STEP)
 vec3 exit_point[MAX_EXITS];
 vec3 exit_normal[MAX_EXITS];
 float exit_length[MAX_EXITS];
@@ -254,58 +229,34 @@ vec3 exit_seen[MAX_EXITS];
 // stops at the first). TIR at the last exit: the light leaves in the reflected direction.
 // Exits k >= own_exits (a constant at each call) reuse exit_seen[k] instead of their own lookup,
 // with this ior's Fresnel weights.
-// Exit k of inside_radiance (k a literal: FOR_EACH_EXIT unrolls the exits by hand, so that every array index is a
-// constant and the arrays stay in registers).
-void exit_term(int k, vec3 nk, vec3 from, float travelled, bool own, inout vec3 seen_k, float ior,
-               inout vec3 radiance, inout float weight, inout vec3 d) {
-    vec3 t = refract_direction(d, -nk, ior);
-    vec3 r = reflect_direction(d, -nk);
-    bool tir = dot(t, t) == 0.0;
-    float f = fresnel_dielectric(dot(d, nk), ior, 1.0);  // 1 on TIR
-    // One lookup per exit (llvmpipe runs both sides of a branch): TIR leaves along R, and only at the last exit.
-    float leaving = tir ? (k == exit_count - 1 ? 1.0 : 0.0) : 1.0 - f;
-    vec3 along = tir ? r : t;
-#if GLASS_CONTACT && NEARBY != NEARBY_NONE
-    // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
-    vec3 landing;
-    if (on_contact_plane(contact_plane, contact_tolerance, from, nk, landing)) {
-        leaving = 1.0; f = 0.0; from = landing; along = nk;
-    }
-#endif
-    vec3 seen = own ? nearby_cached(from, along) : seen_k;
-    seen_k = seen;
-    if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * travelled) * seen;
-    weight *= f;
-    d = r;
-}
-
 vec3 inside_radiance(vec3 d, float ior, int own_exits) {
     vec3 radiance = vec3(0.0);
     float weight = 1.0;
-    // Every exit (exits past exit_count add nothing).
-#define EXIT_TERM(k) exit_term(k, exit_normal[k], exit_point[k], exit_length[k], k < own_exits, exit_seen[k], ior, \
-                               radiance, weight, d);
-    FOR_EACH_EXIT(EXIT_TERM)
-#undef EXIT_TERM
+    // A fixed trip count (unrolled, constant indices); exits past exit_count add nothing.
+    for (int k = 0; k < MAX_EXITS; ++k) {
+        vec3 nk = exit_normal[k];
+        vec3 t = refract_direction(d, -nk, ior);
+        vec3 r = reflect_direction(d, -nk);
+        bool tir = dot(t, t) == 0.0;
+        float f = fresnel_dielectric(dot(d, nk), ior, 1.0);  // 1 on TIR
+        // One lookup per exit (llvmpipe runs both sides of a branch): TIR leaves along R, and only at the last exit.
+        float leaving = tir ? (k == exit_count - 1 ? 1.0 : 0.0) : 1.0 - f;
+        vec3 from = exit_point[k], along = tir ? r : t;
+#if GLASS_CONTACT && NEARBY != NEARBY_NONE
+        // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
+        vec3 landing;
+        if (on_contact_plane(contact_plane, contact_tolerance, from, nk, landing)) {
+            leaving = 1.0; f = 0.0; from = landing; along = nk;
+        }
+#endif
+        vec3 seen = k < own_exits ? nearby_cached(from, along) : exit_seen[k];
+        exit_seen[k] = seen;
+        if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * exit_length[k]) * seen;
+        weight *= f;
+        d = r;
+    }
     return radiance;
 }
-
-#if INTERNAL_BOUNCES > 0
-// Bounce k (a literal, FOR_EACH_BOUNCE): the light reflected inside at exit k - 1 (point, normal, path length)
-// to exit k, starting from the last chord.
-void bounced_exit(int k, vec3 previous_point, vec3 previous_normal, float previous_length, out vec3 point,
-                  out vec3 normal, out float travelled, inout vec3 d, inout float chord, inout bool found,
-                  inout bool left) {
-    vec3 r = reflect_direction(d, -previous_normal);
-    vec4 s;
-    found = correct_distance(NEAREST_LAYER, bounce_iterations, previous_point, r, chord, s, left) && found;
-    point = previous_point + chord * r;
-    normal = found ? normalize(s.xyz) : r;
-    travelled = previous_length + chord;
-    exit_count = found ? k + 1 : exit_count;
-    d = r;
-}
-#endif
 
 // The exits of the path entering at P1 along T1 (v, n: the view direction and the normal at P1),
 // found in screen space: 2.1.2-2.1.4, and our internal bounces.
@@ -386,10 +337,16 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
     // nearer the point, since the next exit may be front- or back-facing.
     vec3 d = t1;
     float chord = dt;
-#define BOUNCE_EXIT(k) bounced_exit(k, exit_point[k - 1], exit_normal[k - 1], exit_length[k - 1], exit_point[k], \
-                                    exit_normal[k], exit_length[k], d, chord, found, left);
-    FOR_EACH_BOUNCE(BOUNCE_EXIT)
-#undef BOUNCE_EXIT
+    for (int k = 1; k < MAX_EXITS; ++k) {
+        vec3 r = reflect_direction(d, -exit_normal[k - 1]);
+        vec4 s;
+        found = correct_distance(NEAREST_LAYER, bounce_iterations, exit_point[k - 1], r, chord, s, left) && found;
+        exit_point[k] = exit_point[k - 1] + chord * r;
+        exit_normal[k] = found ? normalize(s.xyz) : r;
+        exit_length[k] = exit_length[k - 1] + chord;
+        exit_count = found ? k + 1 : exit_count;
+        d = r;
+    }
 #endif
 }
 
@@ -398,27 +355,21 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
 // there, unless the light it reflects would leave through the face or the light it refracts (green)
 // stay inside: then the face's own (passes/convex_exits.py says where exact differs).
 #if CONVEX_EXITS
-// One exact exit (FOR_EACH_EXIT): from p along d to the exit, then d reflected there.
-void convex_step(float ior, inout vec3 p, inout vec3 d, inout float travelled, out vec3 point, out vec3 normal_out,
-                 out float length_out) {
-    vec3 normal, face;
-    float t = convex_exit(p, d, normal, face);
-    vec3 leaving = refract_direction(d, -normal, ior);
-    if (dot(reflect_direction(d, -normal), face) >= 0.0 || dot(leaving, face) < 0.0) normal = face;
-    p += t * d;
-    travelled += t;
-    point = p;
-    normal_out = normal;
-    length_out = travelled;
-    d = reflect_direction(d, -normal);
-}
-
 void convex_exits(vec3 p1, vec3 t1, float ior) {
     vec3 p = p1, d = t1;
     float travelled = 0.0;
-#define CONVEX_EXIT(k) convex_step(ior, p, d, travelled, exit_point[k], exit_normal[k], exit_length[k]);
-    FOR_EACH_EXIT(CONVEX_EXIT)
-#undef CONVEX_EXIT
+    for (int k = 0; k < MAX_EXITS; ++k) {
+        vec3 normal, face;
+        float t = convex_exit(p, d, normal, face);
+        vec3 leaving = refract_direction(d, -normal, ior);
+        if (dot(reflect_direction(d, -normal), face) >= 0.0 || dot(leaving, face) < 0.0) normal = face;
+        p += t * d;
+        travelled += t;
+        exit_point[k] = p;
+        exit_normal[k] = normal;
+        exit_length[k] = travelled;
+        d = reflect_direction(d, -normal);
+    }
     exit_count = MAX_EXITS;
 }
 #endif
