@@ -325,7 +325,7 @@ def test_ray_scene_is_cached_until_an_object_moves():
 def test_dn_of_an_icosphere_has_no_slipped_rays():
     """Every vertex of a subdivided icosphere aims exactly at its antipodal vertex; none may slip through."""
     from caustica.raytrace.paths import distance_along_negative_normal
-    from caustica.scene.shapes import cylinder, plane, sphere
+    from caustica.scene.shapes import sphere
 
     dn = distance_along_negative_normal(sphere(1.0, 5))
     np.testing.assert_allclose(dn, 2.0, atol=1e-4)
