@@ -47,17 +47,6 @@ def _block_bounds(values: np.ndarray, block: int, reduce) -> np.ndarray:
     return reduce(reduce(values.reshape(h // block, block, w // block, block), axis=3), axis=1)
 
 
-def _grown(mask: np.ndarray) -> np.ndarray:
-    """``mask`` grown by one texel into its 3 x 3 neighbourhood."""
-    rows = mask.copy()
-    rows[1:] |= mask[:-1]
-    rows[:-1] |= mask[1:]
-    grown = rows.copy()
-    grown[:, 1:] |= rows[:, :-1]
-    grown[:, :-1] |= rows[:, 1:]
-    return grown
-
-
 def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
     """(k, 2, 3) world boxes (min, max) that hold the receiver points of every lit texel of a projective caustic
     map, the lit area grown by LIT_MARGIN texels, a box per LIT_BLOCK x LIT_BLOCK block: each texel's point lies
@@ -65,11 +54,12 @@ def lit_boxes(caustic: CausticMap, sample) -> np.ndarray:
     from the light otherwise). Read back once per map and kept on it."""
     if caustic.lit is not None:
         return caustic.lit
+    from scipy import ndimage  # only where reflection maps ask (scipy.ndimage costs start-up otherwise)
+
     texture = caustic.texture
     texels = np.frombuffer(texture.read(), np.float32).reshape(texture.height, texture.width, 4)
     lit = (texels[..., 0] > 0.0) | (texels[..., 1] > 0.0) | (texels[..., 2] > 0.0)
-    for _ in range(LIT_MARGIN):
-        lit = _grown(lit)
+    lit = ndimage.binary_dilation(lit, structure=np.ones((3, 3), bool), iterations=LIT_MARGIN)
     rows, cols = np.nonzero(lit & (texels[..., 3] > 0.0))  # lit, with a receiver there
     if not len(rows):
         caustic.lit = np.zeros((0, 2, 3))
