@@ -7,7 +7,7 @@ import pytest
 import caustica.metrics
 from caustica.errors import SceneError, TechniqueError
 from caustica.raytrace.embree_scene import ray_scene_for
-from caustica.passes.impostors import MAX_IMPOSTORS, atlas_cell, atlas_grid
+from caustica.passes.impostors import MAX_IMPOSTORS, atlas_cell, atlas_grid, impostor_defines
 from caustica.raytrace.paths import follow_refraction
 from caustica.scene import Camera, Glass, Scene, SceneObject, procedural_environment
 from caustica.scene.lights import PointLight
@@ -442,3 +442,30 @@ def test_flat_patches_are_looked_up_at_prect_with_the_full_search_s_hits(rendere
     assert built and np.array_equal(flat_valid, full_valid) and flat_valid.sum() > 1000
     assert np.abs(flat_hits - full_hits)[flat_valid].max() < 1e-4
     np.testing.assert_allclose(flat_image, full_image, atol=1e-3)
+
+
+def test_flat_rectangles_compile_without_seeds_and_steps(renderer, monkeypatch):
+    """IMPOSTORS_CURVED: 0 where every rectangle is a flat patch (2.2.1: Prect is its hit), whose lookup then
+    compiles without the seeds and steps; the image is the curved lookup's bit for bit. A box beside the floor
+    turns the curved lookup back on."""
+    import caustica.techniques.impostors as technique
+
+    seen = []
+
+    def spy(frame):
+        defines = impostor_defines(frame)
+        seen.append(defines["IMPOSTORS_CURVED"])
+        return defines
+
+    lights = [PointLight(position=[1.5, 3.0, 2.0], intensity=[8.0, 8.0, 8.0])]
+    floor_only = _scene([_ball(), _floor()], size=48, lights=lights)
+    monkeypatch.setattr(technique, "impostor_defines", spy)
+    flat = renderer.render(floor_only, "impostors", internal_bounces=1)
+    assert set(seen) == {0}
+    monkeypatch.setattr(technique, "impostor_defines", lambda frame: {**impostor_defines(frame), "IMPOSTORS_CURVED": 1})
+    curved = renderer.render(floor_only, "impostors", internal_bounces=1)
+    assert np.array_equal(flat, curved)
+    monkeypatch.setattr(technique, "impostor_defines", spy)
+    seen.clear()
+    renderer.render(_scene([_ball(), _box(), _floor()], size=48, lights=lights), "impostors")
+    assert set(seen) == {1}

@@ -385,10 +385,14 @@ def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None
 
 
 def impostor_defines(frame: Frame) -> dict:
-    """MAX_IMPOSTORS for this frame's shaders: the most rectangles any reflector has (at least 1)."""
+    """MAX_IMPOSTORS for this frame's shaders: the most rectangles any reflector has (at least 1); and
+    IMPOSTORS_CURVED: 0 when every rectangle is a flat patch, whose lookup compiles without the seeds and
+    steps (2.2.1: Prect is a flat patch's hit; a CPU rasterizer runs a loop's first pass even where no
+    pixel needs it)."""
     impostors = frame.channels.get("impostors")
-    groups = impostors.by_reflector.values() if impostors is not None else ()
-    return {"MAX_IMPOSTORS": max([1, *(len(group) for group in groups)])}
+    groups = list(impostors.by_reflector.values()) if impostors is not None else []
+    return {"MAX_IMPOSTORS": max([1, *(len(group) for group in groups)]),
+            "IMPOSTORS_CURVED": int(any(not impostor.flat for group in groups for impostor in group))}
 
 
 def world_index(frame: Frame, obj) -> int | None:

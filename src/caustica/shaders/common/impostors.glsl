@@ -17,7 +17,7 @@
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
-//   only), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
+//   only), IMPOSTORS_CURVED (1; 0: every rectangle is a flat patch, passes/impostors.impostor_defines), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PLANE_TEXTURES (0: the textured planes,
 //   at most passes/impostors.py MAX_PLANE_TEXTURES), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
@@ -34,6 +34,9 @@
 #endif
 #ifndef IMPOSTOR_SAMPLES
 #define IMPOSTOR_SAMPLES 8
+#endif
+#ifndef IMPOSTORS_CURVED
+#define IMPOSTORS_CURVED 1  // 0: every rectangle of the frame is a flat patch (no seeds, no steps compiled)
 #endif
 #ifndef IMPOSTOR_REFLECTIONS
 #define IMPOSTOR_REFLECTIONS 1  // 0: reflected rays (mirrors, refractors' entry) see the environment only
@@ -143,7 +146,7 @@ bool impostor_intersect(int k, vec3 o, vec3 d, out float t_hit, out vec2 uv_hit)
     if (!impostor_prect(k, o, d, t, pixel)) return false;
     float dw = dot(d, impostor_axis[k]);
     float o_depth = impostor_depth(k, o);
-    bool curved = impostor_flat[k] == 0;
+    bool curved = IMPOSTORS_CURVED != 0 && impostor_flat[k] == 0;
     vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
     // Seed: the first point along the ray whose depth is beyond its selected point's (the
     // paper's priority), otherwise the point whose depth is closest to its selected point's.

@@ -211,56 +211,20 @@ bool correct_distance(int layer, int steps, vec3 p1, vec3 t1, inout float dt, ou
     return s2.w > 0.0;
 }
 
-// The exits of the green channel's path: exit_point[k], outward exit_normal[k], path length
-// inside up to it, exit_length[k]; exit_count of them (1 + the internal bounces followed).
-const int MAX_EXITS = INTERNAL_BOUNCES + 1;
-vec3 exit_point[MAX_EXITS];
-vec3 exit_normal[MAX_EXITS];
-float exit_length[MAX_EXITS];
-int exit_count = 0;
+// One exit of the green channel's path: where it leaves, the outward normal there and the path
+// length inside up to it. The geometry of every channel's path is green's (dispersion refracts each
+// channel with its own IOR at the same points).
+struct Exit {
+    vec3 point;
+    vec3 normal;
+    float travelled;
+};
+const int MAX_EXITS = INTERNAL_BOUNCES + 1;  // the first exit and one per internal bounce
 
-// What each exit's lookup saw on the last inside_radiance call: the green channel's, which the
-// other channels reuse at their bounced exits (SHARED_BOUNCES).
-vec3 exit_seen[MAX_EXITS];
-
-// Light leaving the glass for refractive index `ior` along the exits (the geometry is the
-// green channel's): d is T1 for this ior. At each exit the transmitted share (1 - F) leaves
-// (2.1.4) and the reflected share F goes on inside to the next exit (our extension; the paper
-// stops at the first). TIR at the last exit: the light leaves in the reflected direction.
-// Exits k >= own_exits (a constant at each call) reuse exit_seen[k] instead of their own lookup,
-// with this ior's Fresnel weights.
-vec3 inside_radiance(vec3 d, float ior, int own_exits) {
-    vec3 radiance = vec3(0.0);
-    float weight = 1.0;
-    // A fixed trip count (unrolled, constant indices); exits past exit_count add nothing.
-    for (int k = 0; k < MAX_EXITS; ++k) {
-        vec3 nk = exit_normal[k];
-        vec3 t = refract_direction(d, -nk, ior);
-        vec3 r = reflect_direction(d, -nk);
-        bool tir = dot(t, t) == 0.0;
-        float f = fresnel_dielectric(dot(d, nk), ior, 1.0);  // 1 on TIR
-        // One lookup per exit (llvmpipe runs both sides of a branch): TIR leaves along R, and only at the last exit.
-        float leaving = tir ? (k == exit_count - 1 ? 1.0 : 0.0) : 1.0 - f;
-        vec3 from = exit_point[k], along = tir ? r : t;
-#if GLASS_CONTACT && NEARBY != NEARBY_NONE
-        // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
-        vec3 landing;
-        if (on_contact_plane(contact_plane, contact_tolerance, from, nk, landing)) {
-            leaving = 1.0; f = 0.0; from = landing; along = nk;
-        }
-#endif
-        vec3 seen = k < own_exits ? nearby_cached(from, along) : exit_seen[k];
-        exit_seen[k] = seen;
-        if (k < exit_count) radiance += weight * leaving * exp(-absorption_coefficient * exit_length[k]) * seen;
-        weight *= f;
-        d = r;
-    }
-    return radiance;
-}
-
-// The exits of the path entering at P1 along T1 (v, n: the view direction and the normal at P1),
-// found in screen space: 2.1.2-2.1.4, and our internal bounces.
-void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
+// The first exit of the path entering at P1 along T1 (v, n: the view direction and the normal at P1),
+// found in screen space: 2.1.2-2.1.4. False where no buffer holds it (N2 = T1 there, so T2 = T1:
+// env-map's single refraction).
+bool searched_first_exit(vec3 v, vec3 n, vec3 p1, vec3 t1, out Exit exit) {
     vec2 pix1;
     buffer_pixel(p1, pix1);
     float start = 1e-3 * length(p1 - camera_position);  // the paper's small positive initial dT
@@ -324,66 +288,118 @@ void searched_exits(vec3 v, vec3 n, vec3 p1, vec3 t1) {
             found = correct_distance(BACK_LAYER, iterations, p1, t1, dt, s2, left);
         }
     }
-    // P2 with N2 from the buffer (2.1.4); outside every buffer N2 = T1, so T2 = T1 (env-map's
-    // single refraction).
-    exit_point[0] = p1 + dt * t1;
-    exit_normal[0] = found ? normalize(s2.xyz) : t1;
-    exit_length[0] = dt;
-    exit_count = 1;
-#if INTERNAL_BOUNCES > 0
-    // Our extension, not in the paper: follow the light reflected inside at each exit to the
-    // next one. First guess: the previous chord length (exact on a sphere, whose successive
-    // chords are equal); then 2.1.3's tangent-plane correction against whichever buffer lies
-    // nearer the point, since the next exit may be front- or back-facing.
-    vec3 d = t1;
-    float chord = dt;
-    for (int k = 1; k < MAX_EXITS; ++k) {
-        vec3 r = reflect_direction(d, -exit_normal[k - 1]);
-        vec4 s;
-        found = correct_distance(NEAREST_LAYER, bounce_iterations, exit_point[k - 1], r, chord, s, left) && found;
-        exit_point[k] = exit_point[k - 1] + chord * r;
-        exit_normal[k] = found ? normalize(s.xyz) : r;
-        exit_length[k] = exit_length[k - 1] + chord;
-        exit_count = found ? k + 1 : exit_count;
-        d = r;
-    }
-#endif
+    // P2 with N2 from the buffer (2.1.4).
+    exit = Exit(p1 + dt * t1, found ? normalize(s2.xyz) : t1, dt);
+    return found;
 }
 
-// Ours (passes/convex_exits.py): every exit exact, where the glass is an analytic sphere or a convex
-// mesh of few planes; the internal bounces go from exact point to exact point. The shading normal
-// there, unless the light it reflects would leave through the face or the light it refracts (green)
-// stay inside: then the face's own (passes/convex_exits.py says where exact differs).
+// Our extension, not in the paper: the next exit of the light reflected inside at `exit` along r.
+// First guess: the previous chord (exact on a sphere, whose successive chords are equal); then
+// 2.1.3's tangent-plane correction against whichever buffer lies nearer the point, since the next
+// exit may be front- or back-facing. False where no buffer holds it.
+bool searched_next_exit(inout Exit exit, vec3 r, inout float chord) {
+    vec4 s;
+    bool left;
+    bool found = correct_distance(NEAREST_LAYER, bounce_iterations, exit.point, r, chord, s, left);
+    exit = Exit(exit.point + chord * r, found ? normalize(s.xyz) : r, exit.travelled + chord);
+    return found;
+}
+
+// Ours (passes/convex_exits.py): the exit exact, where the glass is an analytic sphere or a convex
+// mesh of few planes, from p along d (green's IOR). The shading normal there, unless the light it
+// reflects would leave through the face or the light it refracts stay inside: then the face's own
+// (passes/convex_exits.py says where exact differs).
 #if CONVEX_EXITS
-void convex_exits(vec3 p1, vec3 t1, float ior) {
-    vec3 p = p1, d = t1;
-    float travelled = 0.0;
-    for (int k = 0; k < MAX_EXITS; ++k) {
-        vec3 normal, face;
-        float t = convex_exit(p, d, normal, face);
-        vec3 leaving = refract_direction(d, -normal, ior);
-        if (dot(reflect_direction(d, -normal), face) >= 0.0 || dot(leaving, face) < 0.0) normal = face;
-        p += t * d;
-        travelled += t;
-        exit_point[k] = p;
-        exit_normal[k] = normal;
-        exit_length[k] = travelled;
-        d = reflect_direction(d, -normal);
-    }
-    exit_count = MAX_EXITS;
+Exit convex_next_exit(vec3 p, vec3 d, float travelled, float ior) {
+    vec3 normal, face;
+    float t = convex_exit(p, d, normal, face);
+    vec3 leaving = refract_direction(d, -normal, ior);
+    if (dot(reflect_direction(d, -normal), face) >= 0.0 || dot(leaving, face) < 0.0) normal = face;
+    return Exit(p + t * d, normal, travelled + t);
 }
 #endif
 
-#if DISPERSION
-// Channel c of a dispersive refractor: Snell and Fresnel with its own IOR at every interface; its
-// exits k >= own_exits reuse the last lookups (inside_radiance).
-float channel_radiance(vec3 v, vec3 n, vec3 reflected, int c, int own_exits) {
-    float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior_rgb[c]);
-    vec3 t1c = refract_direction(v, n, 1.0 / ior_rgb[c]);
-    float inside = inside_radiance(t1c, ior_rgb[c], own_exits)[c];
-    return dot(t1c, t1c) == 0.0 ? reflected[c] : f1 * reflected[c] + (1.0 - f1) * inside;
-}
+// The first exit along T1 from P1: searched, or exact (CONVEX_EXITS 1: every glass object, 2: per object).
+bool first_exit(vec3 v, vec3 n, vec3 p1, vec3 t1, float ior, out Exit exit) {
+#if CONVEX_EXITS == 1
+    exit = convex_next_exit(p1, t1, 0.0, ior);
+    return true;
+#elif CONVEX_EXITS == 2
+    if (convex_kind != 0) {
+        exit = convex_next_exit(p1, t1, 0.0, ior);
+        return true;
+    }
+    return searched_first_exit(v, n, p1, t1, exit);
+#else
+    return searched_first_exit(v, n, p1, t1, exit);
 #endif
+}
+
+// The exit after `exit` along the reflected direction r; chord: the searched bounces' first guess.
+bool next_exit(inout Exit exit, vec3 r, float ior, inout float chord) {
+#if CONVEX_EXITS == 1
+    exit = convex_next_exit(exit.point, r, exit.travelled, ior);
+    return true;
+#elif CONVEX_EXITS == 2
+    if (convex_kind != 0) {
+        exit = convex_next_exit(exit.point, r, exit.travelled, ior);
+        return true;
+    }
+    return searched_next_exit(exit, r, chord);
+#else
+    return searched_next_exit(exit, r, chord);
+#endif
+}
+
+// One refractive index's light inside the glass: its direction, the share of the light entering
+// that still goes on inside, and the radiance that has left so far.
+struct InsideLight {
+    vec3 direction;
+    float ior;
+    float weight;
+    vec3 radiance;
+};
+
+// How the light of one IOR meets an exit (2.1.4): the ray it leaves along (T, or R on TIR), and
+// the Fresnel reflectance F there (1 on TIR).
+struct Departure {
+    vec3 from;
+    vec3 along;
+    float reflectance;
+    bool tir;
+};
+
+Departure departure(InsideLight light, Exit exit) {
+    vec3 t = refract_direction(light.direction, -exit.normal, light.ior);
+    bool tir = dot(t, t) == 0.0;
+    Departure leaving = Departure(exit.point, tir ? reflect_direction(light.direction, -exit.normal) : t,
+                                  fresnel_dielectric(dot(light.direction, exit.normal), light.ior, 1.0), tir);
+#if GLASS_CONTACT && NEARBY != NEARBY_NONE
+    // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
+    vec3 landing;
+    if (on_contact_plane(contact_plane, contact_tolerance, exit.point, exit.normal, landing)) {
+        leaving = Departure(landing, exit.normal, 0.0, false);
+    }
+#endif
+    return leaving;
+}
+
+// The light of one IOR leaving at an exit, where a lookup along the departure saw `seen`: the
+// transmitted share 1 - F leaves, and the reflected share F goes on inside along R (our extension;
+// the paper stops at the first exit). TIR leaves along R, and only at the last exit.
+void leave(inout InsideLight light, Exit exit, Departure leaving, vec3 seen, bool last) {
+    float share = leaving.tir ? (last ? 1.0 : 0.0) : 1.0 - leaving.reflectance;
+    light.radiance += light.weight * share * exp(-absorption_coefficient * exit.travelled) * seen;
+    light.weight *= leaving.reflectance;
+    light.direction = reflect_direction(light.direction, -exit.normal);
+}
+
+// The light of one IOR entering at the front face: Fresnel at the entry, then what left the glass.
+float entered_radiance(vec3 v, vec3 n, vec3 reflected, InsideLight light, int c) {
+    float f1 = fresnel_dielectric(dot(-v, n), 1.0, light.ior);
+    vec3 t1 = refract_direction(v, n, 1.0 / light.ior);
+    return dot(t1, t1) == 0.0 ? reflected[c] : f1 * reflected[c] + (1.0 - f1) * light.radiance[c];
+}
 
 vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     vec3 reflected_dir = reflect_direction(v, n);
@@ -393,29 +409,56 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     exit_dir = nearby_output(vec4(reflected_dir, 1.0));
     // Entry TIR (n_t < n_i at grazing incidence): the surface only reflects.
     if (dot(t1, t1) == 0.0) return reflected;
-#if CONVEX_EXITS == 1
-    convex_exits(world_position, t1, ior);
-#elif CONVEX_EXITS == 2
-    if (convex_kind != 0) convex_exits(world_position, t1, ior);
-    else searched_exits(v, n, world_position, t1);
-#else
-    searched_exits(v, n, world_position, t1);
-#endif
-    // Per channel Snell and Fresnel at every interface (dispersion), or one IOR for all.
-    vec3 result;
+    Exit exit;
+    bool more = first_exit(v, n, world_position, t1, ior, exit);
+    vec3 t2 = refract_direction(t1, -exit.normal, ior);
+    vec4 first_exit_direction = vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -exit.normal), 1.0);
+
+    InsideLight green = InsideLight(t1, ior, 1.0, vec3(0.0));
 #if DISPERSION
-    // Green first: with SHARED_BOUNCES red and blue look up their first exit along their own
-    // direction and take green's lookups at the bounced exits.
-    result.g = channel_radiance(v, n, reflected, 1, MAX_EXITS);
-    result.r = channel_radiance(v, n, reflected, 0, SHARED_BOUNCES != 0 ? 1 : MAX_EXITS);
-    result.b = channel_radiance(v, n, reflected, 2, SHARED_BOUNCES != 0 ? 1 : MAX_EXITS);
+    InsideLight red = InsideLight(refract_direction(v, n, 1.0 / ior_rgb[0]), ior_rgb[0], 1.0, vec3(0.0));
+    InsideLight blue = InsideLight(refract_direction(v, n, 1.0 / ior_rgb[2]), ior_rgb[2], 1.0, vec3(0.0));
+#if SHARED_BOUNCES
+    // Ours: red and blue look up their own directions at the first exit, where the channels part
+    // most, and take green's lookups at the bounced exits (with their own Fresnel weights).
+    Departure red_first = departure(red, exit), blue_first = departure(blue, exit);
+    vec3 red_seen = nearby_cached(red_first.from, red_first.along);
+    vec3 blue_seen = nearby_cached(blue_first.from, blue_first.along);
+#endif
+#endif
+    // Each IOR's light follows the green path's exits one at a time, nothing kept in arrays (which
+    // llvmpipe keeps in memory). Whether an exit is the last, which decides where its TIR goes, is
+    // known once the next one has been searched for. One loop, so that the search and the lookups
+    // are compiled once.
+    float chord = exit.travelled;
+    for (int k = 0; k < MAX_EXITS; ++k) {
+        Exit next = exit;
+        more = more && k + 1 < MAX_EXITS && next_exit(next, reflect_direction(green.direction, -exit.normal), ior, chord);
+        Departure leaving = departure(green, exit);
+        vec3 seen = nearby_cached(leaving.from, leaving.along);
+        leave(green, exit, leaving, seen, !more);
+#if DISPERSION
+#if SHARED_BOUNCES
+        leave(red, exit, departure(red, exit), k == 0 ? red_seen : seen, !more);
+        leave(blue, exit, departure(blue, exit), k == 0 ? blue_seen : seen, !more);
+#else
+        leaving = departure(red, exit);
+        leave(red, exit, leaving, nearby_cached(leaving.from, leaving.along), !more);
+        leaving = departure(blue, exit);
+        leave(blue, exit, leaving, nearby_cached(leaving.from, leaving.along), !more);
+#endif
+#endif
+        if (!more) break;
+        exit = next;
+    }
+    exit_dir = nearby_output(first_exit_direction);  // after the lookups: it may name the last one's hit
+#if DISPERSION
+    return vec3(entered_radiance(v, n, reflected, red, 0), entered_radiance(v, n, reflected, green, 1),
+                entered_radiance(v, n, reflected, blue, 2));
 #else
     float f1 = fresnel_dielectric(dot(-v, n), 1.0, ior);
-    result = f1 * reflected + (1.0 - f1) * inside_radiance(t1, ior, MAX_EXITS);
+    return f1 * reflected + (1.0 - f1) * green.radiance;
 #endif
-    vec3 t2 = refract_direction(t1, -exit_normal[0], ior);
-    exit_dir = nearby_output(vec4(dot(t2, t2) > 0.0 ? t2 : reflect_direction(t1, -exit_normal[0]), 1.0));
-    return result;
 }
 
 #if NEARBY_MIRRORS
