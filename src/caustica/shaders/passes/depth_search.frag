@@ -429,7 +429,8 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     // Each IOR's light follows the green path's exits one at a time, nothing kept in arrays (which
     // llvmpipe keeps in memory). Whether an exit is the last, which decides where its TIR goes, is
     // known once the next one has been searched for. One loop, so that the search and the lookups
-    // are compiled once.
+    // are compiled once; every pixel runs all of it (no break), so the lookups' screen derivatives
+    // stay in uniform control flow; past its last exit a path's weights are 0.
     float chord = exit.travelled;
     for (int k = 0; k < MAX_EXITS; ++k) {
         Exit next = exit;
@@ -448,7 +449,12 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         leave(blue, exit, leaving, nearby_cached(leaving.from, leaving.along), !more);
 #endif
 #endif
-        if (!more) break;
+        float going_on = more ? 1.0 : 0.0;
+        green.weight *= going_on;
+#if DISPERSION
+        red.weight *= going_on;
+        blue.weight *= going_on;
+#endif
         exit = next;
     }
     exit_dir = nearby_output(first_exit_direction);  // after the lookups: it may name the last one's hit
