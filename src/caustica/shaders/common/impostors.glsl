@@ -65,9 +65,8 @@ vec4 nearby_hit = vec4(0.0);
 vec3 nearby_uvk = vec3(0.0);
 
 // What a ray that meets no nearby geometry sees; clears the last hit. nearby_radiance looks it up
-// before its search, for every ray: the environment's footprint takes screen derivatives, which need
-// uniform control flow, and llvmpipe runs a texture lookup under a partial mask at several times the
-// cost (spectacle-concave's frame: 15 % fewer instructions than looking it up only on a miss).
+// before its search, for every ray: the environment's footprint takes screen derivatives, which are
+// undefined outside uniform control flow.
 vec3 nearby_miss(vec3 d) {
     nearby_hit = vec4(0.0);
     nearby_uvk = vec3(0.0);
