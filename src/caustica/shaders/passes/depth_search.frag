@@ -422,8 +422,8 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     // Ours: red and blue look up their own directions at the first exit, where the channels part
     // most, and take green's lookups at the bounced exits (with their own Fresnel weights).
     Departure red_first = departure(red, exit), blue_first = departure(blue, exit);
-    vec3 red_seen = nearby_cached(red_first.from, red_first.along);
-    vec3 blue_seen = nearby_cached(blue_first.from, blue_first.along);
+    vec3 red_seen = nearby_radiance(red_first.from, red_first.along);
+    vec3 blue_seen = nearby_radiance(blue_first.from, blue_first.along);
 #endif
 #endif
     // Each IOR's light follows the green path's exits one at a time, nothing kept in arrays (which
@@ -436,7 +436,7 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         Exit next = exit;
         more = more && k + 1 < MAX_EXITS && next_exit(next, reflect_direction(green.direction, -exit.normal), ior, chord);
         Departure leaving = departure(green, exit);
-        vec3 seen = nearby_cached(leaving.from, leaving.along);
+        vec3 seen = nearby_radiance(leaving.from, leaving.along);
         leave(green, exit, leaving, seen, !more);
 #if DISPERSION
 #if SHARED_BOUNCES
@@ -444,9 +444,9 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
         leave(blue, exit, departure(blue, exit), k == 0 ? blue_seen : seen, !more);
 #else
         leaving = departure(red, exit);
-        leave(red, exit, leaving, nearby_cached(leaving.from, leaving.along), !more);
+        leave(red, exit, leaving, nearby_radiance(leaving.from, leaving.along), !more);
         leaving = departure(blue, exit);
-        leave(blue, exit, leaving, nearby_cached(leaving.from, leaving.along), !more);
+        leave(blue, exit, leaving, nearby_radiance(leaving.from, leaving.along), !more);
 #endif
 #endif
         float going_on = more ? 1.0 : 0.0;
