@@ -319,36 +319,30 @@ Exit convex_next_exit(vec3 p, vec3 d, float travelled, float ior) {
 }
 #endif
 
-// The first exit along T1 from P1: searched, or exact (CONVEX_EXITS 1: every glass object, 2: per object).
+#if CONVEX_EXITS
+#define EXACT_EXITS (CONVEX_EXITS == 1 || convex_kind != 0)  // 1: every glass object; 2: the one being shaded
+#endif
+
+// The first exit along T1 from P1: exact where the glass has a known convex shape, else searched.
 bool first_exit(vec3 v, vec3 n, vec3 p1, vec3 t1, float ior, out Exit exit) {
-#if CONVEX_EXITS == 1
-    exit = convex_next_exit(p1, t1, 0.0, ior);
-    return true;
-#elif CONVEX_EXITS == 2
-    if (convex_kind != 0) {
+#if CONVEX_EXITS
+    if (EXACT_EXITS) {
         exit = convex_next_exit(p1, t1, 0.0, ior);
         return true;
     }
-    return searched_first_exit(v, n, p1, t1, exit);
-#else
-    return searched_first_exit(v, n, p1, t1, exit);
 #endif
+    return searched_first_exit(v, n, p1, t1, exit);
 }
 
 // The exit after `exit` along the reflected direction r; chord: the searched bounces' first guess.
 bool next_exit(inout Exit exit, vec3 r, float ior, inout float chord) {
-#if CONVEX_EXITS == 1
-    exit = convex_next_exit(exit.point, r, exit.travelled, ior);
-    return true;
-#elif CONVEX_EXITS == 2
-    if (convex_kind != 0) {
+#if CONVEX_EXITS
+    if (EXACT_EXITS) {
         exit = convex_next_exit(exit.point, r, exit.travelled, ior);
         return true;
     }
-    return searched_next_exit(exit, r, chord);
-#else
-    return searched_next_exit(exit, r, chord);
 #endif
+    return searched_next_exit(exit, r, chord);
 }
 
 // One refractive index's light inside the glass: its direction, the share of the light entering
