@@ -43,6 +43,19 @@ vec3 environment_footprint(sampler2D environment, vec2 uv, vec2 gradient_x, vec2
     return sum / float(taps);
 }
 
+// A screen derivative of the looked-up direction, shortened to `cap` radians where it is longer (a NaN or
+// infinite one: no footprint). A neighbour that far off is a discontinuity (another bounce, total internal
+// reflection, a rim), or a curved surface that magnifies more than the cap (a small ball or a thin log far
+// away): either way the pixel covers at least the cap's worth of directions, so that axis is filtered over
+// it, not left to alias. A footprint kept within the cap spreads a bright sun at a ball's rim less
+// (docs/antialiasing.md). A neighbour on another object within the cap is kept: at an outline the wider
+// footprint stands in for the pixel's mix of the two.
+vec3 capped_derivative(vec3 derivative, float cap) {
+    float span = length(derivative);
+    if (span <= cap) return derivative;
+    return span < 1e30 ? derivative * (cap / span) : vec3(0.0);
+}
+
 vec3 environment_radiance(sampler2D environment, vec3 d) {
     d = normalize(d);
     vec2 size = vec2(textureSize(environment, 0));
@@ -57,15 +70,8 @@ vec3 environment_radiance(sampler2D environment, vec3 d) {
     // Fine derivatives: each pixel's own row and column of its quad (coarse ones share one for the quad,
     // which makes a mirrored view filter differently from its mirror image).
     vec3 ddx = ENVIRONMENT_DFDX(d), ddy = ENVIRONMENT_DFDY(d);
-    // A neighbour whose direction differs by more than a curved surface magnifies (another bounce,
-    // total internal reflection, a rim) is no footprint: that axis stays unfiltered rather than blurred
-    // across the discontinuity (and a NaN neighbour too). A neighbour on another object within the cap
-    // (deferred shading's resolve reads it from the G-buffer) is kept: at an outline the wider
-    // footprint stands in for the pixel's mix of the two (glass-sphere against Mitsuba 40.7 dB with
-    // it, 39.2 dB when a quad across objects is left unfiltered; docs/antialiasing.md).
-    float footprint_max = ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle;
-    if (!(dot(ddx, ddx) <= footprint_max * footprint_max)) ddx = vec3(0.0);
-    if (!(dot(ddy, ddy) <= footprint_max * footprint_max)) ddy = vec3(0.0);
+    ddx = capped_derivative(ddx, ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle);
+    ddy = capped_derivative(ddy, ENVIRONMENT_MAGNIFICATION_MAX * environment_pixel_angle);
     vec2 gradient_x = vec2(dot(per_xz, ddx.xz), per_y * ddx.y);
     vec2 gradient_y = vec2(dot(per_xz, ddy.xz), per_y * ddy.y);
     return environment_footprint(environment, vec2(u, t), gradient_x, gradient_y);
