@@ -438,3 +438,23 @@ def test_face_plane_normals_are_the_meshes_shading_normals():
     normals = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0], [0.3, 0.954, 0], [0, -1, 0]], float)
     pyramid = Mesh(vertices, normals, faces)
     assert pyramid.face_planes(16) is not None and pyramid.face_plane_normals(16) is None
+
+
+def test_same_image_at_any_scale_of_the_scene(renderer):
+    """A lens 2 cm across seen from 4 cm (a spectacle lens modelled in metres) and the same scene in
+    any larger unit give one image: the dT corrections stop at a fraction of the glass's size, not at
+    a length in scene units. Measured: 49.8 dB between scale 0.01 and 1 (float rounding); 26.1 dB when
+    the tolerance was 1e-3 scene units, 4 % of this lens's radius at scale 0.01."""
+    from caustica.metrics import psnr_linear
+    from caustica.scene import Transform
+    from caustica.scene.shapes import biconcave_lens
+
+    def lens_at(scale: float) -> Scene:
+        camera = Camera(position=[0.0, 0.0, 4.0 * scale], look_at=[0.0, 0.0, 0.0], fov_y=40.0, size=(64, 64),
+                        near=0.05 * scale, far=100.0 * scale)
+        lens = SceneObject("lens", biconcave_lens(1.0, 0.15, 0.6), Glass(ior=1.5),
+                           Transform(scale=(scale,) * 3, rotation=(35.0, 20.0, 0.0)))
+        return Scene(camera=camera, objects=[lens], environment=procedural_environment("sky-checker"))
+
+    one, small = (renderer.render(lens_at(k), "depth-search", 4, internal_bounces=2) for k in (1.0, 0.01))
+    assert psnr_linear(small, one) >= 45.0

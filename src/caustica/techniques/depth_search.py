@@ -15,7 +15,7 @@ refractors (outward normal and eye distance). For each glass fragment:
 3. dT (2.1.3, figs. 8-9): S is the surface the chosen buffer holds where
    P1 + dT T1 projects; back exits drive the depth gap |S - E| - |P1 + dT T1 - E|
    to zero, front exits jump to the tangent plane at S, for at most
-   ``iterations`` steps or until dT moves less than ``tolerance``.
+   ``iterations`` steps or until dT moves less than ``tolerance`` (a fraction of the object's size).
    ``back_iteration``: "depth-step" is fig. 8 read literally; "secant" and
    "sphere-secant" (ours, the default) start at the chord of the sphere that
    fits the thickness d_V at P1 and step by secants.
@@ -51,7 +51,6 @@ from ..passes.glass_contact import bind_contact_plane, contact_defines
 from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
-from ..scene.rules import MAX_COORDINATE
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -71,8 +70,9 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                 help="first test point, as a fraction of the buffer size (the paper: 75 percent)")
     iterations: int = param(5, range=(0, 32), paper="Hu and Qin 2.1.3, section 4",
                             help="dT corrections (\"four or five iterations are enough\")")
-    tolerance: float = param(1e-3, range=(0.0, MAX_COORDINATE), unit="scene units", paper="Hu and Qin 2.1.3",
-                             help="stop correcting once dT moves less than this")
+    tolerance: float = param(1e-3, range=(0.0, 1.0), unit="glass sizes", paper="Hu and Qin 2.1.3",
+                             help="stop correcting once dT moves less than this fraction of the glass object's size "
+                                  "(half its bounding box's diagonal: the same image at any scale of the scene)")
     assume_back_first: bool = param(True, paper="Hu and Qin section 4", help="iterate on the back faces first")
     back_iteration: str = param("sphere-secant", choices=BACK_ITERATIONS, paper="Hu and Qin 2.1.3, fig. 8 (depth-step)",
                                 help="back-face steps: secant from the sphere fitting d_V, secant from d_V (ours), "
@@ -90,6 +90,12 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                            "glass; auto sets it)")
 
 
+def glass_size(obj) -> float:
+    """Half the diagonal of ``obj``'s world bounding box: the length ``tolerance`` is a fraction of."""
+    low, high = obj.world_mesh().bounds.astype(np.float64)
+    return 0.5 * float(np.linalg.norm(high - low))
+
+
 class DepthSearch(RasterTechnique):
     name = "depth-search"
     summary = "Two-interface refraction: silhouette binary search + iterative dT against depth buffers (Hu and Qin)"
@@ -98,6 +104,7 @@ class DepthSearch(RasterTechnique):
     def build_passes(self, params):
         def set_uniforms(program, frame, obj):
             if obj is not None:
+                set_uniform(program, "tolerance", params.tolerance * glass_size(obj))
                 if params.convex_exits:
                     bind_convex_shape(program, obj)
                 bind_contact_plane(program, frame.scene, obj)
@@ -108,7 +115,6 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "iterations", params.iterations)
             set_uniform(program, "bounce_iterations", params.iterations if params.bounce_iterations == AS_ITERATIONS
                         else params.bounce_iterations)
-            set_uniform(program, "tolerance", params.tolerance)
 
         nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
         defines = {**nearby.defines, "INTERNAL_BOUNCES": params.internal_bounces,

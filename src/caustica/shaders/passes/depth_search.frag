@@ -21,7 +21,8 @@
 // llvmpipe would run both sides of a uniform branch); NEARBY, NEARBY_OUTPUT, PHOTON_BUFFER,
 // MAX_IMPOSTORS, MAX_PLANES (common/impostors.glsl; NEARBY 0 keeps the environment). Uniforms set by the technique:
 //   search_steps (int), search_start (float, fraction of the buffer size), iterations (int),
-//   bounce_iterations (int: the dT corrections at each bounced exit), tolerance (float, scene units),
+//   bounce_iterations (int: the dT corrections at each bounced exit), tolerance (float, scene units: the
+//   technique's fraction of the object's size),
 //   world_from_clip (mat4).
 #version 430 core
 #ifndef INTERNAL_BOUNCES
