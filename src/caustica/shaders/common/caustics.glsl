@@ -21,7 +21,7 @@
 uniform int caustic_kind[MAX_LIGHTS];
 uniform mat4 caustic_clip_from_world[MAX_LIGHTS];
 uniform sampler2D caustic_map[MAX_LIGHTS];
-uniform float caustic_distance_tolerance;  // relative: |a - d| < tolerance * (1 + d)
+uniform float caustic_distance_tolerance;  // relative: |a - d| < tolerance * d, the same at any scale of the scene
 
 // Bilinear over the four texels around uv (clamped to [lo, hi]) that belong to the receiver at distance d.
 vec3 caustic_lookup(sampler2D map, vec2 uv, vec2 lo, vec2 hi, float d) {
@@ -35,7 +35,7 @@ vec3 caustic_lookup(sampler2D map, vec2 uv, vec2 lo, vec2 hi, float d) {
             ivec2 texel = ivec2(clamp(base + vec2(i, j), lo * size, hi * size - 1.0));
             vec4 value = texelFetch(map, texel, 0);
             float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
-            if (value.a > 0.0 && abs(value.a - d) < caustic_distance_tolerance * (1.0 + d)) {
+            if (value.a > 0.0 && abs(value.a - d) < caustic_distance_tolerance * d) {
                 sum += w * value.rgb;
                 weight += w;
             }
