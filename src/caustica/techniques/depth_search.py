@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..passes.casters import half_diagonal
 from ..passes.convex_exits import MAX_CONVEX_PLANES, bind_convex_shape, convex_defines
 from ..passes.glass_contact import bind_contact_plane, contact_defines
 from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
@@ -90,12 +91,6 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
                                            "glass; auto sets it)")
 
 
-def glass_size(obj) -> float:
-    """Half the diagonal of ``obj``'s world bounding box: the length ``tolerance`` is a fraction of."""
-    low, high = obj.world_mesh().bounds.astype(np.float64)
-    return 0.5 * float(np.linalg.norm(high - low))
-
-
 class DepthSearch(RasterTechnique):
     name = "depth-search"
     summary = "Two-interface refraction: silhouette binary search + iterative dT against depth buffers (Hu and Qin)"
@@ -104,7 +99,7 @@ class DepthSearch(RasterTechnique):
     def build_passes(self, params):
         def set_uniforms(program, frame, obj):
             if obj is not None:
-                set_uniform(program, "tolerance", params.tolerance * glass_size(obj))
+                set_uniform(program, "tolerance", params.tolerance * half_diagonal([obj]))  # a fraction of its size
                 if params.convex_exits:
                     bind_convex_shape(program, obj)
                 bind_contact_plane(program, frame.scene, obj)
