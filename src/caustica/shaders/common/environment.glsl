@@ -21,6 +21,7 @@ const int ENVIRONMENT_TAPS = 8;            // most lookups along a footprint's l
 const float ENVIRONMENT_LOD_SCALE = 0.5;   // gradients as GL's level of detail takes them, against a box
 const float ENVIRONMENT_MAGNIFICATION_MAX = 13.0;  // most radians between neighbours' directions per pixel angle
 uniform float environment_pixel_angle;  // radians a pixel subtends at the image centre (0: no filtering)
+int environment_taps_limit = ENVIRONMENT_TAPS;  // a shader lowers it for lookups whose light weighs little
 
 // The mean of the texture over the parallelogram (u, t) + a gradient_x + b gradient_y, |a|, |b| <= 1/2:
 // taps along its longer side, each a trilinear lookup as wide as the shorter side and its own share of
@@ -33,7 +34,7 @@ vec3 environment_footprint(sampler2D environment, vec2 uv, vec2 gradient_x, vec2
     vec2 major = length_x >= length_y ? gradient_x : gradient_y;
     vec2 minor = length_x >= length_y ? gradient_y : gradient_x;
     float ratio = max(length_x, length_y) / max(min(length_x, length_y), 1.0);
-    int taps = int(clamp(ceil(ratio), 1.0, float(ENVIRONMENT_TAPS)));
+    int taps = int(clamp(ceil(ratio), 1.0, float(min(environment_taps_limit, ENVIRONMENT_TAPS))));
     vec3 sum = vec3(0.0);
     for (int i = 0; i < taps; ++i) {
         vec2 offset = ((float(i) + 0.5) / float(taps) - 0.5) * major;

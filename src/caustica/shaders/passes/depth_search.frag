@@ -186,8 +186,8 @@ bool correct_distance(int layer, int steps, vec3 p1, vec3 t1, inout float dt, ou
         inside_dt = dt;
         s2 = s;
         if (i >= steps) break;
-        vec3 sp = surface_point(pixel, s.w);
-        vec3 ray = normalize(q - camera_position);
+        vec3 ray = normalize(q - camera_position);  // the ray of the pixel q projects to
+        vec3 sp = camera_position + s.w * ray;        // surface_point(pixel, s.w), without the matrix
         float rate = dot(t1, ray);
         vec3 n_s = normalize(s.xyz);
         float next;
@@ -389,6 +389,34 @@ void leave(inout InsideLight light, Exit exit, Departure leaving, vec3 seen, boo
     light.direction = reflect_direction(light.direction, -exit.normal);
 }
 
+// Every IOR's light at the k-th exit of green's path: the lookups along its departures (red's and blue's
+// own at the first exit), the transmitted shares leaving, the reflected going on inside; `last`: no exit
+// follows (its TIR leaves here). The bounced exits (k > 0) look up the environment in one tap as wide as
+// the footprint's longer side (over-filtered, never aliased): their light is the small share the exits
+// reflect, or a TIR path whose neighbours take other paths.
+void exit_lookups(int k, Exit exit, bool last, inout InsideLight green
+#if DISPERSION
+                  , inout InsideLight red, inout InsideLight blue, vec3 red_seen, vec3 blue_seen
+#endif
+                  ) {
+    environment_taps_limit = k == 0 ? ENVIRONMENT_TAPS : 1;
+    Departure leaving = departure(green, exit);
+    vec3 seen = nearby_radiance(leaving.from, leaving.along);
+    leave(green, exit, leaving, seen, last);
+#if DISPERSION
+#if SHARED_BOUNCES
+    leave(red, exit, departure(red, exit), k == 0 ? red_seen : seen, last);
+    leave(blue, exit, departure(blue, exit), k == 0 ? blue_seen : seen, last);
+#else
+    leaving = departure(red, exit);
+    leave(red, exit, leaving, nearby_radiance(leaving.from, leaving.along), last);
+    leaving = departure(blue, exit);
+    leave(blue, exit, leaving, nearby_radiance(leaving.from, leaving.along), last);
+#endif
+#endif
+    environment_taps_limit = ENVIRONMENT_TAPS;
+}
+
 // The light of one IOR entering at the front face: Fresnel at the entry, then what left the glass.
 float entered_radiance(vec3 v, vec3 n, vec3 reflected, InsideLight light, int c) {
     float f1 = fresnel_dielectric(dot(-v, n), 1.0, light.ior);
@@ -419,30 +447,24 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
     Departure red_first = departure(red, exit), blue_first = departure(blue, exit);
     vec3 red_seen = nearby_radiance(red_first.from, red_first.along);
     vec3 blue_seen = nearby_radiance(blue_first.from, blue_first.along);
+#else
+    vec3 red_seen = vec3(0.0), blue_seen = vec3(0.0);  // each exit looks up its own (exit_lookups)
 #endif
 #endif
     // Each IOR's light follows the green path's exits one at a time, nothing kept in arrays (which
     // llvmpipe keeps in memory). Whether an exit is the last, which decides where its TIR goes, is
-    // known once the next one has been searched for. One loop, so that the search and the lookups
-    // are compiled once; every pixel runs all of it (no break), so the lookups' screen derivatives
-    // stay in uniform control flow; past its last exit a path's weights are 0.
+    // known once the next one has been searched for. One loop, so that the search is compiled once;
+    // every pixel runs all of it (no break), so the lookups' screen derivatives stay in uniform control
+    // flow; past its last exit a path's weights are 0. The last exit is taken after the loop: inside
+    // it, llvmpipe would run a search after it too, for no pixel.
     float chord = exit.travelled;
-    for (int k = 0; k < MAX_EXITS; ++k) {
+    for (int k = 0; k < MAX_EXITS - 1; ++k) {
         Exit next = exit;
-        more = more && k + 1 < MAX_EXITS && next_exit(next, reflect_direction(green.direction, -exit.normal), ior, chord);
-        Departure leaving = departure(green, exit);
-        vec3 seen = nearby_radiance(leaving.from, leaving.along);
-        leave(green, exit, leaving, seen, !more);
+        more = more && next_exit(next, reflect_direction(green.direction, -exit.normal), ior, chord);
 #if DISPERSION
-#if SHARED_BOUNCES
-        leave(red, exit, departure(red, exit), k == 0 ? red_seen : seen, !more);
-        leave(blue, exit, departure(blue, exit), k == 0 ? blue_seen : seen, !more);
+        exit_lookups(k, exit, !more, green, red, blue, red_seen, blue_seen);
 #else
-        leaving = departure(red, exit);
-        leave(red, exit, leaving, nearby_radiance(leaving.from, leaving.along), !more);
-        leaving = departure(blue, exit);
-        leave(blue, exit, leaving, nearby_radiance(leaving.from, leaving.along), !more);
-#endif
+        exit_lookups(k, exit, !more, green);
 #endif
         float going_on = more ? 1.0 : 0.0;
         green.weight *= going_on;
@@ -452,6 +474,11 @@ vec3 shade_refractor(vec3 v, vec3 n, out vec4 exit_dir) {
 #endif
         exit = next;
     }
+#if DISPERSION
+    exit_lookups(MAX_EXITS - 1, exit, true, green, red, blue, red_seen, blue_seen);
+#else
+    exit_lookups(MAX_EXITS - 1, exit, true, green);
+#endif
     exit_dir = nearby_output(first_exit_direction);  // after the lookups: it may name the last one's hit
 #if DISPERSION
     return vec3(entered_radiance(v, n, reflected, red, 0), entered_radiance(v, n, reflected, green, 1),
