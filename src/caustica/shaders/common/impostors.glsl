@@ -111,20 +111,23 @@ vec4 impostor_texel(int k, vec3 p, out vec2 pixel) {
     return texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0);
 }
 
-// Radiance at a continuous texel position: bilinear over the neighbours that hold the object.
+// Radiance at a continuous texel position: bilinear over the neighbours that hold the object; where
+// none does, the texel under the position, which is one of the four (four fetches, not five).
 vec3 impostor_radiance(int k, vec2 pixel) {
     ivec2 size = ivec2(impostor_size);
     vec2 x = pixel - 0.5;
     vec2 base = floor(x), f = x - base;
-    vec3 sum = vec3(0.0);
+    ivec2 under = ivec2(pixel) - ivec2(base);  // the texel under pixel, as (i, j) of the four (clamped alike)
+    vec3 sum = vec3(0.0), nearest = vec3(0.0);
     float weight = 0.0;
     for (int j = 0; j <= 1; ++j)
         for (int i = 0; i <= 1; ++i) {
             vec4 s = texelFetch(impostor_atlas, impostor_cell[k] + clamp(ivec2(base) + ivec2(i, j), ivec2(0), size - 1), 0);
             float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
             if (s.a > 0.0) { sum += w * s.rgb; weight += w; }
+            if (ivec2(i, j) == under) nearest = s.rgb;
         }
-    return weight > 0.0 ? sum / weight : texelFetch(impostor_atlas, impostor_cell[k] + ivec2(pixel), 0).rgb;
+    return weight > 0.0 ? sum / weight : nearest;
 }
 
 // Prect: where the ray meets rectangle k (t along it, pixel on its texture); false when it
