@@ -439,9 +439,10 @@ def test_exit_shares_of_a_ball_have_the_closed_form():
     assert exit_shares(scene, camera, 3) == pytest.approx(expected, rel=0.02, abs=2e-4)
 
 
-def test_glass_exits_are_exact_for_spheres_and_convex_polyhedra():
+def test_glass_exits_are_exact_for_spheres_convex_polyhedra_and_lenses():
     """auto sets depth-search's convex_exits (passes/convex_exits.py) wherever it plans glass: alone or with
-    impostors; a ball and a block get exact shapes, a torus (not convex) keeps the search."""
+    impostors; a ball, a block and a lens (two spherical faces and a round rim) get exact shapes, a torus keeps
+    the search."""
     from caustica.passes.convex_exits import convex_shape
     from caustica.scene.shapes import box, torus
 
@@ -450,7 +451,10 @@ def test_glass_exits_are_exact_for_spheres_and_convex_polyhedra():
     block = SceneObject("block", box((1.6, 0.5, 1.0)), Glass(ior=1.5), Transform(position=[0.6, 0.85, 0.4]))
     planes = convex_shape(block).planes
     assert planes.shape == (6, 4) and np.allclose(planes[np.argmax(planes[:, 1]), 3], 1.1)  # the top at y = 1.1
-    assert convex_shape(marble()).sphere is not None
+    ball = convex_shape(marble()).quadrics
+    assert ball.shape == (1, 8) and ball[0, 3] > 0 and not ball[0, 7]
+    lens = convex_shape(lens_before_a_chart().objects[0]).quadrics
+    assert sorted(lens[:, 7]) == [0.0, 0.0, 1.0]
     assert convex_shape(SceneObject("ring", torus(1.0, 0.3), Glass(ior=1.5))) is None
 
 

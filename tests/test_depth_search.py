@@ -414,6 +414,78 @@ def test_convex_exits_of_a_smooth_prism_match_the_closed_form(renderer, segments
     assert error["mean_deg"] < 0.02 and error["p95_deg"] < 0.005, error
 
 
+def test_face_solid_finds_a_lens_spheres_and_rim():
+    """Mesh.face_solid: a biconcave lens of aperture a, centre thickness t and edge thickness e is the outside of
+    two balls of radius R = (a^2 + s^2) / 2s (s = (e - t) / 2) centred on its axis at +-(t / 2 + R), inside its
+    rim's cylinder of radius a; a biconvex lens the inside of two balls. A torus, an L-shaped prism and a lens
+    too coarse for its spheres to stand for its facets (8 sides) are no such solid."""
+    from caustica.scene import Mesh
+    from caustica.scene.shapes import biconcave_lens, biconvex_lens, torus
+
+    a, t, e = 0.3, 0.04, 0.16
+    s = (e - t) / 2.0
+    radius = (a * a + s * s) / (2.0 * s)
+    planes, _, quadrics = biconcave_lens(a, t, e, 64, 16).face_solid(128, 4)
+    balls, rims = quadrics[quadrics[:, 7] == 0.0], quadrics[quadrics[:, 7] == 1.0]
+    assert len(planes) == 0 and len(balls) == 2 and len(rims) == 1
+    assert np.allclose(np.sort(balls[:, 2]), [-(t / 2.0 + radius), t / 2.0 + radius], atol=1e-4)
+    assert np.allclose(balls[:, :2], 0.0, atol=1e-5) and np.allclose(balls[:, 3], -radius, atol=1e-4)
+    assert np.allclose(np.abs(rims[0, 4:7]), [0.0, 0.0, 1.0], atol=1e-6) and abs(rims[0, 3] - a) < 2e-3
+    _, _, convex = biconvex_lens(a, e, 0.0, 64, 16).face_solid(128, 4)
+    radius = (a * a + (e / 2.0) ** 2) / e
+    assert len(convex) == 2 and np.allclose(convex[:, 3], radius, atol=1e-4)
+    assert torus(1.0, 0.3).face_solid(128, 4) is None
+    assert biconcave_lens(a, t, e, 8, 16).face_solid(128, 4) is None
+    outline = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float)
+    vertices = np.array([[x, y, z] for z in (0.0, 1.0) for x, y in outline])
+    sides = [[i, (i + 1) % 6, 6 + (i + 1) % 6] for i in range(6)] + [[i, 6 + (i + 1) % 6, 6 + i] for i in range(6)]
+    caps = [[0, 5, 4], [0, 4, 3], [0, 3, 1], [1, 3, 2]]
+    assert Mesh(vertices, None, np.array(sides + caps + [[6 + i for i in c[::-1]] for c in caps])).face_solid(16, 4) is None
+
+
+def tilted_lens(concave: bool, view_deg: float) -> Scene:
+    """A thick lens of IOR 1.6 turned 10 and 20 degrees, seen from 0.9 away at ``view_deg`` off its axis."""
+    from caustica.scene import Transform
+    from caustica.scene.shapes import biconcave_lens, biconvex_lens
+
+    mesh = biconcave_lens(0.3, 0.04, 0.16, 64, 16) if concave else biconvex_lens(0.3, 0.16, 0.02, 64, 16)
+    view = np.radians(view_deg)
+    camera = Camera(position=[0.9 * np.sin(view), 0.1, 0.9 * np.cos(view)], look_at=[0.0, 0.0, 0.0], fov_y=45.0,
+                    size=(96, 96))
+    return Scene(camera=camera, objects=[SceneObject("lens", mesh, Glass(ior=1.6), Transform(rotation=[10.0, 20.0, 0.0]))],
+                 environment=procedural_environment("sky-checker"))
+
+
+@pytest.mark.parametrize("concave", [True, False])
+def test_convex_exits_of_a_lens_match_exact(renderer, concave):
+    """Ours: a lens's exits are exact on its spheres and rim (Mesh.face_solid), so on the paths that cross two
+    interfaces the light leaves as exact (Embree, on the 64 x 16 facets) has it, where the depth search strays
+    at the rims. Measured (96x96, mean / p95 degrees): concave 0.0055 / 0.019, convex 0.0049 / 0.018; searched
+    0.26 / 0.0066 and 0.37 / 0.0057."""
+    scene = tilted_lens(concave, 35.0)
+    reference, two_interfaces = exact_exit_directions(scene, max_interfaces=2)
+    errors = {}
+    for exact_exits in (True, False):
+        dirs, valid = renderer.exit_directions(scene, "depth-search", convex_exits=exact_exits)
+        errors[exact_exits] = angular_error(dirs, reference, (valid, two_interfaces))
+    assert errors[True]["count"] > 2500, errors
+    assert errors[True]["mean_deg"] < 0.02 and errors[True]["p95_deg"] < 0.05, errors
+    assert errors[True]["mean_deg"] < 0.2 * errors[False]["mean_deg"], errors
+
+
+def test_convex_exits_follow_a_concave_lens_bounces(renderer):
+    """Ours: in a thick concave lens much of the light reflects at its rim and faces before it leaves; with exact
+    exits two internal bounces come to 34.6 dB of exact (96x96, 4 spp; searched in screen space 25.7), four to
+    37.3 (26.1). At least 32 and 6 dB better."""
+    from caustica.metrics import psnr_linear
+
+    scene = tilted_lens(True, 35.0)
+    exact = renderer.render(scene, "exact", 4)
+    ours = psnr_linear(renderer.render(scene, "depth-search", 4, internal_bounces=2, convex_exits=True), exact)
+    searched = psnr_linear(renderer.render(scene, "depth-search", 4, internal_bounces=2), exact)
+    assert ours > 32.0 and ours > searched + 6.0, (ours, searched)
+
+
 def test_face_plane_normals_are_the_meshes_shading_normals():
     """Mesh.face_plane_normals: a block's flat faces have constant fields (their plane normals); a 64-sided
     cylinder's side facets give at any point of the facet the radial direction, its caps +-y; a plane whose vertex

@@ -36,40 +36,50 @@ from ..raytrace.embree_scene import world_sphere
 from ..scene.transform import normal_matrix
 
 MAX_CONVEX_PLANES = 128  # uniform vec4s: 4 a plane (its plane and normal field); llvmpipe allows 4096
-SHAPE_NONE, SHAPE_PLANES, SHAPE_SPHERE = 0, 1, 2  # convex_kind in the shader
+MAX_CONVEX_QUADRICS = 4  # the round faces' balls and cylinders (a lens has two balls and a cylinder)
+SHAPE_NONE, SHAPE_SOLID = 0, 1  # convex_kind in the shader
 
 
 @dataclass(frozen=True)
 class ConvexShape:
-    """A glass object's exact shape in world space: ``planes`` (K, 4: outward unit normal, offset w with
-    n . x <= w inside) with ``normals`` (K, 3, 4: the shading normal's affine field on each, unnormalised),
-    or a ``sphere`` (centre, radius)."""
+    """A glass object's exact shape in world space: the intersection of half-spaces ``planes`` (K, 4: outward
+    unit normal, offset w with n . x <= w inside), whose ``normals`` (K, 3, 4) give the shading normal's affine
+    field on each (unnormalised), and of the sides of balls and round cylinders ``quadrics`` (Q, 8: centre,
+    signed radius r, inside where r > 0 and outside where r < 0; a cylinder's unit axis and 1, zeros for a ball)."""
 
-    planes: np.ndarray | None = None
-    sphere: tuple | None = None
-    normals: np.ndarray | None = None
+    planes: np.ndarray
+    normals: np.ndarray
+    quadrics: np.ndarray
 
 
 def convex_shape(obj) -> ConvexShape | None:
-    """The exact shape of ``obj`` in world space, or None where the depth search stays (not a sphere, nor a
-    convex mesh of at most MAX_CONVEX_PLANES planes with one normal field on each)."""
+    """The exact shape of ``obj`` in world space, or None where the depth search stays: an analytic sphere, or
+    a mesh bounded by at most MAX_CONVEX_PLANES planes with one normal field on each and MAX_CONVEX_QUADRICS
+    balls and cylinders (Mesh.face_solid; those under a uniform scale only)."""
     world_from_object = obj.world_from_object()
     sphere = world_sphere(obj.mesh, world_from_object)
     if sphere is not None:
-        return ConvexShape(sphere=sphere)
-    planes, fields = obj.mesh.face_planes(MAX_CONVEX_PLANES), obj.mesh.face_plane_normals(MAX_CONVEX_PLANES)
-    if planes is None or fields is None:
+        return ConvexShape(np.zeros((0, 4)), np.zeros((0, 3, 4)), np.concatenate([sphere[0], [sphere[1]], np.zeros(4)])[None])
+    solid = obj.mesh.face_solid(MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS)
+    if solid is None:
         return None
+    planes, fields, quadrics = solid
     m = np.asarray(world_from_object, dtype=np.float64)
+    scales = np.linalg.norm(m[:3, :3], axis=0)
+    if len(quadrics) and np.ptp(scales) > 1e-9 * scales.max():
+        return None  # a ball would become an ellipsoid
     to_world = normal_matrix(m)
     normals = planes[:, :3] @ to_world.T
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
     points = (planes[:, :3] * planes[:, 3:]) @ m[:3, :3].T + m[:3, 3]  # a point of each plane, moved
     # A field n(y) = A y + b in object space, y = M^-1 (x - t), is to_world (A M^-1 x + b - A M^-1 t) in the world's.
     linear = to_world @ fields[:, :, :3] @ np.linalg.inv(m[:3, :3])
     constant = np.einsum("ij,kj->ki", to_world, fields[:, :, 3]) - linear @ m[:3, 3]
-    return ConvexShape(planes=np.column_stack([normals, np.einsum("ij,ij->i", normals, points)]),
-                       normals=np.concatenate([linear, constant[:, :, None]], axis=2))
+    # A mirroring transform keeps a quadric's side (the radius is a length, its sign the side).
+    moved = np.column_stack([quadrics[:, :3] @ m[:3, :3].T + m[:3, 3], quadrics[:, 3] * scales[0],
+                             quadrics[:, 4:7] @ m[:3, :3].T / scales[0], quadrics[:, 7]])
+    return ConvexShape(np.column_stack([normals, np.einsum("ij,ij->i", normals, points)]),
+                       np.concatenate([linear, constant[:, :, None]], axis=2), moved)
 
 
 def convex_defines(frame) -> dict:
@@ -79,24 +89,24 @@ def convex_defines(frame) -> dict:
     glass = frame.scene.objects_of("glass")
     exact = [convex_shape(o) is not None for o in glass]
     return {"CONVEX_EXITS": 1 if exact and all(exact) else 2 if any(exact) else 0,
-            "MAX_CONVEX_PLANES": MAX_CONVEX_PLANES}
+            "MAX_CONVEX_PLANES": MAX_CONVEX_PLANES, "MAX_CONVEX_QUADRICS": MAX_CONVEX_QUADRICS}
 
 
 def bind_convex_shape(program, obj) -> None:
-    """Set the shader's convex_kind, convex_planes, convex_normals, convex_plane_count and convex_sphere for ``obj``."""
+    """Set the shader's convex_kind, convex_planes, convex_normals, convex_plane_count, convex_quadrics and
+    convex_quadric_count for ``obj``."""
     shape = convex_shape(obj) if obj.material.kind == "glass" else None
     if shape is None:
         set_uniform(program, "convex_kind", SHAPE_NONE)
         return
-    if shape.sphere is not None:
-        center, radius = shape.sphere
-        set_uniform(program, "convex_kind", SHAPE_SPHERE)
-        set_uniform(program, "convex_sphere", np.append(center, radius).astype("f4"))
-        return
     count = len(shape.planes)
     planes, normals = np.zeros((MAX_CONVEX_PLANES, 4), "f4"), np.zeros((3 * MAX_CONVEX_PLANES, 4), "f4")
     planes[:count], normals[:3 * count] = shape.planes, shape.normals.reshape(-1, 4)
-    set_uniform(program, "convex_kind", SHAPE_PLANES)
+    quadrics = np.zeros((2 * MAX_CONVEX_QUADRICS, 4), "f4")
+    quadrics[:2 * len(shape.quadrics)] = shape.quadrics.reshape(-1, 4)
+    set_uniform(program, "convex_kind", SHAPE_SOLID)
     set_uniform(program, "convex_plane_count", count)
+    set_uniform(program, "convex_quadric_count", len(shape.quadrics))
     write_uniform_array(program, "convex_planes", planes)
     write_uniform_array(program, "convex_normals", normals)
+    write_uniform_array(program, "convex_quadrics", quadrics)

@@ -14,6 +14,7 @@ from . import rules
 from .transform import normal_matrix
 
 SUPPORTED_MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".off")
+SPHERE_SAGITTA = 2e-3  # face_solid: how far (of the mesh's size) a facet's centroid may lie off the sphere it stands on
 
 
 @dataclass
@@ -242,12 +243,17 @@ class Mesh:
     def _face_planes(self, max_planes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:
         if not self.is_convex(tolerance):
             return None
+        return self._planes_of(np.arange(len(self.faces)), max_planes, tolerance)
+
+    def _planes_of(self, faces: np.ndarray, max_planes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """The distinct planes of the faces indexed by ``faces`` and each face's (-1: degenerate or not in ``faces``),
+        or None past ``max_planes``."""
         v = self.vertices.astype(np.float64)
         corners = v[self.faces]
         normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         length = np.linalg.norm(normal, axis=1)
         size = float(np.ptp(v, axis=0).max())
-        usable = np.flatnonzero(length > 1e-12 * size * size)
+        usable = faces[length[faces] > 1e-12 * size * size]
         normal = normal[usable] / length[usable, None]
         offset = np.einsum("ij,ij->i", normal, corners[usable, 0])
         planes, label = np.zeros((max_planes, 4)), np.full(len(self.faces), -1)
@@ -261,6 +267,89 @@ class Mesh:
                 same, count = [count], count + 1
             label[face] = same[0]
         return planes[:count], label
+
+    def face_solid(self, max_planes: int, max_quadrics: int, tolerance: float = 1e-4) -> tuple | None:
+        """The body the mesh bounds as an intersection of half-spaces and of the insides or outsides of balls and
+        round cylinders: (planes (K, 4) as :meth:`face_planes`, their normal fields (K, 3, 4) as
+        :meth:`face_plane_normals`, quadrics (Q, 8): centre xyz, a signed radius (+ where the body lies inside: a
+        convex face; - outside: a concave one, as a diverging lens's), then a cylinder's unit axis and 1, or zeros for
+        a ball). A ray inside leaves the body where it first crosses one of their boundaries. A convex polyhedron
+        (:meth:`face_planes`) has no quadrics. Otherwise a face lies on a ball where its corners' normals are the
+        ball's (p = c + r n), else on a cylinder where they are a cylinder's (p = c + r n + h u, n . u = 0), when its
+        centroid lies within :data:`SPHERE_SAGITTA` of the mesh's size of that surface (fine enough for the surface
+        to stand for the facets); the other faces group by plane. None unless the mesh is solid, every vertex lies on
+        the body's side of every boundary, and there are at most ``max_planes`` planes and ``max_quadrics``
+        quadrics; cached."""
+        key = (int(max_planes), int(max_quadrics), float(tolerance), "solid")
+        if key not in self._planes:
+            self._planes[key] = self._face_solid(max_planes, max_quadrics, tolerance)
+        return self._planes[key]
+
+    def _face_solid(self, max_planes: int, max_quadrics: int, tolerance: float) -> tuple | None:
+        planes = self.face_planes(max_planes, tolerance)
+        if planes is not None:
+            fields = self.face_plane_normals(max_planes, tolerance)
+            return None if fields is None else (planes, fields, np.zeros((0, 8)))
+        if max_quadrics < 1 or not self.is_solid():
+            return None
+        v, n = self.vertices.astype(np.float64), self.normals.astype(np.float64)
+        size = float(np.ptp(v, axis=0).max())
+        quadrics, on_quadric = self._face_quadrics(v, n, size, max_quadrics, tolerance)
+        if quadrics is None:
+            return None
+        found = self._planes_of(np.flatnonzero(on_quadric < 0), max_planes, tolerance)
+        if found is None:
+            return None
+        planes, label = found
+        fields = self._plane_normals(label, len(planes))
+        if fields is None:
+            return None
+        outside = np.concatenate([v @ planes[:, :3].T - planes[:, 3], quadric_excess(quadrics, v)], axis=1)
+        return (planes, fields, quadrics) if outside.size == 0 or outside.max() <= tolerance * size else None
+
+    def _face_quadrics(self, v, n, size: float, max_quadrics: int, tolerance: float):
+        """(quadrics (Q, 8) as :meth:`face_solid`'s, the quadric of each face (-1: none)), or (None, None) past
+        ``max_quadrics`` or where a group's vertices miss their surface. Each face's ball, else cylinder, is fitted
+        to its corners; faces whose surfaces agree within 1e-3 of the mesh's size share one, fitted again to all
+        their vertices."""
+        corners, normals = v[self.faces], n[self.faces]
+        pairs = np.stack([np.cross(normals[:, i], normals[:, (i + 1) % 3]) for i in range(3)], axis=1)
+        longest = np.linalg.norm(pairs, axis=2).argmax(axis=1)
+        axis = pairs[np.arange(len(pairs)), longest]  # a cylinder's: across its two most different normals
+        axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+        axis *= np.where(np.take_along_axis(axis, np.abs(axis).argmax(axis=1)[:, None], axis=1) < 0, -1.0, 1.0)
+        ball = _round_face_fit(corners, normals, np.zeros_like(axis), size, tolerance)
+        centre, signed, fits = _round_face_fit(corners, normals, axis, size, tolerance)
+        cylinder = (centre, signed, fits & (np.abs(np.einsum("fij,fj->fi", normals, axis)).max(axis=1) <= 1e-3))
+        quadrics, label = [], np.full(len(self.faces), -1)
+        for face in np.flatnonzero(ball[2] | cylinder[2]):
+            centre, signed, _ = ball if ball[2][face] else cylinder
+            along = np.zeros(4) if ball[2][face] else np.append(axis[face], 1.0)
+            fit = np.concatenate([centre[face] / size, [signed[face] / size], along])
+            same = [k for k, q in enumerate(quadrics) if np.abs(q - fit).max() <= 1e-3]
+            if not same:
+                if len(quadrics) == max_quadrics:
+                    return None, None
+                quadrics.append(fit)
+                same = [len(quadrics) - 1]
+            label[face] = same[0]
+        refitted = np.zeros((len(quadrics), 8))
+        for k, quadric in enumerate(quadrics):
+            corner = np.unique(self.faces[label == k].ravel())
+            p, normal, u = v[corner], n[corner], quadric[4:7]
+            if quadric[7]:
+                u = np.linalg.svd(normal)[2][-1]  # the direction every normal of a cylinder is square to
+                u = u if u[np.abs(u).argmax()] > 0 else -u
+                if np.abs(normal @ u).max() > 1e-3:
+                    return None, None
+                p = p - np.outer(p @ u, u)
+            # p = c + s n at every vertex (p projected across the axis on a cylinder): least squares in (c, s).
+            system = np.concatenate([np.tile(np.eye(3), (len(corner), 1)), normal.reshape(-1, 1)], axis=1)
+            fit = np.linalg.lstsq(system, p.reshape(-1), rcond=None)[0]
+            if np.abs(system @ fit - p.reshape(-1)).max() > tolerance * size:
+                return None, None
+            refitted[k] = np.concatenate([fit, u, [quadric[7]]]) if quadric[7] else np.append(fit, np.zeros(4))
+        return refitted, label
 
     def geometry_hash(self) -> str:
         """Like :meth:`content_hash`, plus the normals (for data that depends on them)."""
@@ -278,6 +367,32 @@ class Mesh:
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
         faces = self.faces if np.linalg.det(m[:3, :3]) > 0 else self.faces[:, ::-1]
         return Mesh(v, n, faces, name=self.name, uvs=self.uvs)
+
+
+def quadric_excess(quadrics: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """How far each point (N, 3) lies beyond each quadric of :meth:`Mesh.face_solid` (N, Q): its distance from
+    a ball's centre or a cylinder's axis less the radius, negated for the outside of one (a concave face)."""
+    offset = points[:, None, :] - quadrics[None, :, :3]
+    across = offset - quadrics[None, :, 7:8] * np.einsum("nqi,qi->nq", offset, quadrics[:, 4:7])[..., None] * quadrics[None, :, 4:7]
+    return (np.linalg.norm(across, axis=2) - np.abs(quadrics[:, 3])) * np.sign(quadrics[:, 3])
+
+
+def _round_face_fit(corners: np.ndarray, normals: np.ndarray, axis: np.ndarray, size: float, tolerance: float):
+    """Each face's ball (``axis`` zero) or cylinder about ``axis`` from its corners (F, 3, 3) and their normals:
+    (centre (F, 3), signed radius s (F,), whether it fits): p = c + s n with p projected across the axis; it fits
+    where every corner lies within ``tolerance`` and the centroid within SPHERE_SAGITTA of the mesh's size of it."""
+    along = np.einsum("fij,fj->fi", corners, axis)[..., None] * axis[:, None, :]
+    projected = corners - along
+    dp = projected - projected.mean(axis=1, keepdims=True)
+    dn = normals - normals.mean(axis=1, keepdims=True)
+    spread = np.einsum("fij,fij->f", dn, dn)
+    signed = np.einsum("fij,fij->f", dp, dn) / np.maximum(spread, 1e-30)
+    centre = (projected - signed[:, None, None] * normals).mean(axis=1)
+    miss = np.linalg.norm(projected - signed[:, None, None] * normals - centre[:, None], axis=2).max(axis=1)
+    sagitta = np.abs(np.linalg.norm(projected.mean(axis=1) - centre, axis=1) - np.abs(signed))
+    fits = ((spread > 1e-10) & (np.abs(signed) > tolerance * size) & (miss <= tolerance * size)
+            & (sagitta <= SPHERE_SAGITTA * size))
+    return centre, signed, fits
 
 
 def _numeric(value, label: str, what: str) -> np.ndarray:

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
+from ..passes.convex_exits import convex_shape
 from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
                                         lobe_occlusion, scene_floor)
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
@@ -138,6 +139,17 @@ INVISIBLE = ("IOR 1 and no absorption: it neither reflects (Fresnel 0), bends no
              "shadow maps, and the plan is made for the scene without it")
 
 
+def _exits_of(glass) -> str:
+    """How depth-search finds a glass object's exits under auto (convex_exits)."""
+    shape = convex_shape(glass)
+    if shape is None:
+        return "exits by depth search (Hu and Qin 2.1)"
+    cylinders = int(shape.quadrics[:, 7].sum())
+    counts = ((len(shape.planes), "plane"), (len(shape.quadrics) - cylinders, "sphere"), (cylinders, "cylinder"))
+    faces = " and ".join(f"{count} {name}{'' if count == 1 else 's'}" for count, name in counts if count)
+    return f"exits computed exactly on its {faces} (ours, passes/convex_exits.py)"
+
+
 def _plan_visible(scene, quality: str, frame_size) -> Plan:
     """:func:`plan` for a scene without invisible glass."""
     bounces, impostor_size, map_size, shadow_size, table_photons = QUALITY[quality]
@@ -156,16 +168,12 @@ def _plan_visible(scene, quality: str, frame_size) -> Plan:
         view = "impostors"
         view_params.update(internal_bounces=bounces, impostor_size=impostor_size, merge_planes=True, convex_exits=True)
         why_glass = (f"other objects near it are seen through and in it as impostors (Hu and Qin 2.2; coplanar flat "
-                     f"objects share one), exits by "
-                     f"depth search (exact for spheres and convex polyhedra), {bounces} internal "
-                     f"bounce{'' if bounces == 1 else 's'}")
+                     f"objects share one), {{exits}}, {bounces} internal bounce{'' if bounces == 1 else 's'}")
         why_mirror = "its reflections see the nearby objects as impostors (Hu and Qin 2.2)"
     elif glass:
         view = "depth-search"
         view_params.update(internal_bounces=bounces, convex_exits=True)
-        why_glass = (f"alone in the environment: depth-search exits (Hu and Qin 2.1; exact for spheres and convex "
-                     f"polyhedra), {bounces} internal "
-                     f"bounce{'' if bounces == 1 else 's'}")
+        why_glass = f"alone in the environment: {{exits}}, {bounces} internal bounce{'' if bounces == 1 else 's'}"
         why_mirror = ""
     elif failing := _per_vertex_fails(mirrors, scene):
         view = "impostors"
@@ -205,7 +213,7 @@ def _plan_visible(scene, quality: str, frame_size) -> Plan:
     for obj in objects:
         kind = obj.material.kind
         if kind == "glass":
-            entries.append(PlanEntry(obj.name, kind, view, why_glass))
+            entries.append(PlanEntry(obj.name, kind, view, why_glass.format(exits=_exits_of(obj))))
         elif kind == "mirror":
             entries.append(PlanEntry(obj.name, kind, view, why_mirror or "reflects the environment"))
         elif caustics:

@@ -24,8 +24,9 @@ refractors (outward normal and eye distance). For each glass fragment:
 5. Ours: ``internal_bounces`` follows the light reflected inside at each exit, with
    ``bounce_iterations`` dT corrections (2.1.3's tangent-plane step) from the last chord; on dispersive
    glass red and blue reuse green's lookups there (``shared_bounce_lookups``), their own at the first exit.
-6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a convex
-   mesh of at most ``MAX_CONVEX_PLANES`` planes (``passes/convex_exits.py``), the depth search elsewhere.
+6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a mesh bounded
+   by at most ``MAX_CONVEX_PLANES`` planes and ``MAX_CONVEX_QUADRICS`` spherical or cylindrical faces, convex
+   or concave (a polyhedron, a lens; ``passes/convex_exits.py``), the depth search elsewhere.
 
 Works for n_t < n_i (fig. 10). Exact dielectric Fresnel at every interface,
 Beer-Lambert absorption inside; with dispersion the geometry follows the green
@@ -47,7 +48,7 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from ..passes.casters import half_diagonal
-from ..passes.convex_exits import MAX_CONVEX_PLANES, bind_convex_shape, convex_defines
+from ..passes.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
 from ..passes.glass_contact import bind_contact_plane, contact_defines
 from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.lights import ShadowMaps
@@ -86,9 +87,10 @@ class DepthSearchParams(NearbyParams, ShadowedParams):
     shared_bounce_lookups: bool = param(True, help="ours, for dispersive glass with internal_bounces: red and blue "
                                                    "reuse green's lookups at the bounced exits (False: each channel "
                                                    "its own, 3 lookups a bounce)")
-    convex_exits: bool = param(False, help="ours: exact exits from analytic spheres and convex meshes of at most "
-                                           f"{MAX_CONVEX_PLANES} planes, every bounce (False: the depth search for all "
-                                           "glass; auto sets it)")
+    convex_exits: bool = param(False, help="ours: exact exits, every bounce, from analytic spheres and meshes bounded by "
+                                           f"at most {MAX_CONVEX_PLANES} planes and {MAX_CONVEX_QUADRICS} spherical or "
+                                           "cylindrical faces (convex polyhedra, lenses; False: the depth search for all glass; "
+                                           "auto sets it)")
 
 
 class DepthSearch(RasterTechnique):

@@ -10,8 +10,9 @@
 // and reuse green's lookups at the bounced exits (weighted by their own Fresnel terms).
 // Our extension, not in the paper: INTERNAL_BOUNCES > 0 follows the light reflected inside at
 // each exit (weight F) to the next exit, found against the nearer of the two buffers.
-// Ours too: CONVEX_EXITS computes every exit exactly where the glass is an analytic sphere or a
-// convex mesh of few planes (common/convex_exits.glsl; 1: every glass object, 2: per object).
+// Ours too: CONVEX_EXITS computes every exit exactly where the glass is an analytic sphere or a mesh
+// bounded by few planes, balls and cylinders, a lens's (common/convex_exits.glsl; 1: every glass object,
+// 2: per object).
 //
 // Nearby geometry (``nearby``, and the ``impostors`` technique): T2 and the reflections go to
 // nearby_radiance of common/impostors.glsl instead of the environment.
@@ -35,7 +36,7 @@
 #define BACK_SPHERE_START 1  // ours, with BACK_SECANT: start at the chord along T1 of the sphere fitting d_V (0: at d_V)
 #endif
 #ifndef CONVEX_EXITS
-#define CONVEX_EXITS 0  // ours: exact exits from spheres and convex polyhedra (1: every glass object, 2: some; passes/convex_exits.py)
+#define CONVEX_EXITS 0  // ours: exact exits from solids of planes, balls and cylinders (1: every glass object, 2: some; passes/convex_exits.py)
 #endif
 #ifndef ASSUME_BACK_FIRST
 #define ASSUME_BACK_FIRST 1  // section 4: iterate on the back faces first (0: search first, 2.1.2)
