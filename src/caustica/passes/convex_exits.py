@@ -1,4 +1,4 @@
-"""Exact exits from convex glass of known shape: depth-search's ``convex_exits`` (ours).
+"""Exact exits from glass of known shape: depth-search's ``convex_exits`` (ours).
 
 Hu and Qin (TVCG 2007, 2.1) find the exit P2 in screen space, against one layer of front and one of
 back faces; they note that this "could render the accurate result for a convex object" at two
@@ -20,7 +20,12 @@ Where a glass object's shape is known in closed form the shader computes every e
   smooth side of a 64-sided cylinder, as the rasterized entry, ``exact`` and Mitsuba have it), or
   the plane's own where the shading normal would send the light to the wrong side of the face (exact,
   ``raytrace/paths.py``, lets the shading normal decide the side there instead, as Mitsuba does: the two
-  differ only where the shading normal turns away from the ray, at grazing exits).
+  differ only where the shading normal turns away from the ray, at grazing exits);
+- a mesh whose faces lie on a few planes, balls and round cylinders (``Mesh.face_solid``: a spectacle lens's
+  two caps and rim, a plano-convex lens, a meniscus), at most :data:`MAX_CONVEX_QUADRICS` of the round kinds:
+  the body is the intersection of the half-spaces and of each ball's or cylinder's inside, or outside where the
+  face is concave, so a ray inside leaves where it first crosses one of their boundaries (the normal there the
+  ball's or cylinder's own; the facets lie within 0.2 % of the mesh's size of them).
 
 ``shaders/common/convex_exits.glsl`` does the intersections; the internal bounces then follow the
 reflected light from exact point to exact point, off-screen too. Other glass keeps the depth search.
