@@ -443,6 +443,20 @@ def test_face_solid_finds_a_lens_spheres_and_rim():
     assert Mesh(vertices, None, np.array(sides + caps + [[6 + i for i in c[::-1]] for c in caps])).face_solid(16, 4) is None
 
 
+def test_a_lens_read_back_from_gltf_keeps_its_exact_exits(tmp_path):
+    """A user's lens arrives as a glTF mesh: spectacle-concave written to .glb and read back is still two concave
+    balls and a cylinder, at the same place (convex_shape)."""
+    from caustica.passes.convex_exits import convex_shape
+    from caustica.scene.io import export_scene, load_scene
+
+    scene = caustica.load_scene("spectacle-concave")
+    read = load_scene(export_scene(scene, tmp_path / "lens.glb"))
+    before, after = (convex_shape(next(o for o in s.objects if o.material.kind == "glass")) for s in (scene, read))
+    assert after is not None and len(after.planes) == 0
+    assert np.allclose(after.quadrics, before.quadrics, atol=1e-4)
+    assert sorted(np.sign(after.quadrics[:, 3]) * (1 + after.quadrics[:, 7])) == [-1.0, -1.0, 2.0]
+
+
 def tilted_lens(concave: bool, view_deg: float) -> Scene:
     """A thick lens of IOR 1.6 turned 10 and 20 degrees, seen from 0.9 away at ``view_deg`` off its axis."""
     from caustica.scene import Transform
