@@ -124,6 +124,12 @@ radius = 1
 center_thickness = 0.1
 edge_thickness = 0.4
 [[objects]]
+shape = "lens"
+radius = 0.25
+front_radius = 0.5
+back_radius = 0.8
+center_thickness = 0.05
+[[objects]]
 shape = "water"
 size = [4, 4]
 resolution = 16
@@ -156,7 +162,7 @@ mesh = "models/tri.obj"
 
     names = [o.name for o in scene.objects]
     assert names == ["ball", "plane", "box", "torus", "torus-knot", "cylinder", "biconvex-lens", "biconcave-lens",
-                     "water", "ring", "tri"]
+                     "lens", "water", "ring", "tri"]
     ball = scene.objects[0]
     assert isinstance(ball.material, Glass) and ball.material.ior == 1.52 and ball.material.abbe == 58.0
     np.testing.assert_allclose(ball.material.absorption_color, [0.9, 0.8, 0.7])
@@ -175,7 +181,9 @@ mesh = "models/tri.obj"
     np.testing.assert_allclose(box.mesh.bounds[1], [0.5, 1.0, 1.5])
     assert isinstance(scene.objects[3].material, Glass) and scene.objects[3].material.ior == 1.33
     assert isinstance(scene.objects[4].material, Diffuse)  # default material
-    assert len(scene.objects[10].mesh.faces) == 1
+    assert len(scene.objects[11].mesh.faces) == 1
+    # The meniscus: its front pole at +0.025, its concave back's rim lowest, at -0.025 - 0.8 + sqrt(0.8^2 - 0.25^2).
+    np.testing.assert_allclose(scene.objects[8].mesh.bounds[:, 2], [-0.825 + np.sqrt(0.64 - 0.0625), 0.025], atol=1e-6)
 
 
 def test_defaults_and_procedural_environment(tmp_path):

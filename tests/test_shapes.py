@@ -17,6 +17,8 @@ CLOSED = {
     "biconvex-lens": lambda: shapes.biconvex_lens(1.0, 0.4, segments=48, rings=12),
     "biconvex-lens-band": lambda: shapes.biconvex_lens(1.0, 0.5, edge_thickness=0.1, segments=48, rings=12),
     "biconcave-lens": lambda: shapes.biconcave_lens(1.0, 0.1, 0.5, segments=48, rings=12),
+    "lens-meniscus": lambda: shapes.lens(0.3, 0.5, 0.7, 0.08, segments=48, rings=12),
+    "lens-plano-convex": lambda: shapes.lens(0.3, 0.0, -0.6, 0.1, segments=48, rings=12),
     "ring": lambda: shapes.ring(0.8, 1.0, 0.5, segments=64),
 }
 OPEN = {
@@ -168,6 +170,32 @@ def test_biconcave_lens_matches_parameters():
     assert merged(mesh).volume == pytest.approx(math.pi * radius**2 * edge - 2 * cap, rel=0.01)
 
 
+@pytest.mark.parametrize("front, back, thickness", [(0.5, 0.7, 0.08), (0.0, -0.6, 0.1), (-0.8, 0.8, 0.04),
+                                                     (-0.5, -0.9, 0.05), (1.0, -1.0, 0.1)])
+def test_lens_faces_are_the_spheres_its_radii_say(front, back, thickness):
+    """shapes.lens: a face of curvature radius R (the optician's sign) through its pole p = +-thickness / 2 is the
+    sphere centred at p - R on the axis, so it lies at z(r) = p - R + sign(R) sqrt(R^2 - r^2) (flat at p where R
+    is 0); its normals point out of the glass (away from the centre on a convex face, towards it on a concave
+    one); the volume is the integral of z_front - z_back over the aperture."""
+    aperture = 0.3
+    mesh = shapes.lens(aperture, front, back, thickness, segments=96, rings=24)
+    v, n = mesh.vertices.astype(np.float64), mesh.normals.astype(np.float64)
+    r = np.linspace(0.0, aperture, 20001)
+    heights = []
+    for curvature, pole, facing in ((front, thickness / 2, 1.0), (back, -thickness / 2, -1.0)):
+        face = facing * n[:, 2] > 1e-6  # the rim band's normals have z = 0
+        if curvature == 0.0:
+            np.testing.assert_allclose(v[face, 2], pole, atol=1e-7)
+            heights.append(pole + 0.0 * r)
+            continue
+        offset = v[face] - [0.0, 0.0, pole - curvature]
+        np.testing.assert_allclose(np.linalg.norm(offset, axis=1), abs(curvature), rtol=1e-5)
+        np.testing.assert_allclose(n[face], facing * offset / curvature, atol=1e-5)
+        heights.append(pole - curvature + np.sign(curvature) * np.sqrt(curvature**2 - r**2))
+    volume = np.trapezoid(2.0 * np.pi * r * (heights[0] - heights[1]), r)
+    assert merged(mesh).volume == pytest.approx(volume, rel=0.005)
+
+
 def test_lens_thickness_checks():
     with pytest.raises(ValueError, match="edge_thickness"):
         shapes.biconcave_lens(1.0, center_thickness=0.5, edge_thickness=0.2)
@@ -175,6 +203,12 @@ def test_lens_thickness_checks():
         shapes.biconvex_lens(1.0, thickness=-0.1)
     with pytest.raises(ValueError, match="hemisphere"):
         shapes.biconcave_lens(0.5, center_thickness=0.01, edge_thickness=2.0)
+    with pytest.raises(ValueError, match="back_radius .* hemisphere"):
+        shapes.lens(0.5, 1.0, -0.4, 0.5)
+    with pytest.raises(ValueError, match="faces cross"):
+        shapes.lens(0.3, 0.0, -0.6, 0.05)  # the convex back rises 0.08 to its rim, above the flat front
+    with pytest.raises(ValueError, match="center_thickness"):
+        shapes.lens(0.3, 1.0, 0.0, 0.0)
 
 
 def test_plane_faces_up_and_has_the_size():

@@ -341,6 +341,48 @@ def biconcave_lens(radius: float = 1.0, center_thickness: float = 0.1, edge_thic
     return _lens("biconcave-lens", radius, center_thickness / 2.0, edge_thickness / 2.0, False, segments, rings)
 
 
+def lens(radius: float = 1.0, front_radius: float = 2.0, back_radius: float = -2.0, center_thickness: float = 0.6,
+         segments: int = 96, rings: int = 24) -> Mesh:
+    """A spherical lens along Z, its front face towards +Z: aperture ``radius``, the faces' curvature radii in the
+    optician's signs (``front_radius`` > 0 and ``back_radius`` < 0 bulge outwards, the other signs are concave, 0
+    is flat), poles ``center_thickness`` apart; a cylindrical rim band joins the faces where their rims lie apart.
+    Plano-convex (front 1, back 0), meniscus (front 1, back 1.5: a spectacle lens's form), and the symmetric
+    lenses alike."""
+    _positive(radius=radius, center_thickness=center_thickness)
+    front_radius, back_radius = rules.number(front_radius, "front_radius"), rules.number(back_radius, "back_radius")
+    segments, rings = _count("segments", segments, 3), _count("rings", rings, 1)
+    _budget(4 * segments * rings + 2 * segments, segments=segments, rings=rings)
+    for name, curvature in (("front_radius", front_radius), ("back_radius", back_radius)):
+        if curvature != 0.0 and abs(curvature) < radius:
+            raise ValueError(f"{name} ({curvature}) must be 0 (flat) or at least the aperture radius ({radius}) in "
+                             f"size: each face is at most a hemisphere")
+
+    def rim_height(pole: float, curvature: float) -> float:
+        """Where a face of this curvature through ``pole`` meets the aperture (curvature > 0: centre below)."""
+        if curvature == 0.0:
+            return pole
+        return pole - curvature + math.copysign(math.sqrt(curvature * curvature - radius * radius), curvature)
+
+    top, bottom = center_thickness / 2.0, -center_thickness / 2.0
+    top_rim, bottom_rim = rim_height(top, front_radius), rim_height(bottom, back_radius)
+    if top_rim - bottom_rim < -1e-9 * radius:
+        raise ValueError(f"the faces cross inside the aperture (the rim is {top_rim - bottom_rim:.4g} thick): "
+                         f"make center_thickness larger or the faces flatter")
+    # Counter-clockwise in (r, y): the back face from its pole out, the rim band, the front face back to its pole.
+    if back_radius == 0.0:
+        parts = [_strip([(0.0, bottom), (radius, bottom)], (0.0, -1.0), segments)]
+    else:
+        parts = [_revolve(*_spherical_cap(radius, bottom, bottom_rim, back_radius < 0.0, rings), segments)]
+    if top_rim - bottom_rim > 1e-9 * radius:
+        parts.append(_strip([(radius, bottom_rim), (radius, top_rim)], (1.0, 0.0), segments))
+    if front_radius == 0.0:
+        parts.append(_strip([(radius, top), (0.0, top)], (0.0, 1.0), segments))
+    else:
+        profile = _spherical_cap(radius, top, top_rim, front_radius > 0.0, rings)
+        parts.append(_revolve(*(values[::-1] for values in profile), segments))
+    return _merge([_y_to_z(part) for part in parts], "lens")
+
+
 def water_heightfield(size=(4.0, 4.0), resolution: int = 128, amplitude: float = 0.05, waves: int = 4,
                       seed: int = 0, time: float = 0.0) -> Mesh:
     """A water surface facing +Y: the sum of ``waves`` travelling sine waves, |y| <= amplitude.
@@ -382,6 +424,7 @@ SHAPES = {
     "cylinder": cylinder,
     "biconvex-lens": biconvex_lens,
     "biconcave-lens": biconcave_lens,
+    "lens": lens,
     "water": water_heightfield,
     "ring": ring,
 }
