@@ -29,11 +29,18 @@ PRESETS = ["glass-sphere", "caustic-sphere", "tvcg-fig10", "caustics-point", "ca
 
 def held_out_scenes() -> dict:
     """Scenes of the kinds auto was tuned on, not presets (issue 19's held-out checks): a dispersive lens of
-    another IOR, Abbe number and distances, a concave lens of another IOR and distances, the pool later in its
-    waves from another camera."""
-    from caustica.scene import Camera
+    another IOR, Abbe number and distances, a concave lens of another IOR and distances, a negative meniscus
+    (the form of most spectacle lenses) tilted before the chart, the pool later in its waves from another camera."""
+    from caustica.scene import Camera, Glass, SceneObject, Transform
     from caustica.scene.presets import pool_scene
     from caustica.scene.presets_per_vertex import spectacle_lens
+    from caustica.scene.shapes import lens
+
+    def meniscus():
+        scene = spectacle_lens(False, 0.75, 0.5, name="held-out-meniscus-lens")
+        scene.objects[0] = SceneObject("lens", lens(0.25, 0.6, 0.4, 0.02, 64, 16), Glass(ior=1.6),
+                                       Transform(rotation=[8.0, -6.0, 0.0]))
+        return scene
 
     def pool():
         scene = pool_scene(time=1.7)
@@ -44,6 +51,7 @@ def held_out_scenes() -> dict:
     return {"held-out-dispersive-lens": lambda: spectacle_lens(False, 0.9, 0.4, 16, 64, ior=1.7, abbe=25.0,
                                                                name="held-out-dispersive-lens"),
             "held-out-concave-lens": lambda: spectacle_lens(True, 0.8, 0.6, ior=1.6, name="held-out-concave-lens"),
+            "held-out-meniscus-lens": meniscus,
             "held-out-pool": pool}
 
 
