@@ -302,10 +302,20 @@ def test_convex_exits_follow_total_internal_reflection_through_a_block(renderer)
     assert image[twice].max() < 0.03, image[twice]
 
 
+def l_shaped_prism():
+    """A closed prism of unit height over an L-shaped outline: solid, not convex."""
+    from caustica.scene import Mesh
+
+    outline = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float)
+    vertices = np.array([[x, y, z] for z in (0.0, 1.0) for x, y in outline])
+    sides = [[i, (i + 1) % 6, 6 + (i + 1) % 6] for i in range(6)] + [[i, 6 + (i + 1) % 6, 6 + i] for i in range(6)]
+    caps = [[0, 5, 4], [0, 4, 3], [0, 3, 1], [1, 3, 2]]
+    return Mesh(vertices, None, np.array(sides + caps + [[6 + i for i in c[::-1]] for c in caps]))
+
+
 def test_face_planes_of_convex_polyhedra_only():
     """A block's faces lie on six planes (outward normal, offset half its size); a tessellated sphere has
     hundreds (None: the depth search stays), a concave L-shaped prism is not convex (None)."""
-    from caustica.scene import Mesh
     from caustica.scene.shapes import box
 
     planes = box((2.0, 0.5, 1.0)).face_planes(16)
@@ -313,13 +323,7 @@ def test_face_planes_of_convex_polyhedra_only():
     assert sorted(np.round(np.abs(planes[:, :3]) @ [1.0, 2.0, 3.0] * 10 + planes[:, 3], 3)) == [
         11.0, 11.0, 20.25, 20.25, 30.5, 30.5]
     assert sphere(1.0, 3).face_planes(16) is None
-    outline = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float)
-    vertices = np.array([[x, y, z] for z in (0.0, 1.0) for x, y in outline])
-    sides = [[i, (i + 1) % 6, 6 + (i + 1) % 6] for i in range(6)] + [[i, 6 + (i + 1) % 6, 6 + i] for i in range(6)]
-    caps = [[0, 5, 4], [0, 4, 3], [0, 3, 1], [1, 3, 2]]
-    faces = sides + caps + [[6 + i for i in c[::-1]] for c in caps]
-    assert Mesh(vertices, None, np.array(faces)).is_solid()
-    assert Mesh(vertices, None, np.array(faces)).face_planes(16) is None
+    assert l_shaped_prism().is_solid() and l_shaped_prism().face_planes(16) is None
 
 
 def test_convex_exits_of_an_analytic_ball_follow_its_bounces_closer(sphere_and_exact):
@@ -419,7 +423,6 @@ def test_face_solid_finds_a_lens_spheres_and_rim():
     two balls of radius R = (a^2 + s^2) / 2s (s = (e - t) / 2) centred on its axis at +-(t / 2 + R), inside its
     rim's cylinder of radius a; a biconvex lens the inside of two balls. A torus, an L-shaped prism and a lens
     too coarse for its spheres to stand for its facets (8 sides) are no such solid."""
-    from caustica.scene import Mesh
     from caustica.scene.shapes import biconcave_lens, biconvex_lens, torus
 
     a, t, e = 0.3, 0.04, 0.16
@@ -436,11 +439,7 @@ def test_face_solid_finds_a_lens_spheres_and_rim():
     assert len(convex) == 2 and np.allclose(convex[:, 3], radius, atol=1e-4)
     assert torus(1.0, 0.3).face_solid(128, 4) is None
     assert biconcave_lens(a, t, e, 8, 16).face_solid(128, 4) is None
-    outline = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float)
-    vertices = np.array([[x, y, z] for z in (0.0, 1.0) for x, y in outline])
-    sides = [[i, (i + 1) % 6, 6 + (i + 1) % 6] for i in range(6)] + [[i, 6 + (i + 1) % 6, 6 + i] for i in range(6)]
-    caps = [[0, 5, 4], [0, 4, 3], [0, 3, 1], [1, 3, 2]]
-    assert Mesh(vertices, None, np.array(sides + caps + [[6 + i for i in c[::-1]] for c in caps])).face_solid(16, 4) is None
+    assert l_shaped_prism().face_solid(16, 4) is None
 
 
 def test_a_lens_read_back_from_gltf_keeps_its_exact_exits(tmp_path):

@@ -300,14 +300,27 @@ def _spherical_cap(aperture: float, pole_y: float, rim_y: float, convex: bool, r
 
 def _lens(name: str, aperture: float, center_y: float, edge_y: float, convex: bool, segments: int, rings: int) -> Mesh:
     """Two mirror-image spherical caps (poles at +-center_y, rims at +-edge_y) joined by a band, axis Z."""
+    return _lens_faces(name, aperture, (-center_y, -edge_y, convex), (center_y, edge_y, convex), segments, rings)
+
+
+def _lens_faces(name: str, aperture: float, back, front, segments: int, rings: int) -> Mesh:
+    """A lens along Z from its back and front faces, each (pole height, rim height, convex): a spherical cap
+    through its pole and rim, flat where they are level; a band joins the rims where the front's lies higher."""
     segments, rings = _count("segments", segments, 3), _count("rings", rings, 1)
     _budget(4 * segments * rings + 2 * segments, segments=segments, rings=rings)
-    r, y, nr, ny = _spherical_cap(aperture, -center_y, -edge_y, convex, rings)
-    # Counter-clockwise: bottom cap from its pole out, the rim band, the top cap back to its pole.
-    parts = [_revolve(r, y, nr, ny, segments)]
-    if edge_y > 0:
-        parts.append(_strip([(aperture, -edge_y), (aperture, edge_y)], (1.0, 0.0), segments))
-    parts.append(_revolve(r[::-1], -y[::-1], nr[::-1], -ny[::-1], segments))
+    (bottom, bottom_rim, back_convex), (top, top_rim, front_convex) = back, front
+    # Counter-clockwise in (r, y): the back face from its pole out, the rim band, the front face back to its pole.
+    if bottom_rim == bottom:
+        parts = [_strip([(0.0, bottom), (aperture, bottom)], (0.0, -1.0), segments)]
+    else:
+        parts = [_revolve(*_spherical_cap(aperture, bottom, bottom_rim, back_convex, rings), segments)]
+    if top_rim > bottom_rim:
+        parts.append(_strip([(aperture, bottom_rim), (aperture, top_rim)], (1.0, 0.0), segments))
+    if top_rim == top:
+        parts.append(_strip([(aperture, top), (0.0, top)], (0.0, 1.0), segments))
+    else:
+        parts.append(_revolve(*(values[::-1] for values in _spherical_cap(aperture, top, top_rim, front_convex, rings)),
+                              segments))
     return _merge([_y_to_z(part) for part in parts], name)
 
 
@@ -350,8 +363,6 @@ def lens(radius: float = 1.0, front_radius: float = 2.0, back_radius: float = -2
     lenses alike."""
     _positive(radius=radius, center_thickness=center_thickness)
     front_radius, back_radius = rules.number(front_radius, "front_radius"), rules.number(back_radius, "back_radius")
-    segments, rings = _count("segments", segments, 3), _count("rings", rings, 1)
-    _budget(4 * segments * rings + 2 * segments, segments=segments, rings=rings)
     for name, curvature in (("front_radius", front_radius), ("back_radius", back_radius)):
         if curvature != 0.0 and abs(curvature) < radius:
             raise ValueError(f"{name} ({curvature}) must be 0 (flat) or at least the aperture radius ({radius}) in "
@@ -368,19 +379,10 @@ def lens(radius: float = 1.0, front_radius: float = 2.0, back_radius: float = -2
     if top_rim - bottom_rim < -1e-9 * radius:
         raise ValueError(f"the faces cross inside the aperture (the rim is {top_rim - bottom_rim:.4g} thick): "
                          f"make center_thickness larger or the faces flatter")
-    # Counter-clockwise in (r, y): the back face from its pole out, the rim band, the front face back to its pole.
-    if back_radius == 0.0:
-        parts = [_strip([(0.0, bottom), (radius, bottom)], (0.0, -1.0), segments)]
-    else:
-        parts = [_revolve(*_spherical_cap(radius, bottom, bottom_rim, back_radius < 0.0, rings), segments)]
-    if top_rim - bottom_rim > 1e-9 * radius:
-        parts.append(_strip([(radius, bottom_rim), (radius, top_rim)], (1.0, 0.0), segments))
-    if front_radius == 0.0:
-        parts.append(_strip([(radius, top), (0.0, top)], (0.0, 1.0), segments))
-    else:
-        profile = _spherical_cap(radius, top, top_rim, front_radius > 0.0, rings)
-        parts.append(_revolve(*(values[::-1] for values in profile), segments))
-    return _merge([_y_to_z(part) for part in parts], "lens")
+    if top_rim - bottom_rim <= 1e-9 * radius:
+        bottom_rim = top_rim  # a knife edge: no band
+    return _lens_faces("lens", radius, (bottom, bottom_rim, back_radius < 0.0), (top, top_rim, front_radius > 0.0),
+                       segments, rings)
 
 
 def water_heightfield(size=(4.0, 4.0), resolution: int = 128, amplitude: float = 0.05, waves: int = 4,
