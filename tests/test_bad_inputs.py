@@ -1,4 +1,4 @@
-"""The corpus of bad inputs (tests/data/bad/cases.toml) through the command line.
+"""The corpus of bad inputs (tests/data/bad/cases*.toml) through the command line.
 
 Each case must exit 2 with one line, ``caustica: <problem>; <fix>``, holding the case's fragment, print no
 traceback and leave its output folder empty. Cases run in-process through ``caustica.cli.main`` (fast); two
@@ -17,7 +17,8 @@ import pytest
 from caustica.cli import main
 
 BAD = Path(__file__).resolve().parent / "data" / "bad"
-CASES = tomllib.loads((BAD / "cases.toml").read_text())["case"]
+CASE_FILES = sorted(BAD.glob("cases*.toml"))
+CASES = [case for path in CASE_FILES for case in tomllib.loads(path.read_text())["case"]]
 MAX_LINE = len("caustica: ") + 300
 
 
@@ -82,7 +83,7 @@ def test_bad_input_in_a_subprocess(name, tmp_path):
 
 def test_corpus_is_complete():
     """At least 60 bad files, each named by a case, and every case's files present."""
-    files = {p.name for p in BAD.iterdir()} - {"cases.toml", "ok.toml"}
+    files = {p.name for p in BAD.iterdir()} - {p.name for p in CASE_FILES} - {"ok.toml"}
     used = set()
     for case in CASES:
         for arg in case["args"]:
