@@ -430,8 +430,8 @@ def main(argv: list[str] | None = None) -> int:
             return _fail(first_line(exc), 2)
         except MemoryError:
             return _fail("out of memory; use a smaller --size, fewer --spp or smaller maps", 2)
-        except KeyboardInterrupt:
-            return _fail("interrupted", 130)
+        except KeyboardInterrupt as stop:  # batch adds what it kept: "interrupted: kept 3 of 10 frames ..."
+            return _fail(str(stop) or "interrupted", 130)
         except Terminated as stop:
             return _fail(f"{stop}", 128 + stop.signum)
         except BrokenPipeError:  # the reader of stdout left (| head): stop quietly, as a SIGPIPE would

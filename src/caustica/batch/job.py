@@ -13,8 +13,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..atomic import Terminated
 from ..errors import CausticaError, OutputError, short
-from .manifest import Manifest
+from .manifest import JOB_FILE, LOCK_FILE, MANIFEST, Manifest
 from .sweep import DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output
 
 
@@ -200,31 +201,79 @@ class Progress:
 def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, devices=None, force: bool = False,
             progress=None) -> list[dict]:
     """Render the job's unfinished frames into ``job.out_dir`` (``workers``, ``ray``, ``devices``: as
-    workers.render_frames) and return every frame's manifest row, sorted. ``progress(Progress)`` is called after each frame (an exception from it stops the run,
-    the finished frames kept)."""
+    workers.render_frames) and return every frame's manifest row, sorted. ``progress(Progress)`` is called
+    after each frame (an exception from it stops the run, the finished frames kept). A run that ends in an
+    error before its first frame (a refused folder, an unreachable cluster) leaves nothing it made behind; an
+    interrupted one (Ctrl-C, SIGTERM) re-raises with how many frames the folder keeps."""
     out = Path(job.out_dir)
     if out.exists() and not out.is_dir():
         raise OutputError(f"output folder {out} is a file; give a folder name")
+    description = job.description(job.base_scene() if base is None else base)
+    made = _missing_folders(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
+        _remove_new(out, made, set())
         raise OutputError(f"cannot create the output folder {out} ({exc.strerror}); check the path") from None
-    description = job.description(job.base_scene() if base is None else base)
+    records = {name for name in (JOB_FILE, MANIFEST, LOCK_FILE) if (out / name).exists()}
     manifest = Manifest(out)
-    manifest.lock()
+    state = Progress(total=job.frames)
     try:
+        manifest.lock()
         rows = manifest.claim(job_key(description), description, force)
-        return _run(job, manifest, rows, workers, ray, devices, progress)
+        return _run(job, manifest, rows, state, workers, ray, devices, progress)
+    except (KeyboardInterrupt, Terminated) as stop:
+        stop.args = (f"{str(stop) or 'interrupted'}: {_kept(state, out)}",)
+        _remove_new(out, made, records, state)
+        raise
+    except BaseException:
+        _remove_new(out, made, records, state)
+        raise
     finally:
         manifest.unlock()
 
 
-def _run(job: Job, manifest: Manifest, rows: dict, workers: int, ray, devices, progress) -> list[dict]:
+def _kept(state: Progress, out: Path) -> str:
+    """What an interrupted run leaves: the frames kept and how to render the others."""
+    left = state.total - state.done
+    return (f"kept {state.done} of {state.total} frames in {out} (manifest.jsonl)"
+            + (f"; run the same command again to render the other {left}" if left else ""))
+
+
+def _missing_folders(out: Path) -> list[Path]:
+    """``out`` and its parents that do not exist yet, deepest first."""
+    missing = []
+    for folder in (out, *out.parents):
+        if folder.exists():
+            break
+        missing.append(folder)
+    return missing
+
+
+def _remove_new(out: Path, made: list[Path], records: set, state: Progress | None = None) -> None:
+    """After a run that rendered no frame: remove the folder's records that were not there before it
+    (``records``: those that were) and the folders it made (``made``), when empty."""
+    if state is not None and state.rendered:
+        return
+    if JOB_FILE not in records:  # a fresh folder: this run wrote its job.json and manifest
+        for name in (JOB_FILE, MANIFEST):
+            (out / name).unlink(missing_ok=True)
+    if LOCK_FILE not in records:
+        (out / LOCK_FILE).unlink(missing_ok=True)  # while still locked: no other run holds this file
+    for folder in made:
+        try:
+            folder.rmdir()
+        except OSError:
+            break
+
+
+def _run(job: Job, manifest: Manifest, rows: dict, state: Progress, workers: int, ray, devices,
+         progress) -> list[dict]:
     from .workers import render_frames
 
     out = manifest.dir
     finished = {i for i, row in rows.items() if i < job.frames and manifest.finished(row)}
-    state = Progress(total=job.frames, done=len(finished), skipped=len(finished))
+    state.done = state.skipped = len(finished)
     pending = [i for i in range(job.frames) if i not in finished]
     try:
         with manifest:

@@ -9,6 +9,7 @@ frames rendered before, nor the other keys of the file.
 from __future__ import annotations
 
 import hashlib
+import re
 import string
 import tomllib
 from dataclasses import dataclass, field
@@ -100,12 +101,13 @@ class Sweep:
 
 
 def is_sweep_file(path) -> bool:
-    """Whether ``path`` is a TOML file with a top-level ``scene`` key (a scene file has none)."""
+    """Whether ``path`` is a TOML file with a top-level ``scene`` key or a setting only sweeps take
+    (``frames``, ``seed``...: a sweep that forgot ``scene``); a scene file has none of them."""
     path = Path(path)
     if path.suffix.lower() != ".toml" or not path.is_file():
         return False
     try:
-        return "scene" in tomllib.loads(path.read_text(encoding="utf-8"))
+        return any(key in SETTINGS for key in tomllib.loads(path.read_text(encoding="utf-8")))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return False  # the scene loader reports it
 
@@ -119,6 +121,10 @@ def read_sweep(path) -> Sweep:
 def parse_sweep(data: dict, base_dir=".", name: str = "sweep") -> Sweep:
     """A Sweep from a parsed TOML document; ``scene`` and files resolve against ``base_dir``."""
     _known(data, {**SETTINGS, **dict.fromkeys(TABLES)}, name, "the top level")
+    if "scene" not in data:
+        given = ", ".join(key for key in data if key in SETTINGS)
+        raise SceneError(f"{name}: a sweep needs scene = ... at its top, the preset or scene file it starts from "
+                         f"(it has {short(given)} but no scene); add e.g. scene = 'caustic-sphere'")
     settings = {key: _setting(key, kind, data[key], name) for key, kind in SETTINGS.items() if key in data}
     scene = settings.pop("scene")
     if Path(scene).suffix:  # a file, relative to the sweep; a preset is a bare name
@@ -248,18 +254,49 @@ def _value(value, kind: str, key: str, name: str):
     return converted.tolist() if isinstance(converted, np.ndarray) else converted
 
 
+def _not_a_format(where: str, exc: Exception) -> SceneError:
+    return SceneError(f"{where} is not a format string ({first_line(exc)}); write e.g. {DEFAULT_OUTPUT!r}")
+
+
+# An {index} field's format spec: [[fill]align][sign][#][0][width][grouping][type], an integer type only.
+_INDEX_SPEC = re.compile(r"(?:.?[<>=^])?[-+ ]?#?0?(?P<width>\d*)[,_]?[bdoxXn]?", re.DOTALL)
+MAX_INDEX_WIDTH = 32  # digits a frame number is padded to at most
+MAX_STEM_PART = 200  # bytes (UTF-8) of one folder or file name of a frame (room for '.labels.exr' within 255)
+MAX_STEM = 1000  # bytes of a frame's whole relative name
+
+
 def check_output(pattern: str) -> str:
     """``pattern`` when it names one file stem per frame inside the output folder: only ``{index}``
-    fields (a format spec allowed), at least one, a relative path without '..'; SceneError otherwise."""
+    fields, at least one, each with an integer format spec at most MAX_INDEX_WIDTH wide, names within
+    MAX_STEM_PART (each part) and MAX_STEM bytes for any frame, a relative path without '..';
+    SceneError otherwise, checked before anything is formatted."""
     where = f"output pattern {short(pattern)}"
+    if not isinstance(pattern, str):
+        raise SceneError(f"{where} must be a string, e.g. {DEFAULT_OUTPUT!r}")
     try:
-        fields = [f for _, f, _, _ in string.Formatter().parse(pattern) if f is not None]
-        stem = pattern.format(index=0)
-    except (ValueError, KeyError, IndexError) as exc:
-        raise SceneError(f"{where} is not a format string ({first_line(exc)}); write e.g. {DEFAULT_OUTPUT!r}") \
-            from None
-    if not fields or any(f != "index" for f in fields):
+        fields = [(f, spec, conversion) for _, f, spec, conversion in string.Formatter().parse(pattern)
+                  if f is not None]
+    except ValueError as exc:
+        raise _not_a_format(where, exc) from None
+    if not fields or any(f != "index" for f, _, _ in fields):
         raise SceneError(f"{where} must use {{index}} and no other field, e.g. {DEFAULT_OUTPUT!r}")
+    for _, spec, conversion in fields:
+        match = _INDEX_SPEC.fullmatch(spec or "")
+        if conversion is not None or match is None:
+            field_text = "{index" + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "") + "}"
+            raise SceneError(f"{where}: {field_text} is not an integer format; write e.g. {{index:06d}} (fill, "
+                             "align, width and d, x, o or b only)")
+        if match["width"] and int(match["width"]) > MAX_INDEX_WIDTH:
+            raise SceneError(f"{where} pads the frame number to {int(match['width'])} characters, above "
+                             f"{MAX_INDEX_WIDTH}; give a width such as {{index:06d}}")
+    try:
+        stem, longest = pattern.format(index=0), pattern.format(index=MAX_FRAMES - 1)
+    except ValueError as exc:  # e.g. {index:,x}
+        raise _not_a_format(where, exc) from None
+    size = len(longest.encode("utf-8", "surrogatepass"))
+    if size > MAX_STEM or any(len(p.encode("utf-8", "surrogatepass")) > MAX_STEM_PART for p in longest.split("/")):
+        raise SceneError(f"{where} makes names of up to {size} bytes; keep each file or folder name within "
+                         f"{MAX_STEM_PART} bytes and the whole within {MAX_STEM}")
     parts = PurePosixPath(stem).parts
     if "\\" in stem or "\x00" in stem or not parts or stem.startswith("/") or any(p in ("..", ".") for p in parts) \
             or stem.endswith("/"):

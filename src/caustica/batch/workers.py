@@ -47,6 +47,9 @@ def _inline(job, indices):
 def _worker_main(job, conn, device: int) -> None:
     """A spawned worker on EGL device ``device``: render each index the parent sends on ``conn`` until
     None (or the parent's end)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent stops the workers
     worker = None
     try:
         os.environ[ENV] = str(device)  # read when the context is made (gpu/context.py)
@@ -166,10 +169,32 @@ def _import_ray():
     return ray
 
 
+RAY_CONNECT_S = 3.0  # how long a cluster's port may take to accept a connection
+
+
+def _check_reachable(address: str) -> None:
+    """CausticaError in one line, within RAY_CONNECT_S, when ``address`` (host:port or ray://host:port)
+    accepts no TCP connection: ray.init would retry a dead cluster for minutes. Other forms ('auto', a
+    client scheme) go to Ray as they are."""
+    import socket
+
+    host, colon, port = address.removeprefix("ray://").rpartition(":")
+    if "://" in address.removeprefix("ray://") or not colon or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=RAY_CONNECT_S).close()
+    except (OSError, ValueError, OverflowError) as exc:
+        reason = "timed out" if isinstance(exc, TimeoutError) else getattr(exc, "strerror", None) or first_line(exc)
+        raise CausticaError(f"cannot reach the Ray cluster at {address!r} ({reason}); start it (ray start --head) "
+                            "or give its address (ray://host:10001 or host:6379), or 'local'") from None
+
+
 def _ray_frames(job, indices: list[int], address: str):
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
+        if address != "local":
+            _check_reachable(address)
         try:
             if address == "local":
                 ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
