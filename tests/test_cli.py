@@ -162,9 +162,14 @@ def test_a_parameter_qualified_by_its_technique(tmp_path, capsys):
 
 
 def test_missing_output_directory(tmp_path, capsys):
-    code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "no" / "dir.png"], capsys)
-    assert_one_line_error(code, err, "does not exist")
-    assert not (tmp_path / "no").exists()
+    """A missing output folder is made (as batch makes its folder), only once the render succeeded; one that
+    cannot be made (below a file) is refused before the render (issue 43: the quick start's out/)."""
+    (tmp_path / "file").write_text("")
+    code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "file" / "no" / "dir.png"], capsys)
+    assert_one_line_error(code, err, "is a file, not a directory")
+    code, _, err = run_cli(["render", "glass-sphere", "-o", tmp_path / "no" / "dir.png", "--size", "16x16",
+                            "--timing-frames", "1"], capsys)
+    assert code == 0 and (tmp_path / "no" / "dir.png").is_file(), err
 
 
 def test_size_above_gl_limit(tmp_path, capsys, renderer):

@@ -47,10 +47,11 @@ def test_compare_writes_json_with_every_column_and_a_sheet(tmp_path, capsys):
 
 
 def test_compare_rejects_bad_output_before_working(tmp_path, capsys):
-    code = main(["compare", "glass-sphere", "--json", str(tmp_path / "missing" / "x.json")])
+    (tmp_path / "file").write_text("")  # a missing folder is made; one below a file cannot be
+    code = main(["compare", "glass-sphere", "--json", str(tmp_path / "file" / "missing" / "x.json")])
     assert code == 2
     err = capsys.readouterr().err
-    assert "does not exist" in err and len(err.strip().splitlines()) == 1
+    assert "is a file, not a directory" in err and len(err.strip().splitlines()) == 1
 
 
 def test_bench_writes_json_with_every_column(tmp_path, capsys):

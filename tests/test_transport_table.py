@@ -266,8 +266,8 @@ def test_cli_precompute_writes_a_table_and_refuses_bad_input(tmp_path, capsys):
     assert "B/sample" in capsys.readouterr().out
     assert main(["precompute", str(mesh_path), "--ior", "0", "-o", str(out)]) == 2
     assert main(["precompute", str(mesh_path), "--ior", "1.5", "--directions", "100", "-o", str(out)]) == 2
-    assert main(["precompute", str(mesh_path), "--ior", "1.5", "-o", str(tmp_path / "none" / "t.npz")]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    assert main(["precompute", str(mesh_path), "--ior", "1.5", "-o", str(tmp_path / "ball.obj" / "none" / "t.npz")]) == 2
+    assert "is a file, not a directory" in capsys.readouterr().err
 
 
 def test_bunny_table_precomputes(data_dir):

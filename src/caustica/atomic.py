@@ -17,6 +17,7 @@ the temporary's name (``NAME_MAX`` counts bytes; the temporary adds about 25).
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import os
@@ -118,10 +119,31 @@ def sweep_stale(path: Path, now: float | None = None) -> list[Path]:
     return removed
 
 
-def check_writable(path: str | Path) -> Path:
-    """``path`` when a file can be written there now, else OutputError in one line (nothing left on disk)."""
+def missing_folders(path: str | Path) -> list[Path]:
+    """The folders above ``path`` that are not there (nothing at all at their name), outermost first."""
+    missing = []
+    directory = _directory(Path(path))
+    while not os.path.lexists(directory) and directory != directory.parent:
+        missing.insert(0, directory)
+        directory = directory.parent
+    return missing
+
+
+def check_writable(path: str | Path, make_folders: bool = False) -> Path:
+    """``path`` when a file can be written there now, else OutputError in one line (nothing left on disk).
+    ``make_folders``: missing folders above it are fine where they can be created (:func:`folders_made`)."""
     path = Path(path)
     directory = _directory(path)
+    missing = missing_folders(path) if make_folders else []
+    if missing:
+        base = _directory(missing[0])
+        limit = _name_max(base) if os.path.isdir(base) else 255
+        for name in [m.name for m in missing] + [path.name]:
+            if len(os.fsencode(name)) > limit:
+                raise OutputError(f"output folder or name '{name[:40]}...' is {len(os.fsencode(name))} bytes, longer "
+                                  f"than the {limit} this file system allows; use a shorter name")
+        check_writable(missing[0])  # the folder is created where a file could be: same checks, same messages
+        return path
     if not os.path.isdir(directory):
         if os.path.lexists(directory):
             raise OutputError(f"output directory '{_shown(directory)}' is a file, not a directory; "
@@ -178,6 +200,30 @@ def _reason(exc: OSError, directory: Path) -> str:
     if exc.errno == errno.ENOENT:
         return f"'{_shown(directory)}' does not accept new files (a virtual file system?); choose a writable directory"
     return f"{exc.strerror or first_line(exc)}; choose a writable directory"
+
+
+@contextlib.contextmanager
+def folders_made(path: str | Path):
+    """``with folders_made(out):`` the missing folders above ``out`` are created for the block (``mkdir -p``);
+    those it created are removed again (where still empty) when the block raises, so a failed write leaves
+    nothing behind."""
+    made = []
+    try:
+        for folder in missing_folders(path):
+            try:
+                os.mkdir(folder)
+            except OSError as exc:
+                raise OutputError(f"cannot create the folder '{_shown(folder)}': "
+                                  f"{_reason(exc, _directory(folder))}") from None
+            made.append(folder)
+        yield Path(path)
+    except BaseException:
+        for folder in reversed(made):
+            try:
+                os.rmdir(folder)
+            except OSError:
+                break  # no longer empty: something else wrote there
+        raise
 
 
 def write_atomic(path: str | Path, write) -> Path:

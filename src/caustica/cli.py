@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+from .atomic import folders_made
 from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
@@ -495,16 +496,18 @@ def cmd_render(args) -> int:
         (image, layers), _ = frame(names)
     detail(f"frame times: {ms:.1f} ms" + (f" (warm-up), then {', '.join(f'{t:.1f}' for t in timings)} ms (timed)"
                                            if technique.uses_gl else ""))
-    if layers is not None:
-        from .labels import write_labels
+    with folders_made(output):  # the quick start's out/: made once the render succeeded
+        if layers is not None:
+            from .labels import write_labels
 
-        write_labels(labels_out, layers, args.labels_format or "exr")
-    write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
+            write_labels(labels_out, layers, args.labels_format or "exr")
+        write_image(output, image, exposure=args.exposure, tonemap=args.tonemap)
     height, width = image.shape[:2]
     where = renderer.info()["renderer"] if technique.uses_gl else "CPU (Embree)"
     fraction = renderer.last_adaptive_fraction
     spp = f"{args.spp} spp" if fraction is None else f"adaptive: 4 spp at {100.0 * fraction:.1f} % of the pixels"
-    _say(f"wrote {output} ({width}x{height}, {args.technique}, {spp}): "
+    used = args.technique if renderer.last_plan is None else f"{args.technique}: {renderer.last_plan.technique}"
+    _say(f"wrote {output} ({width}x{height}, {used}, {spp}): "
          f"{statistics.median(timings):.1f} ms per frame on {where}"
          + (f"; labels {', '.join(names)} in {labels_out}" if layers is not None else ""))
     return 0
@@ -521,7 +524,7 @@ def _labels_output(args, output: Path) -> tuple:
     from .labels import check_labels, labels_file
 
     names = check_labels(args.labels)
-    return names, check_writable(output.with_name(labels_file(output.stem, args.labels_format or "exr")))
+    return names, check_writable(output.with_name(labels_file(output.stem, args.labels_format or "exr")), True)
 
 
 def cmd_batch(args) -> int:
@@ -547,8 +550,8 @@ def cmd_view(args) -> int:
     from .viewer.app import check_display
 
     check_display()
-    screenshot = _check_output(args.screenshot, OUTPUT_SUFFIXES)
-    window_shot = _check_output(args.window_screenshot, (".png",))
+    screenshot = _check_output(args.screenshot, OUTPUT_SUFFIXES, make_folders=False)
+    window_shot = _check_output(args.window_screenshot, (".png",), make_folders=False)
     script = _read_script(args.script)
     scene, = _scenes([args.scene], args)
     from .viewer import Viewer
@@ -590,8 +593,9 @@ def _read_script(path: str | None) -> list:
     return [tuple(e) for e in events]
 
 
-def _check_output(path: str | None, suffixes: tuple[str, ...]) -> Path | None:
-    """Fail before any work when an output cannot be written."""
+def _check_output(path: str | None, suffixes: tuple[str, ...], make_folders: bool = True) -> Path | None:
+    """Fail before any work when an output cannot be written; its missing folders are fine where they can be
+    created (``make_folders``: the command writes it inside :func:`caustica.atomic.folders_made`)."""
     if path is None:
         return None
     from .atomic import check_writable
@@ -599,15 +603,16 @@ def _check_output(path: str | None, suffixes: tuple[str, ...]) -> Path | None:
     out = Path(path)
     if out.suffix.lower() not in suffixes:
         raise OutputError(f"output '{out}' must end in {' or '.join(suffixes)}")
-    return check_writable(out)  # a read-only or virtual place, a directory in the way, a name too long
+    return check_writable(out, make_folders)  # a read-only or virtual place, a directory in the way, a name too long
 
 
 def _write_json(path: Path, data) -> None:
     import json
 
-    from .atomic import write_atomic
+    from .atomic import folders_made, write_atomic
 
-    write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=2)))
+    with folders_made(path):
+        write_atomic(path, lambda tmp: Path(tmp).write_text(json.dumps(data, indent=2)))
 
 
 def cmd_compare(args) -> int:
@@ -631,7 +636,8 @@ def cmd_compare(args) -> int:
         _write_json(json_path, result.to_json())
         _say(f"wrote {json_path}")
     if sheet_path:
-        save_sheet(compare_sheet(result, args.tonemap), sheet_path)
+        with folders_made(sheet_path):
+            save_sheet(compare_sheet(result, args.tonemap), sheet_path)
         _say(f"wrote {sheet_path}")
     return 0
 
@@ -661,7 +667,8 @@ def cmd_bench(args) -> int:
         _write_json(json_path, {"frames": rows, "time_to_quality": quality})
         _say(f"wrote {json_path}")
     if plot_path:
-        plot(rows, quality, plot_path)
+        with folders_made(plot_path):
+            plot(rows, quality, plot_path)
         _say(f"wrote {plot_path}")
     return 0
 
@@ -671,7 +678,8 @@ def cmd_export(args) -> int:
 
     output = _check_output(args.output, EXPORT_SUFFIXES)
     scene, = _scenes([args.scene], args)
-    export_scene(scene, output)
+    with folders_made(output):
+        export_scene(scene, output)
     _say(f"wrote {output} ({len(scene.objects)} objects, {len(scene.lights)} lights)")
     return 0
 
@@ -693,7 +701,8 @@ def cmd_precompute(args) -> int:
     cached = table_path(mesh, args.ior, args.directions, args.max_depth)
     save_table(cached, q)  # where table_for finds it: renders of this mesh at this IOR take it from here
     if output is not None:
-        save_table(output, q)
+        with folders_made(output):
+            save_table(output, q)
     e = quantization_errors(table, q)
     written = output or cached
     _say(f"wrote {written}{f' and cached it as {cached}' if output is not None else ''}: {table.vertex_count} vertices x {table.grid.count} directions in "
@@ -787,12 +796,11 @@ def cmd_graph(args) -> int:
 
 def cmd_presets(args) -> int:
     from .scene.presets import PRESETS
+    from .text import summary
 
     width = max(map(len, PRESETS))
     for name, make in sorted(PRESETS.items()):
-        # The docstring's first paragraph, whole: a wrapped first line alone stops mid-sentence.
-        paragraph = (make.__doc__ or "").strip().split("\n\n")[0]
-        _say(f"{name:{width}s} {' '.join(paragraph.split())}")
+        _say(f"{name:{width}s} {summary(make.__doc__)}")
     return 0
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import time
 
+from ..text import summary
 from .base import Frame, Pass, PassWiringError
 
 
@@ -65,9 +66,8 @@ class RenderGraph:
         how long it stays lent), what is cached across frames; a group's inner passes indented."""
         lines = []
         for index, stage in enumerate(self.passes, start=1):
-            doc = (stage.__doc__ or "").strip().splitlines()
             cached = "  [cached across frames]" if is_cached(stage) else ""
-            lines.append(f"{indent}{index}. {stage.label}: {doc[0] if doc else ''}{cached}")
+            lines.append(f"{indent}{index}. {stage.label}: {summary(stage.__doc__)}{cached}")
             lines.append(f"{indent}     reads:    {', '.join(stage.reads) or '-'}")
             if stage.optional:
                 lines.append(f"{indent}     optional: "
