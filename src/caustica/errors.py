@@ -66,5 +66,9 @@ class RenderOptionError(SceneError):
     """An invalid render option: image size, samples per pixel, or a frame too large for the GL."""
 
 
+class DeviceError(GLUnavailableError, RenderOptionError):
+    """An EGL device index (``CAUSTICA_EGL_DEVICE``, batch ``devices``) that is not one, or that EGL does not list."""
+
+
 class RendererClosedError(CausticaError, RuntimeError):
     """A Renderer used after ``close()`` (or after its ``with`` block)."""

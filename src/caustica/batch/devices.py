@@ -10,55 +10,10 @@ exists. A Ray task maps the GPU Ray gave it to its EGL device by CUDA ordinal (:
 """
 from __future__ import annotations
 
-import ctypes
-import os
-from dataclasses import dataclass
+from ..errors import DeviceError, short
+from ..gpu.egl_devices import ENV, NVIDIA, SOFTWARE, EglDevice, check_index, checked_env_device, egl_devices
 
-from ..errors import RenderOptionError, short
-
-ENV = "CAUSTICA_EGL_DEVICE"
-MAX_DEVICES = 32
-EGL_EXTENSIONS, EGL_CUDA_DEVICE_NV = 0x3055, 0x323A
-SOFTWARE, NVIDIA = "EGL_MESA_device_software", "EGL_NV_device_cuda"
-
-
-@dataclass(frozen=True)
-class EglDevice:
-    """One entry of EGL's device list: its index, extensions and CUDA ordinal (NVIDIA's only, else None)."""
-
-    index: int
-    extensions: frozenset = frozenset()
-    cuda: int | None = None
-
-    @property
-    def is_software(self) -> bool:
-        return SOFTWARE in self.extensions
-
-    @property
-    def is_nvidia(self) -> bool:
-        return NVIDIA in self.extensions
-
-
-def egl_devices() -> list[EglDevice]:
-    """EGL's devices, in its order ([] where EGL cannot list them); opens no display and no context."""
-    from ..gpu.context import gl_function
-
-    pointer, integer = ctypes.c_void_p, ctypes.c_int
-    query = gl_function("eglQueryDevicesEXT", ctypes.c_uint, integer, ctypes.POINTER(pointer), ctypes.POINTER(integer))
-    text = gl_function("eglQueryDeviceStringEXT", ctypes.c_char_p, pointer, integer)
-    attribute = gl_function("eglQueryDeviceAttribEXT", ctypes.c_uint, pointer, integer, ctypes.POINTER(ctypes.c_long))
-    handles, count = (pointer * MAX_DEVICES)(), integer(0)
-    if query is None or not query(MAX_DEVICES, handles, ctypes.byref(count)):
-        return []
-    devices = []
-    for index in range(count.value):
-        names = frozenset((text(handles[index], EGL_EXTENSIONS) or b"").decode(errors="replace").split()) \
-            if text is not None else frozenset()
-        cuda = ctypes.c_long(-1)
-        known = NVIDIA in names and attribute is not None and attribute(handles[index], EGL_CUDA_DEVICE_NV,
-                                                                        ctypes.byref(cuda))
-        devices.append(EglDevice(index, names, int(cuda.value) if known and cuda.value >= 0 else None))
-    return devices
+__all__ = ["ENV", "NVIDIA", "SOFTWARE", "EglDevice", "assign", "egl_devices", "gpus", "placement", "ray_device"]
 
 
 def gpus(devices: list[EglDevice]) -> list[int]:
@@ -78,23 +33,13 @@ def assign(workers: int, devices: list[int]) -> list[int]:
 def placement(devices=None, available: list[EglDevice] | None = None) -> list[int]:
     """The devices spawned workers take turns on: ``devices`` (indices, or a comma-separated string),
     each checked against EGL's list; else ``CAUSTICA_EGL_DEVICE`` when set; else :func:`gpus`.
-    RenderOptionError in one line for an index this machine has not."""
+    DeviceError in one line for an index this machine has not."""
     available = egl_devices() if available is None else available
     if devices is None:
-        preset = os.environ.get(ENV)
-        if preset is None:
-            return gpus(available)
-        devices, where = [preset], f"{ENV}={short(preset)}"
-    else:
-        where = "devices"
-    indices = _indices(devices, where)
-    have = len(available)
-    for index in indices:
-        if not 0 <= index < have:
-            listed = f"{have}, indices 0 to {have - 1}" if have > 1 else "1, index 0" if have else "none"
-            raise RenderOptionError(f"{where}: there is no EGL device {index} on this machine (EGL lists {listed}); "
-                                    "give indices from that list, or leave the devices out")
-    return indices
+        preset = checked_env_device(available)
+        return gpus(available) if preset is None else [preset]
+    return [check_index(index, "devices", available, "give indices from that list, or leave the devices out")
+            for index in _indices(devices, "devices")]
 
 
 def _indices(devices, where: str) -> list[int]:
@@ -104,7 +49,7 @@ def _indices(devices, where: str) -> list[int]:
     except (TypeError, ValueError):
         indices = None
     if not indices or any(isinstance(i, bool) or not isinstance(i, int) for i in indices):
-        raise RenderOptionError(f"{where} {short(devices)} must be EGL device indices, e.g. 0,1")
+        raise DeviceError(f"{where} {short(devices)} must be EGL device indices, e.g. 0,1")
     return indices
 
 

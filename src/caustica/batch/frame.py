@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from ..errors import CausticaError, GLUnavailableError, first_line
-from .devices import ENV
+from ..gpu.egl_devices import env_device_or_first
 
 
 class FrameWorker:
@@ -25,7 +25,7 @@ class FrameWorker:
         self.renderer = Renderer(job.size)
         self.uses_gl = get_technique(job.technique).uses_gl
         # The EGL device index of this process's context (batch/devices.py): None for CPU techniques.
-        self.device = int(os.environ.get(ENV, 0)) if self.uses_gl else None
+        self.device = env_device_or_first() if self.uses_gl else None
         self._where: str | None = None
         self._first = True  # the next frame is this worker's first: it compiles shaders, fills caches
 

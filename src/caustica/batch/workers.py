@@ -15,7 +15,8 @@ import time
 from collections import deque
 
 from ..errors import CausticaError, GLUnavailableError, MissingExtraError, first_line
-from .devices import ENV, assign
+from ..gpu.egl_devices import ENV, env_device_or_first
+from .devices import assign
 from .frame import FrameWorker
 
 POLL_S = 0.2  # how often the parent looks for dead workers while it waits
@@ -31,7 +32,7 @@ def render_frames(job, indices: list[int], workers: int = 1, ray: str | None = N
         return _ray_frames(job, indices, ray)
     if workers <= 1 and devices is None:
         return _inline(job, indices)
-    spread = assign(min(workers, len(indices)), devices or [int(os.environ.get(ENV, 0))])
+    spread = assign(min(workers, len(indices)), devices or [env_device_or_first()])
     return _spawned(job, indices, spread)
 
 

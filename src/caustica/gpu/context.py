@@ -17,6 +17,7 @@ import os
 from collections import deque
 
 from ..errors import GLUnavailableError, first_line
+from .egl_devices import checked_env_device
 
 REQUIRED_GL = 430
 APT_HINT = "install Mesa's EGL and llvmpipe: apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"
@@ -56,9 +57,9 @@ def create_context():
     if _started_elsewhere("device"):
         return _context_after_fork()
     kwargs = {"backend": "egl", "require": REQUIRED_GL}
-    device = os.environ.get("CAUSTICA_EGL_DEVICE")
+    device = checked_env_device()
     if device is not None:
-        kwargs["device_index"] = int(device)
+        kwargs["device_index"] = device
     try:
         ctx = moderngl.create_standalone_context(**kwargs)
     except Exception as exc:  # glcontext raises plain Exceptions for missing libraries
