@@ -37,12 +37,23 @@ def srgb_to_linear(x) -> np.ndarray:
 # Reading ---------------------------------------------------------------------
 
 
+def check_image_path(path: Path, error: type[Exception], where: str = "") -> None:
+    """``error`` in one line unless ``path`` is a regular file (links followed): not found, or what it
+    is instead (a directory, a FIFO, a device), checked before anything opens it."""
+    from .input_files import described, path_kind
+
+    kind = path_kind(path)
+    if kind == "missing":
+        raise error(f"image file not found: {path}; check the path{where}")
+    if kind is not None:
+        raise error(f"{described(path, kind)}, not an image file; give an image file ({', '.join(READ_SUFFIXES)})")
+
+
 def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError) -> np.ndarray:
     """Read an image as (H, W, 3) float32 linear RGB; failures raise ``error`` with one line."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if not path.is_file():
-        raise error(f"image file not found: {path}; check the path (relative paths are relative to the scene file)")
+    check_image_path(path, error, " (relative paths are relative to the scene file)")
     if suffix not in READ_SUFFIXES:
         raise error(f"unsupported image format '{path.suffix}' for {path}; use one of {', '.join(READ_SUFFIXES)}")
     reader = {".exr": _read_exr, ".hdr": _read_hdr}.get(suffix, decode_8bit)
@@ -72,8 +83,7 @@ def read_exr_channels(path: str | Path, error: type[Exception] = EnvironmentImag
     """Every channel of an OpenEXR file by its full name ('depth.Z', 'R'), as (H, W) arrays in their
     stored type; failures raise ``error`` with one line."""
     path = Path(path)
-    if not path.is_file():
-        raise error(f"image file not found: {path}; check the path")
+    check_image_path(path, error)
     try:
         return _exr_channels(path)
     except Exception as exc:  # OpenEXR raises many types

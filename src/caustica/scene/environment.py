@@ -66,7 +66,7 @@ class Environment:
 
     def validate(self) -> None:
         """Check the image (an assigned one too) and store it as float32: (H, W, 3), at least 2x2, every value
-        finite and at most rules.MAX_INTENSITY (checked before the cast, which would overflow to inf)."""
+        finite, 0 or more and at most rules.MAX_INTENSITY (checked before the cast, which would overflow to inf)."""
         try:
             image = np.asarray(self.image)
         except (TypeError, ValueError):
@@ -78,6 +78,13 @@ class Environment:
         low, high = float(image.min()), float(image.max())  # NaN propagates: two passes, no temporary
         if not (np.isfinite(low) and np.isfinite(high)):
             raise EnvironmentImageError(f"environment image {self.source} holds NaN or infinite values; repair the file")
+        if low < 0.0:
+            negative = (image < 0).any(axis=2)
+            row, column = np.argwhere(negative)[0]
+            raise EnvironmentImageError(
+                f"environment image {self.source} has negative radiance in {int(negative.sum())} pixels (the first "
+                f"at row {row}, column {column}: {short(image[row, column])}); radiance cannot be negative: clamp "
+                "the image at 0 (numpy.maximum(image, 0)) or re-export it")
         if max(-low, high) > rules.MAX_INTENSITY:
             raise EnvironmentImageError(f"environment image {self.source} holds values up to {max(-low, high):.3g}, "
                                         f"above {rules.MAX_INTENSITY:g}; rescale the image")
@@ -282,11 +289,11 @@ def environment_option(spec: str, relative_to: str = "the current directory") ->
     from ..images import READ_SUFFIXES
 
     path = Path(spec)
-    if not path.is_file() and not path.suffix and len(path.parts) == 1:
+    if not path.exists() and not path.suffix and len(path.parts) == 1:
         raise EnvironmentImageError(
             f"environment {short(spec)} is neither a procedural name nor a file{closest_name(spec, PROCEDURAL_ENVIRONMENTS)}; "
             f"give one of {', '.join(PROCEDURAL_ENVIRONMENTS)} or an image file ({', '.join(READ_SUFFIXES)})")
-    if not path.is_file():
+    if not path.exists():  # a directory, a FIFO or a device: load_environment says which
         raise EnvironmentImageError(f"environment file not found: {short(spec)}; check the path (relative to "
                                     f"{relative_to}) or give one of {', '.join(PROCEDURAL_ENVIRONMENTS)}")
     return load_environment(path)

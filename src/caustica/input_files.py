@@ -1,0 +1,30 @@
+"""What an input path is, for one-line errors that say so: a missing file, a directory, a named pipe,
+a device. Checked with stat before anything opens the path (opening a FIFO blocks; /dev/zero never ends)."""
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),
+         (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def path_kind(path: str | Path) -> str | None:
+    """None for a regular file (links followed); else what ``path`` is: 'missing' (nothing there, or a
+    dangling link), 'a directory', 'a named pipe (FIFO)', 'a character device', ... ."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):  # ValueError: a NUL in the path
+        return "missing"
+    if stat.S_ISREG(mode):
+        return None
+    return next((name for test, name in KINDS if test(mode)), "not a regular file")
+
+
+def described(path: str | Path, kind: str) -> str:
+    """'/dev/zero is a character device' (through a link: 'env.png links to /dev/zero, a character device')."""
+    path = Path(path)
+    if path.is_symlink():
+        return f"{path} links to {os.path.realpath(path)}, {kind}"
+    return f"{path} is {kind}"
