@@ -39,10 +39,13 @@ def first_line(exc: BaseException) -> str:
 
 
 def closest_name(name: str, candidates) -> str:
-    """A ' (did you mean X?)' hint for the candidate nearest to ``name``, or ''."""
+    """A ' (did you mean X?)' hint for the candidate nearest to ``name``, or '': the one that differs only in
+    case first ('EXACT' -> 'exact'), else the closest by difflib."""
     import difflib
 
-    match = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.5)
+    candidates = [str(c) for c in candidates]
+    match = [c for c in candidates if c.lower() == name.lower()] or \
+        difflib.get_close_matches(name, candidates, n=1, cutoff=0.5)
     return f" (did you mean '{match[0]}'?)" if match else ""
 
 
