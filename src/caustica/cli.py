@@ -17,7 +17,7 @@ from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
 from .passes.resolve import ANTIALIAS_MODES
-from .progress import NORMAL, QUIET, VERBOSE, detail, is_quiet, note, output_policy
+from .progress import NORMAL, QUIET, VERBOSE, detail, is_quiet, note, output_policy, progress
 from .scene.rules import IOR_RANGE
 from .techniques.auto import QUALITY
 
@@ -492,7 +492,11 @@ def cmd_render(args) -> int:
     if technique.uses_gl:
         info = renderer.info()
         detail(f"GL: {info['renderer']} ({info['vendor']}), {info['version']}")
-        timings = [frame(None)[1] for _ in range(args.timing_frames)]  # the timed frames without labels
+        timings = []
+        with progress(args.timing_frames, "timing", unit="frames") as bar:  # the timed frames, without labels
+            for _ in range(args.timing_frames):
+                timings.append(frame(None)[1])
+                bar.update()
         (image, layers), _ = frame(names)
     detail(f"frame times: {ms:.1f} ms" + (f" (warm-up), then {', '.join(f'{t:.1f}' for t in timings)} ms (timed)"
                                            if technique.uses_gl else ""))

@@ -6,14 +6,16 @@ progress, no reports; errors still print), normal, verbose (:func:`detail` lines
 Progress of a step that can take over a second (:func:`progress`):
 
 - stderr a terminal: a tqdm bar (shown after ``DELAY_S``, gone when the step ends);
-- stderr not a terminal (a log, a pipe): a plain line at each ``LINE_STEP`` of the work or after
-  ``LINE_INTERVAL_S`` without one, and one at the end; never a carriage return;
+- stderr not a terminal (a log, a pipe): a plain line at each ``LINE_STEP`` of the work and, while a step
+  of the work takes longer, every ``LINE_INTERVAL_S`` (a heartbeat thread writes it), and one at the end;
+  never a carriage return;
 - quiet: nothing.
 
 Whether it shows at all: the command line shows it (unless ``-q`` or ``--no-progress``); a library call
 shows it on a terminal only, unless its caller passes ``enabled=True`` (always) or ``False`` (never).
 ``CAUSTICA_PROGRESS=1`` forces it on with no delay (tests, logs of short runs), ``CAUSTICA_PROGRESS=0``
-off; ``-q``, ``--no-progress`` and ``enabled=False`` win over it.
+off; ``-q``, ``--no-progress`` and ``enabled=False`` win over it. ``Renderer(progress=True)`` (or ``with
+progress_policy(True):``) shows a library call's progress off a terminal too (a notebook, a log).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ LINE_INTERVAL_S = 10.0  # ... or after this long without one
 ENV = "CAUSTICA_PROGRESS"
 
 _policy = {"verbosity": NORMAL, "progress": None}  # progress None: on a terminal only (a library call)
+clock = time.monotonic  # the plain lines' clock (tests put a fake one here)
 
 
 @contextlib.contextmanager
@@ -42,6 +45,18 @@ def output_policy(verbosity: int = NORMAL, progress: bool | None = True):
         yield
     finally:
         _policy.update(saved)
+
+
+@contextlib.contextmanager
+def progress_policy(progress: bool | None):
+    """Within the block progress shows (True) or not (False) whatever the policy was; None changes nothing."""
+    saved = _policy["progress"]
+    if progress is not None:
+        _policy["progress"] = progress
+    try:
+        yield
+    finally:
+        _policy["progress"] = saved
 
 
 def is_quiet() -> bool:
@@ -146,33 +161,50 @@ class Progress:
 
 
 class _Lines(Progress):
-    """Plain progress lines for a log: each LINE_STEP of the work, after LINE_INTERVAL_S, at the end."""
+    """Plain progress lines for a log: each LINE_STEP of the work, every LINE_INTERVAL_S while none comes
+    (:meth:`tick`, called by a heartbeat thread), at the end."""
 
-    def __init__(self, total, desc, unit, stream, initial, delay, line):
+    def __init__(self, total, desc, unit, stream, initial, delay, line, heartbeat: bool = True):
         super().__init__(None)
         self.total, self.desc, self.unit, self.stream, self.delay, self.line = total, desc, unit, stream, delay, line
         self.done = self.shown = initial
         self.postfix = ""
-        self.start = self.last = time.monotonic()
+        self.start = self.last = clock()
         self.lock = threading.Lock()
+        self.closed = threading.Event()
+        if heartbeat:
+            threading.Thread(target=self._beat, name=f"progress {desc}", daemon=True).start()
 
     def update(self, n: int = 1) -> None:
         with self.lock:
             self.done += n
-            now = time.monotonic()
+            now = clock()
             if now - self.start < self.delay:
                 return
             if (self.done >= self.total or self.done - self.shown >= LINE_STEP * self.total
                     or now - self.last >= LINE_INTERVAL_S):
                 self._write(now)
 
+    def tick(self) -> None:
+        """A line when LINE_INTERVAL_S passed since the last one (the work has not moved a LINE_STEP)."""
+        with self.lock:
+            now = clock()
+            if not self.closed.is_set() and now - self.start >= self.delay and now - self.last >= LINE_INTERVAL_S:
+                self._write(now)
+
+    def _beat(self) -> None:
+        while not self.closed.wait(LINE_INTERVAL_S / 10):
+            self.tick()
+
     def set_postfix_str(self, text: str) -> None:
         self.postfix = text
 
     def close(self) -> None:
+        self.closed.set()
         with self.lock:
-            if self.shown != self.done and time.monotonic() - self.start >= self.delay:
-                self._write(time.monotonic())
+            now = clock()
+            if self.shown != self.done and now - self.start >= self.delay:
+                self._write(now)
 
     def _write(self, now: float) -> None:
         self.shown, self.last = self.done, now

@@ -16,6 +16,7 @@ from .passes.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import check_antialias, resolved
 from .passes.subpixel import check_multisampling
+from .progress import progress_policy
 from .scene import Scene, rules
 from .scene.scene import check_scene, recentred, without_invisible_glass
 from .techniques.base import check_spp, get_technique
@@ -35,10 +36,14 @@ class Renderer:
     Renderer raises RendererClosedError. One dropped unclosed leaks nothing either: its GL objects
     are released at the end of the next frame any Renderer draws. In a process forked after this
     Renderer drew, it starts over on the child's fresh context (see gpu/context.py).
+
+    ``progress``: the long steps of a render (``exact``'s rows, photons, light-map bakes) show their progress on
+    stderr: None (the default) on a terminal only, True always (a notebook, a log: plain lines), False never
+    (caustica/progress.py).
     """
 
     def __init__(self, size: tuple[int, int] | None = None, keep_channels: bool = False, profile_passes: bool = False,
-                 device=None):
+                 device=None, progress: bool | None = None):
         self.size = None if size is None else rules.image_size(size, "Renderer size", error=RenderOptionError)
         self._device = device
         self._owns_device = device is None
@@ -47,6 +52,7 @@ class Renderer:
         self.channels: dict = {}  # the last frame's channels (keep_channels), lent until the next frame
         self._kept: Frame | None = None
         self.profile_passes = profile_passes  # fill last_pass_ms (adds a sync per pass on llvmpipe)
+        self.progress = progress
         self.last_pass_ms: dict[str, float] = {}
         self.last_plan = None  # the Plan auto rendered the last frame with
         # antialias 'adaptive''s last frame: the (H, W) bool pixels it supersampled, and their fraction (else None)
@@ -110,6 +116,10 @@ class Renderer:
                      antialias: str = "none", **params):
         """Render and return (image, milliseconds), the GPU finished before the clock stops; with
         ``labels``, ((image, layers), milliseconds), the layers' time included."""
+        with progress_policy(self.progress):
+            return self._render_timed(scene, technique, spp, labels, antialias, params)
+
+    def _render_timed(self, scene: Scene, technique, spp: int, labels, antialias: str, params: dict):
         self._check_open()  # exact never touches the device
         check_antialias(antialias)
         if antialias == "adaptive" and spp != 1:

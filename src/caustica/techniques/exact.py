@@ -93,15 +93,17 @@ class Exact(Technique):
         """Trace ``spp`` stratified samples per pixel and average them: (H, W, 3) float32.
 
         Rows are made and traced in bands of about one trace batch (paths.BATCH_SIZE rays), so memory
-        stays bounded at any size and spp (the primary rays alone took 48 bytes a sample); each ray's
-        path is independent of the others, so the image does not depend on the bands."""
+        stays bounded at any size and spp (the primary rays alone took 48 bytes a sample), and in
+        PROGRESS_BANDS bands at least; each ray's path is independent of the others, so the image does not
+        depend on the bands."""
         params = params if params is not None else ExactParams()
         width, height = camera.size
         sampling = environment_sampling(scene, params)
         rays_per_row = width * spp
         if sampling is not None:  # each diffuse hit traces its environment rays: smaller bands, finer progress
             rays_per_row *= 1 + (sampling.samples + sampling.bright_samples) // 8
-        band = max(1, BATCH_SIZE // rays_per_row)
+        # A band is at most PROGRESS_BANDS-th of the rows, so progress moves each tenth (docs/cli.md) on small images too.
+        band = max(1, min(BATCH_SIZE // rays_per_row, -(-height // PROGRESS_BANDS)))
         # Glass standing on a floor touches it: its faces on the floor leave the rays (a ray inside meets the floor).
         traced = without_standing_faces(scene)
         rays = ray_scene_for(traced)
@@ -144,6 +146,7 @@ def _sample_angle(camera, spp: int) -> float:
     return 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / camera.size[1] / math.sqrt(spp)
 
 
+PROGRESS_BANDS = 20  # exact traces an image in this many bands of rows at least (its progress steps)
 KERNEL_REACH = 0.1  # the caustic kernel's largest radius, in radii of the specular objects' bounding sphere
 
 
