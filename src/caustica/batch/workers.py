@@ -191,11 +191,14 @@ def _check_reachable(address: str) -> None:
 
 
 def _ray_frames(job, indices: list[int], address: str):
+    import sys
+
+    running = "ray" in sys.modules and sys.modules["ray"].is_initialized()
+    if address != "local" and not running:
+        _check_reachable(address)  # before Ray's import: a dead address fails the same with Ray or without
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
-        if address != "local":
-            _check_reachable(address)
         try:
             if address == "local":
                 ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False)
