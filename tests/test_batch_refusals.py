@@ -29,6 +29,14 @@ def one_line_error(args: list[str], capsys) -> str:
     return err
 
 
+def stop_after(frames: int):
+    """A progress callback that presses Ctrl-C once ``frames`` frames are rendered."""
+    def callback(state):
+        if state.rendered == frames:
+            raise KeyboardInterrupt
+    return callback
+
+
 def test_a_dead_ray_cluster_fails_within_seconds_and_leaves_nothing(tmp_path, capsys):
     out = tmp_path / "new" / "out"
     start = time.monotonic()
@@ -59,12 +67,8 @@ def test_a_refused_folder_keeps_exactly_what_it_held(tmp_path, capsys):
 def test_an_interrupted_run_says_what_it_kept(tmp_path):
     out = tmp_path / "out"
 
-    def stop_after_three(state):
-        if state.rendered == 3:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt, match=f"interrupted: kept 3 of 8 frames in {out}.*the other 5"):
-        caustica.batch("glass-sphere", out, 8, orbit=90, progress=stop_after_three, **FAST)
+        caustica.batch("glass-sphere", out, 8, orbit=90, progress=stop_after(3), **FAST)
     assert len((out / "manifest.jsonl").read_text().splitlines()) == 3
 
 
@@ -223,13 +227,8 @@ def test_technique_names_suggest_the_right_case(capsys):
 def test_a_resumed_folder_keeps_its_records_when_the_run_fails(tmp_path, capsys):
     """A run of the folder's own job that fails before its next frame (a dead cluster) removes nothing."""
     out = tmp_path / "out"
-
-    def stop_after_two(state):
-        if state.rendered == 2:
-            raise KeyboardInterrupt
-
     with pytest.raises(KeyboardInterrupt):
-        caustica.batch("glass-sphere", out, 3, orbit=30, progress=stop_after_two, **FAST)
+        caustica.batch("glass-sphere", out, 3, orbit=30, progress=stop_after(2), **FAST)
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     err = one_line_error(["batch", "glass-sphere", "-o", str(out), *PLAIN, "--frames", "3", "--orbit", "30",
                           "--ray", "127.0.0.1:1"], capsys)
