@@ -92,6 +92,7 @@ BUDGET = _number(0.001, 1e6)  # auto's frame-time budget, milliseconds (0 or les
 # Options whose value may begin with '-' (a negative number, '-5x5'), joined to them before parsing
 # so argparse does not read the value as an option.
 _VALUE_OPTIONS = {"--size", "--exposure", "--spp", "--frames", "--timing-frames", "--reference-spp", "--quality-size",
+                  "--reference-floor",
                   "--max-spp", "--ior", "--directions", "--max-depth", "--sizes", "--orbit", "--workers",
                   "--devices"}
 
@@ -299,7 +300,12 @@ def build_parser() -> argparse.ArgumentParser:
     comp.add_argument("--techniques", type=_names, default=["auto", "exact"], help="comma-separated (default auto,exact)")
     comp.add_argument("--size", type=_size, help="image size WxH (default: the scene camera's)")
     comp.add_argument("--spp", type=SPP, default=4, help="samples per pixel of the techniques, a square (default 4)")
-    comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=256, help="Mitsuba samples per pixel (cached; default 256)")
+    comp.add_argument("--reference-spp", type=_integer(1, MAX_REFERENCE_SPP), default=None,
+                      help="Mitsuba samples per pixel (cached; default 256), rendered as two halves whose difference "
+                           "gives its noise floor")
+    comp.add_argument("--reference-floor", type=_number(10.0, 80.0), metavar="DB",
+                      help="instead of --reference-spp: the samples for this whole-image sRGB PSNR noise floor, "
+                           "estimated from a 32 spp pilot (at most 4096 spp; said when capped)")
     _timing_frames_option(comp, 5, "per technique")
     _environment_option(comp)
     _camera_option(comp)
@@ -354,12 +360,16 @@ def build_parser() -> argparse.ArgumentParser:
                            "device at --size and --spp, cached); instead of --quality")
     plan.add_argument("--spp", type=SPP, default=1, help="the samples per pixel a --budget's frames render (default 1)")
     plan.add_argument("--json", action="store_true", help="the plan as JSON")
+    _environment_option(plan)  # the scene the render will have: plan what render plans
+    _camera_option(plan)
     graph = sub.add_parser("graph", help="a technique's render graph: passes, channels, formats, caching")
     graph.add_argument("name", help="a technique (or view+caustics)")
     graph.add_argument("-p", "--param", type=_param, action="append", default=[],
                        help="technique parameter name=value (repeatable): the graph for those parameters")
     graph.add_argument("--scene", help="auto: the scene it plans for (a .toml file or a preset)")
     graph.add_argument("--dot", metavar="FILE", help="write the graph as Graphviz to FILE ('-': print it)")
+    _environment_option(graph)
+    _camera_option(graph)
     sub.add_parser("presets", help="list the built-in scenes")
     sub.add_parser("info", help="print the OpenGL renderer, version and extensions")
     completion = sub.add_parser("completion", help="print a shell completion script (docs/cli.md): "
@@ -633,8 +643,11 @@ def cmd_compare(args) -> int:
     for name in args.techniques:
         check_spp(get_technique(name), args.spp)
     scene, = _scenes([args.scene], args)
+    if args.reference_floor is not None and args.reference_spp is not None:
+        raise CausticaError("--reference-floor picks the reference's samples itself; give it or --reference-spp, "
+                            "not both")
     result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.timing_frames,
-                     reference_spp=args.reference_spp, log=note)
+                     reference_spp=args.reference_spp or 256, reference_floor=args.reference_floor, log=note)
     _say(format_table(result))
     if json_path:
         _write_json(json_path, result.to_json())
@@ -734,10 +747,9 @@ def cmd_techniques(args) -> int:
 
 
 def cmd_plan(args) -> int:
-    from . import load_scene
     from .techniques.auto import plan
 
-    scene = load_scene(args.scene)
+    scene, = _scenes([args.scene], args)
     if args.budget is None:
         from .gpu.readback import supersampling_factor
 
@@ -780,9 +792,8 @@ def cmd_graph(args) -> int:
         if args.scene is None:
             raise TechniqueError(f"'{technique.name}' plans its graph from the scene; add --scene SCENE "
                                  "(a .toml file or a preset)")
-        from . import load_scene
-
-        technique, params = technique.for_scene(load_scene(args.scene), params)
+        scene, = _scenes([args.scene], args)
+        technique, params = technique.for_scene(scene, params)
     graph = RenderGraph(technique.build_passes(params))
     if args.dot is None:
         _say(f"{technique.name}: {technique.summary}")

@@ -284,8 +284,10 @@ def _baked(obj, scene) -> str:
     """The plan's reason for the light maps (environment_lights.bake_plan), on each diffuse object's entry."""
     receiver = bake_plan(scene).receivers[next(i for i, o in enumerate(scene.objects) if o is obj)]
     how = "baked with exact's rays: occluded, through glass (the sky's caustic), one bounce (docs/environment-light.md)"
-    if not _sheds_light(scene.environment):
-        how += "; the environment is black: the lights' light on the floor, come back to it through the glass"
+    if not _sheds_light(scene.environment):  # nothing of the environment's: say what the bake carries
+        return ("; the lights' light come back to it off the floor and through the glass (one bounce), from a light map "
+                f"(environment_bake, {BAKE_SIZE} texels a side by default) baked with exact's rays; the environment "
+                "is black and adds nothing (docs/auto.md)")
     if receiver.kind == "floor":
         return f"; the environment's light on it from a light map (environment_bake, {BAKE_SIZE} texels a side by default) {how}"
     if receiver.kind == "box":

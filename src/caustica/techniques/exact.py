@@ -110,7 +110,9 @@ class Exact(Technique):
         caustics = caustic_gather(traced, params)
         sample_angle = _sample_angle(camera, spp)
         image = np.empty((height, width, 3), dtype=np.float32)
-        label = "" if sampling is None else f" ({sampling.samples}+{sampling.bright_samples} environment rays a hit)"
+        label = ("" if sampling is None else f" ({sampling.samples} rays a hit for the lights' light one bounce on: "
+                 "the environment is black)" if is_black(scene.environment) else
+                 f" ({sampling.samples}+{sampling.bright_samples} environment rays a hit)")
         with progress(height, f"exact {scene.name}{label}", unit="rows") as bar:
             for first in range(0, height, band):
                 stop = min(height, first + band)
@@ -155,13 +157,21 @@ _GATHERS = LruCache(2)  # the photon maps of the scenes rendered last, reused wh
 
 def environment_sampling(scene, params) -> EnvironmentSampling | None:
     """How diffuse hits gather the environment's light under ``params``; None for its unoccluded SH
-    irradiance (``environment_samples`` 0)."""
-    if not params.environment_samples:
+    irradiance (``environment_samples`` 0), and where the rays could bring nothing: a black environment
+    (all zero) with no light for their bounce to meet (no lights, or ``environment_bounce`` off). In a black
+    environment with lights the rays still carry the lights' light one bounce on (interreflection)."""
+    if not params.environment_samples or (is_black(scene.environment) and not (params.environment_bounce
+                                                                                and scene.lights)):
         return None
     bright = params.environment_bright if params.environment_light_samples else 0.0
     return EnvironmentSampling(environment_light(scene.environment, bright),
                                params.environment_samples, params.environment_light_samples,
                                params.environment_bounce, params.max_depth, params.min_weight)
+
+
+def is_black(environment) -> bool:
+    """Whether ``environment`` sheds no light at all (every texel zero: ``--environment black``)."""
+    return not np.any(environment.image)
 
 
 def caustic_gather(scene, params) -> CausticGather | None:
