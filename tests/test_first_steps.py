@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 import pytest
 
 from caustica.atomic import check_writable, folders_made, missing_folders
@@ -71,3 +73,44 @@ def test_listings_print_plain_text_whole_sentences(capsys):
     assert code == 0 and "`" not in graph
     shadow_maps = next(line for line in graph.splitlines() if line.startswith("1. ShadowMaps"))
     assert "directional maps side by side in one atlas" in shadow_maps  # was cut after 'and, where'
+
+
+def test_show_outside_a_notebook_says_so_up_front_and_returns_the_image(monkeypatch, capsys):
+    """Plain Python (no Jupyter kernel): one note on stderr before the render, then a PIL image even where
+    ipywidgets is installed (a widget could not show); in a notebook the widgets come back as before."""
+    import sys
+    import types
+
+    import caustica.notebook as notebook
+    import caustica.renderer
+
+    class Instant:
+        def __init__(self, size=None, progress=None):
+            self.size, self.progress = size or (8, 6), progress
+
+        def camera_for(self, scene):
+            return scene.camera.with_size(*self.size)
+
+        def render(self, scene, technique, spp=1, **params):
+            assert "not in a notebook" in capsys.readouterr().err  # said before the render
+            return np.full((self.size[1], self.size[0], 3), 0.25, np.float32)
+
+    monkeypatch.setattr(caustica.renderer, "Renderer", Instant)
+    monkeypatch.setitem(sys.modules, "ipywidgets", types.ModuleType("ipywidgets"))
+    assert not notebook.in_notebook()
+    image = caustica.show("glass-sphere")
+    assert type(image).__module__.startswith("PIL") and image.size == (8, 6)
+
+
+def test_in_notebook_recognises_a_jupyter_kernel(monkeypatch):
+    import sys
+    import types
+
+    import caustica.notebook as notebook
+
+    ipython = types.ModuleType("IPython")
+    shells = {"terminal": type("TerminalInteractiveShell", (), {})(), "kernel": type("ZMQInteractiveShell", (), {})()}
+    for where, expected in (("terminal", False), ("kernel", True)):
+        ipython.get_ipython = lambda where=where: shells[where]
+        monkeypatch.setitem(sys.modules, "IPython", ipython)
+        assert notebook.in_notebook() is expected

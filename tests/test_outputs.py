@@ -366,7 +366,7 @@ def fake_ipywidgets() -> types.ModuleType:
 
 
 class FakeRenderer:
-    def __init__(self, size=None):
+    def __init__(self, size=None, progress=None):
         self.size = size or (8, 8)
 
     def camera_for(self, scene):
@@ -385,6 +385,7 @@ def test_show_uses_ipywidgets_when_installed(monkeypatch):
 
     monkeypatch.setattr(caustica.renderer, "Renderer", FakeRenderer)
     monkeypatch.setitem(sys.modules, "ipywidgets", fake_ipywidgets())
+    monkeypatch.setattr("caustica.notebook.in_notebook", lambda: True)  # outside one: test_first_steps.py
     view = show("glass-sphere")  # widgets=None: on, since ipywidgets imports
     assert type(view).__name__ == "HBox"
     picture = view.children[0].children[0]

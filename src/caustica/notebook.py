@@ -1,9 +1,13 @@
 """``caustica.show(scene)`` for Jupyter: an inline image, with widgets where ipywidgets is installed.
 
-Renders headless (no window, no display needed). Without ipywidgets, or with
-``widgets=False``, the result is a PIL image, which Jupyter shows inline.
+Renders headless (no window, no display needed), its long steps' progress shown as plain lines under the
+cell. Without ipywidgets, or with ``widgets=False``, the result is a PIL image, which Jupyter shows inline.
 With widgets: technique, orbit (yaw, pitch, zoom), exposure and every
 parameter of the technique, each change re-rendering the image.
+
+Outside a notebook (plain Python, a script) nothing could show widgets: ``show`` says so up front on
+stderr and returns the PIL image (``.show()`` opens it in an image viewer, ``.save("x.png")`` writes it;
+``caustica.Renderer`` gives the float image).
 """
 from __future__ import annotations
 
@@ -27,7 +31,9 @@ def show(scene, technique: str = "auto", size=None, spp: int = 1, exposure: floa
          **params):
     """Render ``scene`` (a Scene, preset name or .toml path) and return something Jupyter displays.
 
-    ``widgets``: None uses ipywidgets when installed, True requires it, False returns a static PIL image.
+    ``widgets``: None uses ipywidgets when installed and in a notebook, True requires it, False returns a
+    static PIL image. Outside a notebook (and ``widgets`` not True) a note says so before the render and the
+    PIL image comes back.
     """
     from . import load_scene
     from .errors import MissingExtraError
@@ -35,7 +41,14 @@ def show(scene, technique: str = "auto", size=None, spp: int = 1, exposure: floa
 
     if isinstance(scene, str):
         scene = load_scene(scene)
-    renderer = Renderer(size)
+    renderer = Renderer(size, progress=True)  # a notebook's stderr is no terminal: plain lines under the cell
+    if widgets is None and not in_notebook():
+        from .progress import note
+
+        width, height = renderer.camera_for(scene).size
+        note(f"show: not in a notebook, so no inline image or widgets: rendering {scene.name or 'the scene'} "
+             f"({width}x{height}, {technique}) and returning a PIL image (.show() opens it, .save('x.png') writes it)")
+        widgets = False
     if widgets is not False:
         try:
             import ipywidgets  # noqa: F401
@@ -49,6 +62,15 @@ def show(scene, technique: str = "auto", size=None, spp: int = 1, exposure: floa
     if not widgets:
         return to_pil(renderer.render(scene, technique, spp, **params), exposure)
     return _widget(scene, renderer, technique, spp, exposure, params)
+
+
+def in_notebook() -> bool:
+    """Whether this runs in a Jupyter kernel (IPython's ZMQ shell), where a returned image or widget shows."""
+    import sys
+
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None and hasattr(ipython, "get_ipython") else None
+    return shell is not None and type(shell).__name__ == "ZMQInteractiveShell"
 
 
 def _widget(scene, renderer, technique, spp, exposure, params):
