@@ -16,7 +16,8 @@ from pathlib import Path
 from ..atomic import Terminated
 from ..errors import CausticaError, OutputError, short
 from .manifest import JOB_FILE, LOCK_FILE, MANIFEST, Manifest
-from .sweep import DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output
+from .sweep import (DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output,
+                    check_seed)
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,8 @@ def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp
     if environment is not None and Path(environment).suffix:
         environment = str(Path(environment).resolve())
     job = Job(scene=scene, out_dir=str(Path(out_dir).resolve()), frames=_frames(settings.get("frames", 1)),
-              seed=int(settings.get("seed", 0)), size=_size(settings.get("size")), spp=int(settings.get("spp", 1)),
+              seed=check_seed(settings.get("seed", 0)), size=_size(settings.get("size")),
+              spp=int(settings.get("spp", 1)),
               antialias=check_antialias(settings.get("antialias", "none")),
               technique=settings.get("technique", "auto"), labels=_labels(settings.get("labels", ())),
               labels_format=_choice(settings.get("labels_format", "exr"), LABEL_FORMATS, "labels format"),

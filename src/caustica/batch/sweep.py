@@ -24,6 +24,7 @@ from ..scene.io import _KIND_TEXT, _convert, _read_toml
 
 NUMBER, VEC3, RGB, SCALE, STRING, MATERIAL = "number", "vec3", "rgb", "numbers3", "string", "material"
 MAX_FRAMES = 10_000_000
+MAX_SEED = 2 ** 63 - 1
 DEFAULT_OUTPUT = "frame_{index:06d}"
 IMAGE_FORMATS = ("png", "exr")
 
@@ -172,6 +173,8 @@ def _setting(key: str, kind: str, value, name: str):
             raise SceneError(f"{name}: {key} must be an integer (got {short(value)})")
         if key == "frames" and not 1 <= value <= MAX_FRAMES:
             raise SceneError(f"{name}: frames must be in [1, {MAX_FRAMES}] (got {value}); give a positive count")
+        if key == "seed":
+            check_seed(value, f"{name}: seed")
         if key == "spp" and value < 1:
             raise SceneError(f"{name}: spp must be at least 1 (got {value})")
         return value
@@ -252,6 +255,13 @@ def _value(value, kind: str, key: str, name: str):
     if kind in (RGB, SCALE) and not isinstance(value, list):
         return float(value)  # one number for every component
     return converted.tolist() if isinstance(converted, np.ndarray) else converted
+
+
+def check_seed(seed, where: str = "seed") -> int:
+    """``seed`` when it is an integer in [0, MAX_SEED] (what numpy's SeedSequence takes); SceneError otherwise."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise SceneError(f"{where} must be an integer in [0, {MAX_SEED}] (got {short(seed)}); give e.g. seed = 0")
+    return seed
 
 
 def _not_a_format(where: str, exc: Exception) -> SceneError:
