@@ -234,3 +234,26 @@ def test_a_resumed_folder_keeps_its_records_when_the_run_fails(tmp_path, capsys)
                           "--ray", "127.0.0.1:1"], capsys)
     assert "cannot reach the Ray cluster" in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_a_run_refused_by_the_lock_leaves_the_other_runs_records(tmp_path, monkeypatch):
+    from caustica.batch.manifest import Manifest
+
+    held = Manifest(tmp_path / "out")
+    (tmp_path / "out").mkdir()
+    held.lock()
+    lock = Manifest.lock
+
+    def other_run_writes_first(self):
+        """The other run writes its fresh folder's records just before this one asks for the lock."""
+        (self.dir / "job.json").write_text('{"key": "other"}')
+        (self.dir / "manifest.jsonl").write_text("")
+        lock(self)
+
+    monkeypatch.setattr(Manifest, "lock", other_run_writes_first)
+    try:
+        with pytest.raises(caustica.OutputError, match="another caustica batch is writing"):
+            caustica.batch("glass-sphere", tmp_path / "out", 1, **FAST)
+        assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".batch.lock", "job.json", "manifest.jsonl"]
+    finally:
+        held.unlock()

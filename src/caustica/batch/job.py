@@ -215,7 +215,7 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, de
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        _remove_new(out, made, set())
+        _remove_new(out, made, None)
         raise OutputError(f"cannot create the output folder {out} ({exc.strerror}); check the path") from None
     records = {name for name in (JOB_FILE, MANIFEST, LOCK_FILE) if (out / name).exists()}
     manifest = Manifest(out)
@@ -226,10 +226,10 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, de
         return _run(job, manifest, rows, state, workers, ray, devices, progress)
     except (KeyboardInterrupt, Terminated) as stop:
         stop.args = (f"{str(stop) or 'interrupted'}: {_kept(state, out)}",)
-        _remove_new(out, made, records, state)
+        _remove_new(out, made, records if manifest.locked else None, state)
         raise
     except BaseException:
-        _remove_new(out, made, records, state)
+        _remove_new(out, made, records if manifest.locked else None, state)
         raise
     finally:
         manifest.unlock()
@@ -252,11 +252,14 @@ def _missing_folders(out: Path) -> list[Path]:
     return missing
 
 
-def _remove_new(out: Path, made: list[Path], records: set, state: Progress | None = None) -> None:
+def _remove_new(out: Path, made: list[Path], records: set | None, state: Progress | None = None) -> None:
     """After a run that rendered no frame: remove the folder's records that were not there before it
-    (``records``: those that were) and the folders it made (``made``), when empty."""
+    (``records``: those that were; None: the run never held the folder, and its records are another
+    run's) and the folders it made (``made``), when empty."""
     if state is not None and state.rendered:
         return
+    if records is None:
+        records = {JOB_FILE, MANIFEST, LOCK_FILE}
     if JOB_FILE not in records:  # a fresh folder: this run wrote its job.json and manifest
         for name in (JOB_FILE, MANIFEST):
             (out / name).unlink(missing_ok=True)

@@ -44,6 +44,11 @@ class Manifest:
             self.unlock()
             raise OutputError(f"cannot write in {self.dir}: {exc.strerror}; check its permissions") from None
 
+    @property
+    def locked(self) -> bool:
+        """Whether this object holds the folder's lock."""
+        return self._lock is not None
+
     def unlock(self) -> None:
         if self._lock is not None:
             os.close(self._lock)
