@@ -634,6 +634,9 @@ def cmd_compare(args) -> int:
     from .bench.sheet import compare_sheet, save_sheet
     from .techniques.base import check_spp, get_technique
 
+    if args.reference_floor is not None and args.reference_spp is not None:
+        raise CausticaError("--reference-floor picks the reference's samples itself; give it or --reference-spp, "
+                            "not both")
     json_path = _check_output(args.json, (".json",))
     sheet_path = _check_output(args.sheet, (".png",))
     from .metrics.checks import optional_module
@@ -643,9 +646,6 @@ def cmd_compare(args) -> int:
     for name in args.techniques:
         check_spp(get_technique(name), args.spp)
     scene, = _scenes([args.scene], args)
-    if args.reference_floor is not None and args.reference_spp is not None:
-        raise CausticaError("--reference-floor picks the reference's samples itself; give it or --reference-spp, "
-                            "not both")
     result = compare(scene, args.techniques, size=args.size, spp=args.spp, frames=args.timing_frames,
                      reference_spp=args.reference_spp or 256, reference_floor=args.reference_floor, log=note)
     _say(format_table(result))
@@ -703,7 +703,7 @@ def cmd_export(args) -> int:
 
 def cmd_precompute(args) -> int:
     from .scene.mesh import load_mesh
-    from .transport.compress import quantization_errors, quantize, save_table
+    from .transport.compress import quantization_errors, quantize, save_table, table_bytes
     from .transport.precompute import DirectionGrid, precompute_table
     from .transport.runtime import table_mesh, table_path
 
@@ -716,10 +716,11 @@ def cmd_precompute(args) -> int:
     table = precompute_table(mesh, args.ior, args.directions, args.max_depth)
     q = quantize(table)
     cached = table_path(mesh, args.ior, args.directions, args.max_depth)
-    save_table(cached, q)  # where table_for finds it: renders of this mesh at this IOR take it from here
+    data = table_bytes(q)  # once, for both files
+    save_table(cached, data)  # where table_for finds it: renders of this mesh at this IOR take it from here
     if output is not None:
         with folders_made(output):
-            save_table(output, q)
+            save_table(output, data)
     e = quantization_errors(table, q)
     written = output or cached
     _say(f"wrote {written}{f' and cached it as {cached}' if output is not None else ''}: {table.vertex_count} vertices x {table.grid.count} directions in "
