@@ -4,20 +4,23 @@ Per scene, size and technique: the median ms per frame, per-pass ms (GPU timer
 queries on a GPU, finish() and wall clock on llvmpipe), triangle count, and
 the ratio to a ``plain`` diffuse frame of the same scene in the same run.
 Time to quality: each technique's relMSE against the high-sample reference
-(whole image, and the caustic region where the scene has one), then Mitsuba
-at 1, 2, 4, ... spp timed on the same machine; the spp and seconds Mitsuba
-needs to match the technique's error give the speed ratio.
+per region (whole image, refractor, caustic, rest, and the glints apart: a
+point light's image that the path-traced reference cannot contain), the
+reference's own noise floor there, then Mitsuba at 1, 2, 4, ... spp timed on
+the same machine; the spp and seconds Mitsuba needs to match the technique's
+error over the pixels the reference can contain (and over the caustic region)
+give the speed ratio. Mitsuba's figures are labelled: ``render`` is mi.render
+of loaded, compiled scenes; ``end to end`` adds the export, load and the first,
+compiling call, and is never less than ``render``.
 """
 from __future__ import annotations
-
-import time
 
 import numpy as np
 
 from ..atomic import write_atomic
 from ..renderer import Renderer
 from ..techniques import get_technique
-from .timing import steps, timed_render
+from .timing import end_to_end_seconds, steps, timed_render
 
 
 def triangle_count(scene) -> int:
@@ -51,15 +54,16 @@ def speed_rows(scene, techniques, sizes, frames, log=print) -> list[dict]:
 
 
 def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, repeats=1, log=print) -> list[dict]:
-    """Mitsuba's error against time on this machine, one point per spp in 1, 2, 4, ... ``max_spp``: ``seconds``
-    of ``mi.render`` on the composite's scenes loaded once and warmed; ``seconds_caustic`` (when ``caustic``,
-    an (H, W) mask, is given), only the renders whose weight reaches those pixels (reference/render.py
-    LoadedReference: the light tracer and the environment's path, not the lights' path, on purely diffuse
-    pixels); ``end_to_end_seconds``, an uncached ``render_reference`` (export, load and every render); and
-    ``errors(image)``, a dict. ``seed``: pick one the reference did not use, so its error is not
-    underestimated. ``size`` is (width, height); ``repeats``: LoadedReference.render's (the fastest of
-    that many calls)."""
-    from ..reference.render import LoadedReference, render_reference
+    """Mitsuba's error against time on this machine, one point per spp in 1, 2, 4, ... ``max_spp``, from the
+    composite's scenes loaded once (reference/render.py LoadedReference): ``seconds``, the render alone (``mi.render``
+    of loaded scenes, after a first call at that spp that compiles); ``end_to_end_seconds``, a cold run from the
+    scene (bench.timing.end_to_end_seconds: the export and load, then that first call; never less than
+    ``seconds``); with ``caustic``, an (H, W) mask, ``seconds_caustic`` and ``end_to_end_seconds_caustic``: the
+    same over only the renders whose weight reaches those pixels (the light tracer and the environment's path, not
+    the lights' path, on purely diffuse pixels); and ``errors(image)``, a dict. ``seed``: pick one the reference
+    did not use, so its error is not underestimated. ``size`` is (width, height); ``repeats``:
+    LoadedReference.render's (the fastest of that many calls)."""
+    from ..reference.render import LoadedReference
 
     loaded = LoadedReference(scene, size)
     caustic_renders = [key for key, weight in loaded.weights.items() if key in loaded.renders
@@ -71,18 +75,31 @@ def mitsuba_curve(scene, size, errors, caustic=None, max_spp=256, seed=1, repeat
         for spp in counts:
             bar.set_postfix_str(f"{spp} spp")
             image, seconds = loaded.render(spp, seed=seed, repeats=repeats)
-            start = time.perf_counter()
-            render_reference(scene, size=size, spp=spp, cache=False, progress=False, seed=seed)
-            point = {"spp": spp, "seconds": sum(seconds.values()), "end_to_end_seconds": time.perf_counter() - start,
-                     **errors(image)}
+            first = loaded.last_first_seconds
+
+            def timing(keys) -> tuple[float, float]:
+                renders = [seconds[key] for key in keys]
+                return sum(renders), end_to_end_seconds(loaded.setup_seconds, [first[key] for key in keys], renders)
+
+            point = {"spp": spp, **dict(zip(("seconds", "end_to_end_seconds"), timing(list(seconds))))}
+            point.update(errors(image))
             if caustic_renders:
-                point["seconds_caustic"] = sum(seconds[key] for key in caustic_renders)
+                point.update(zip(("seconds_caustic", "end_to_end_seconds_caustic"), timing(caustic_renders)))
             curve.append(point)
             bar.update()
-            log(f"  mitsuba {spp:4d} spp: render {point['seconds']:7.2f} s (end to end "
-                f"{point['end_to_end_seconds']:.2f} s), "
-                + ", ".join(f"{k} {v:.5f}" for k, v in point.items() if "relmse" in k))
+            log(f"  mitsuba {spp:4d} spp: {timing_label(point, '')}"
+                + (f"; caustic region's renders: {timing_label(point, '_caustic')}" if caustic_renders else "")
+                + "; " + ", ".join(f"{k} {v:.5f}" for k, v in point.items() if "relmse" in k))
     return curve
+
+
+def timing_label(point: dict, suffix: str) -> str:
+    """A Mitsuba curve point's timing, labelled: the render alone and end to end (``suffix`` '_caustic': of the
+    caustic region's renders; where the point has none, the whole composite's)."""
+    if "seconds" + suffix not in point:
+        suffix = ""
+    return (f"render {point['seconds' + suffix]:.2f} s (loaded and compiled), "
+            f"end to end {point['end_to_end_seconds' + suffix]:.2f} s (export, load and compile included)")
 
 
 def first_reaching(curve: list[dict], key: str, error: float) -> dict | None:
@@ -90,40 +107,90 @@ def first_reaching(curve: list[dict], key: str, error: float) -> dict | None:
     return next((c for c in curve if c[key] <= error), None)
 
 
-def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
-    """Each technique's relMSE and ms, and Mitsuba's curve on the same machine (:func:`mitsuba_curve`: the
-    caustic region, when the scene has one, timed with only the renders it takes)."""
-    from ..metrics import caustic_region, relmse
-    from ..reference.render import render_reference
+QUALITY_REGIONS = ("all", "contained", "glint", "refractor", "caustic", "rest")
+# The errors Mitsuba's needed spp is based on, with the suffix of their entries: the pixels the reference can
+# contain (the glints apart), and the caustic region.
+NEEDED_FROM = {"contained_relmse": "", "caustic_relmse": "_caustic"}
 
-    reference = render_reference(scene, size=(size, size), spp=reference_spp, progress=None)  # the policy's
+
+def error_key(region: str) -> str:
+    """The key of a region's relMSE in time-to-quality's entries and curve points ('relmse' for the whole image)."""
+    return "relmse" if region == "all" else f"{region}_relmse"
+
+
+def quality_masks(scene, camera, reference, images) -> dict:
+    """{region: (H, W) bool or None (all)} of QUALITY_REGIONS: ``glint`` (caustica.metrics.regions.glint_mask of
+    the technique ``images``: a point light's image the reference cannot contain), ``contained``, every other
+    pixel, and region_masks's refractor and rest and caustic_region's caustic pixels, each without the glints."""
+    from ..metrics import caustic_region, region_masks
+    from ..metrics.regions import glint_mask
+
+    regions = region_masks(scene, camera)
+    glint = glint_mask(scene, camera, images, reference)
+    contained = ~glint
+    return {"all": None, "contained": contained, "glint": glint, "refractor": regions["refractor"] & contained,
+            "caustic": caustic_region(scene, camera) & contained, "rest": regions["rest"] & contained}
+
+
+def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=3, log=print) -> dict:
+    """Each technique's relMSE per region (:func:`quality_masks`) and ms, the reference's own noise floor there
+    (caustica.metrics.floor, from two halves of its samples), and Mitsuba's curve on the same machine
+    (:func:`mitsuba_curve`: the caustic region timed with only the renders it takes). Mitsuba's needed spp is
+    the first whose error reaches the technique's over the pixels the reference can contain (the glints
+    apart), and over the caustic region."""
+    from ..metrics import relmse
+    from ..metrics.floor import FLOOR_MARGIN_DB, noise_floor
+    from .compare import reference_halves
+
+    reference, halves = reference_halves(scene, (size, size), reference_spp, progress=None)  # the policy's
     renderer = Renderer((size, size))
-    techniques_out = {}
-    caustic = caustic_region(scene, renderer.camera_for(scene))
-    regions = {"relmse": None, "caustic_relmse": caustic} if caustic.any() else {"relmse": None}
+    camera = renderer.camera_for(scene)
+    rendered = {}
+    for name in techniques:
+        rendered[name] = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
+    masks = quality_masks(scene, camera, reference, [image for image, _ in rendered.values()])
+    masks = {region: mask for region, mask in masks.items() if mask is None or mask.any()}
 
     def errors(image) -> dict:
-        return {key: float(relmse(image, reference, mask)) for key, mask in regions.items()}
+        return {error_key(region): float(relmse(image, reference, mask)) for region, mask in masks.items()}
 
-    for name in techniques:
-        image, ms = timed_render(renderer, scene, name, 1, frames if get_technique(name).uses_gl else 1)
-        techniques_out[name] = {"ms": ms, **errors(image)}
-    # seed 1: samples independent of the reference's (seed 0)
-    curve = mitsuba_curve(scene, (size, size), errors, caustic, max_spp, seed=1, log=log)
+    floor = {}
+    if halves is not None:
+        floors = noise_floor(*halves, {r: m for r, m in masks.items() if m is not None})
+        floor = {error_key(region): f["relmse"] for region, f in floors.items()}
+    techniques_out = {name: {"ms": ms, **errors(image)} for name, (image, ms) in rendered.items()}
+    # seed 2: samples independent of the reference's halves (seeds 0 and 1)
+    curve = mitsuba_curve(scene, (size, size), errors, masks.get("caustic"), max_spp, seed=2, log=log)
+    within = 10.0 ** (FLOOR_MARGIN_DB / 10.0)
+    glints = int(masks["glint"].sum()) if "glint" in masks else 0
     for name, entry in techniques_out.items():
-        for key in regions:  # whole image, and the caustic region where the scene has one
-            suffix = "" if key == "relmse" else "_caustic"
+        entry["at_reference_floor"] = [key for key, value in floor.items() if key in entry and entry[key] <= within * value]
+        log(f"{scene.name:16s} {name:12s} {entry['ms']:.1f} ms; relMSE "
+            + ", ".join(f"{region} {entry[error_key(region)]:.5f}" + ("*" if error_key(region) in
+                                                                      entry["at_reference_floor"] else "")
+                        for region in QUALITY_REGIONS if error_key(region) in entry)
+            + f" ({glints} glint pixels)")
+        for key, suffix in NEEDED_FROM.items():
+            if key not in entry:
+                continue
             reached = first_reaching(curve, key, entry[key])
             seconds = reached.get("seconds" + suffix, reached["seconds"]) if reached else None
             entry["mitsuba_spp" + suffix] = reached["spp"] if reached else None
             entry["mitsuba_seconds" + suffix] = seconds
-            entry["mitsuba_end_to_end_seconds" + suffix] = reached["end_to_end_seconds"] if reached else None
+            entry["mitsuba_end_to_end_seconds" + suffix] = \
+                reached.get("end_to_end_seconds" + suffix, reached["end_to_end_seconds"]) if reached else None
             entry["speed_ratio" + suffix] = seconds * 1000.0 / entry["ms"] if reached else None
-            log(f"{scene.name:16s} {name:12s} {key} {entry[key]:.5f} in {entry['ms']:.1f} ms; "
-                + (f"Mitsuba needs {reached['spp']} spp, render {seconds:.2f} s (end to end "
-                   f"{reached['end_to_end_seconds']:.2f} s): x{entry['speed_ratio' + suffix]:.0f} faster"
+            log(f"{'':16s} {name:12s} {key} {entry[key]:.5f}: "
+                + (f"Mitsuba needs {reached['spp']} spp, {timing_label(reached, suffix)}: "
+                   f"x{entry['speed_ratio' + suffix]:.0f} faster (render to ms)"
                    if reached else f"Mitsuba does not reach it within {max_spp} spp"))
-    return {"scene": scene.name, "size": size, "reference_spp": reference_spp, "techniques": techniques_out,
+    if floor:
+        log(f"{'':16s} reference noise floor ({halves[2]}+{halves[3]} spp halves): relMSE "
+            + ", ".join(f"{key[:-7] or 'all'} {value:.5f}" for key, value in floor.items())
+            + "; * within 3 dB of it (at least half of that error is the reference's own noise)")
+    return {"scene": scene.name, "size": size, "reference_spp": reference_spp, "regions": list(masks),
+            "region_pixels": {r: int(m.sum()) if m is not None else size * size for r, m in masks.items()},
+            "needed_spp_from": "contained_relmse", "reference_floor": floor, "techniques": techniques_out,
             "mitsuba_curve": curve}
 
 
@@ -145,10 +212,11 @@ def plot(rows: list[dict], quality: list[dict], path) -> None:
     ax.legend(fontsize=7)
     for ax, q in zip(axes[0, 1:], quality):
         curve = q["mitsuba_curve"]
-        ax.plot([c["seconds"] * 1000 for c in curve], [c["relmse"] for c in curve], marker=".", label="Mitsuba")
+        key = q.get("needed_spp_from", "relmse")
+        ax.plot([c["seconds"] * 1000 for c in curve], [c[key] for c in curve], marker=".", label="Mitsuba")
         for name, entry in q["techniques"].items():
-            ax.scatter([entry["ms"]], [entry["relmse"]], label=name, zorder=3)
-        ax.set(xscale="log", yscale="log", xlabel="ms", ylabel="relMSE vs reference",
+            ax.scatter([entry["ms"]], [entry[key]], label=name, zorder=3)
+        ax.set(xscale="log", yscale="log", xlabel="ms", ylabel=f"{key} vs reference",
                title=f"{q['scene']} {q['size']}^2: error vs time")
         ax.legend(fontsize=7)
     fig.tight_layout()

@@ -161,9 +161,11 @@ def contact_sheet(rows: list[tuple[str, np.ndarray, np.ndarray | None]], referen
 
 def technique_caption(entry: dict) -> str:
     """A technique's numbers under its image, from its compare JSON (TechniqueResult.to_json()): ms per frame,
-    and over the whole image PSNR (sRGB) and mean FLIP."""
+    and over the whole image PSNR (sRGB; marked * within 3 dB of the reference's noise floor) and mean FLIP."""
     whole = entry["regions"]["all"]
-    return f"{entry['ms_per_frame']:.1f} ms  PSNR {float(whole['psnr_srgb']):.2f} dB  FLIP {float(whole['flip']):.3f}"
+    mark = "*" if "psnr_srgb" in entry.get("at_reference_floor", {}).get("all", ()) else ""
+    return (f"{entry['ms_per_frame']:.1f} ms  PSNR {float(whole['psnr_srgb']):.2f} dB{mark}  "
+            f"FLIP {float(whole['flip']):.3f}")
 
 
 def reference_name(result) -> str:
@@ -172,9 +174,12 @@ def reference_name(result) -> str:
 
 
 def sheet_title(result) -> str:
-    """The sheet's title from a CompareResult: scene, size, spp, GL renderer and the reference."""
+    """The sheet's title from a CompareResult: scene, size, spp, GL renderer, the reference and its noise
+    floor (the whole image's sRGB PSNR a perfect technique would score against it)."""
+    floor = ("  noise floor not measured" if result.floor is None else
+             f" at {result.floor.spp} spp  noise floor {result.floor.whole_srgb():.2f} dB (* within 3 dB of it)")
     return (f"{result.scene}  {result.size[0]}x{result.size[1]}  {result.spp} spp  GL: {result.renderer}  "
-            f"reference: {reference_name(result)}")
+            f"reference: {reference_name(result)}{floor}")
 
 
 def compare_sheet(result, tonemap: str = "clip") -> Image.Image:

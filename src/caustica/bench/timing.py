@@ -14,20 +14,48 @@ def steps(total: int, desc: str, unit: str = "steps"):
     return progress(total, desc, unit=unit)
 
 
-def timed_render(renderer, scene, technique: str, spp: int, frames: int, params: dict | None = None):
-    """(image, median ms) for a technique; GPU techniques get one untimed warm-up frame.
+CPU_WARM_UP_SIDE = 16  # pixels: the longer side of a CPU technique's warm-up frame
 
-    CPU techniques (``exact``, ``mitsuba``) are timed once: they compile nothing and are slow.
+
+def warm_up_size(size: tuple[int, int]) -> tuple[int, int]:
+    """A small frame of ``size``'s shape (CPU_WARM_UP_SIDE on its longer side, never larger than it): enough for a
+    CPU technique to build what it keeps per scene (Embree's BVH, the photon map, the environment's light) for
+    little of a frame's cost."""
+    width, height = size
+    scale = min(1.0, CPU_WARM_UP_SIDE / max(width, height))
+    return max(1, round(width * scale)), max(1, round(height * scale))
+
+
+def warm_up(renderer, scene, technique: str, spp: int, params: dict) -> None:
+    """One untimed frame that pays what ``technique`` does once per scene, so a timed frame holds only a frame's
+    work: GPU techniques compile shaders and fill their caches at the renderer's size; CPU techniques build
+    their per-scene caches in a small frame (:func:`warm_up_size`) of a renderer like ``renderer``."""
+    if get_technique(technique).uses_gl:
+        renderer.render(scene, technique, spp, **params)
+    else:
+        type(renderer)(warm_up_size(renderer.camera_for(scene).size)).render(scene, technique, spp, **params)
+
+
+def timed_render(renderer, scene, technique: str, spp: int, frames: int, params: dict | None = None):
+    """(image, median ms) of ``frames`` timed frames of a technique after an untimed warm-up (:func:`warm_up`).
+
+    CPU techniques (``exact``, ``mitsuba``) are timed once: they are slow.
     """
     params = params or {}
-    if not get_technique(technique).uses_gl:
-        return renderer.render_timed(scene, technique, spp, **params)
-    renderer.render(scene, technique, spp, **params)
+    warm_up(renderer, scene, technique, spp, params)
     timings, image = [], None
-    for _ in range(max(1, frames)):
+    for _ in range(max(1, frames if get_technique(technique).uses_gl else 1)):
         image, ms = renderer.render_timed(scene, technique, spp, **params)
         timings.append(ms)
     return image, statistics.median(timings)
+
+
+def end_to_end_seconds(setup_seconds: float, first_seconds, render_seconds) -> float:
+    """A cold run's seconds from the scene: setting up (export, load), then each render's first call, which
+    compiles and renders (``first_seconds``, one per render). Each counts at least as long as that render's warm
+    call (``render_seconds``, alike), which a noisy first call on shared cores could undercut, since both render
+    the same samples: the figure is never less than the render's."""
+    return setup_seconds + sum(max(first, render) for first, render in zip(first_seconds, render_seconds, strict=True))
 
 
 def timed_in_turns(renderer, scene, variants: dict, spp: int, rounds: int, baseline: str, progress=None) -> dict:

@@ -14,6 +14,11 @@
 :func:`caustic_region` is the caustic region less the pixels partly on glass, where the Mitsuba
 composite lacks light by construction.
 
+:func:`glint_mask`: the pixels where a technique shows a point light's image that the path-traced
+reference cannot contain: glass whose refracted view lands in a light's glass shadow (the caustic
+seen through the glass, light -> specular -> diffuse -> specular -> camera, which neither of the
+composite's integrators samples) and where the technique is much brighter than the reference.
+
 The masks are (H, W) bool, row 0 at the top, pairwise disjoint and together
 cover the image.
 """
@@ -22,10 +27,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..raytrace.embree_scene import ray_scene_for
+from ..raytrace.paths import follow_refraction
 from ..scene.lights import DirectionalLight, SpotLight
 from .checks import image_pair, masked_mean, pixel_mask
 from .hits import objects_of_kind
-from .images import psnr_linear, psnr_srgb, relmse
+from .images import RELMSE_EPSILON, psnr_linear, psnr_srgb, relmse
 from .perceptual import flip_error_map, masked_ssim, ssim_map
 
 REGIONS = ("refractor", "caustic", "rest")
@@ -101,6 +107,64 @@ def caustic_region(scene, camera=None) -> np.ndarray:
 
     camera = scene.camera if camera is None else camera
     return region_masks(scene, camera)["caustic"] & (diffuse_coverage(scene, camera) >= 1.0)
+
+
+GLINT_EXCESS = 0.5  # a glint is brighter than the reference by half its value, in relMSE's units (relmse term > 0.25)
+
+
+def _lands_in_glass_shadow(ray_scene, scene, glass, diffuse, origins, dirs) -> np.ndarray:
+    """(n,) bool: whether each ray (from a specular surface, already off it) first meets a diffuse surface at a
+    point in the geometric shadow of a glass object for some light."""
+    hits = ray_scene.intersect(origins, dirs)
+    landed = np.flatnonzero(diffuse[hits.object_index])
+    out = np.zeros(len(dirs), bool)
+    if len(landed):
+        ng = hits.geometric_normal[landed]
+        facing = ng * np.where(np.einsum("ij,ij->i", ng, dirs[landed]) < 0, 1.0, -1.0)[:, None]
+        out[landed] = _in_glass_shadow(ray_scene, scene, glass, hits.position[landed], facing)
+    return out
+
+
+def caustic_through_glass(scene, camera=None, spp: int = 4) -> np.ndarray:
+    """(H, W) bool: pixels one of whose ``spp`` stratified primary rays first hits glass or a mirror and, along the
+    mirror reflection of that first surface or (glass) along the refracted branch out
+    (:func:`caustica.raytrace.paths.follow_refraction`), lands on a diffuse surface in the geometric shadow of a
+    glass object for some light: where a light's caustic is seen in or through a specular surface."""
+    camera = scene.camera if camera is None else camera
+    width, height = camera.size
+    origins, dirs = (a.reshape(-1, 3) for a in camera.primary_rays(spp))
+    ray_scene = ray_scene_for(scene)
+    glass, diffuse = objects_of_kind(scene, "glass"), objects_of_kind(scene, "diffuse")
+    seen = np.zeros(len(dirs), bool)
+    first = ray_scene.intersect(origins, dirs)
+    specular = np.flatnonzero(glass[first.object_index] | objects_of_kind(scene, "mirror")[first.object_index])
+    if len(specular) and scene.lights:
+        # The first surface's mirror reflection (glass reflects too, the more at grazing angles).
+        d, ng = dirs[specular], first.geometric_normal[specular]
+        reflected = d - 2.0 * np.einsum("ij,ij->i", d, ng)[:, None] * ng
+        start = first.position[specular] + reflected * ray_scene.epsilon
+        seen[specular] = _lands_in_glass_shadow(ray_scene, scene, glass, diffuse, start, reflected)
+        # Glass: the refracted branch, from where it leaves the last glass surface.
+        on_glass = specular[glass[first.object_index[specular]]]
+        paths = follow_refraction(ray_scene, scene, origins[on_glass], dirs[on_glass])
+        out = np.flatnonzero(paths.valid)
+        exits = paths.position[out] + paths.direction[out] * ray_scene.epsilon  # off the glass it leaves
+        seen[on_glass[out]] |= _lands_in_glass_shadow(ray_scene, scene, glass, diffuse, exits, paths.direction[out])
+    return seen.reshape(height, width, -1).any(axis=2)
+
+
+def glint_mask(scene, camera, images, reference, through_glass=None) -> np.ndarray:
+    """(H, W) bool: pixels of :func:`caustic_through_glass` (or ``through_glass``, when given) where any of
+    ``images`` (technique images, (H, W, 3) linear) exceeds ``reference`` by more than GLINT_EXCESS in relMSE's
+    units, ``(image - reference) / sqrt(reference^2 + 0.01)`` averaged over the channels: a point light's image
+    that the reference cannot contain. One mask for all, so every technique is scored on the same pixels."""
+    candidates = caustic_through_glass(scene, camera) if through_glass is None else through_glass
+    ref = np.asarray(reference, np.float64)
+    scale = np.sqrt(ref * ref + RELMSE_EPSILON)
+    mask = np.zeros(candidates.shape, bool)
+    for image in images:
+        mask |= ((np.asarray(image, np.float64) - ref) / scale).mean(axis=2) > GLINT_EXCESS
+    return mask & candidates
 
 
 def compare_images(image, reference, masks: dict) -> dict[str, dict[str, float]]:

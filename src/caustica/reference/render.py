@@ -234,17 +234,50 @@ def composite_weights(coverage: np.ndarray) -> dict:
     return {("path", "all"): 1.0, ("path", "environment"): 1.0, ("path", "lights"): 1.0 - c, ("ptracer", "lights"): c}
 
 
+def prepared(scene, camera=None, size=None):
+    """(scene, camera) as the reference renders them: moved to the origin where far (Mitsuba's float32
+    variants), glass standing on a receiver without its faces on it (exact traces it so; Mitsuba would meet
+    them coplanar with the receiver and resolve them face by face, in stripes), ``camera`` (default the
+    scene's) moved along and at ``size`` (width, height) when given."""
+    scene, shift = recentred(scene)
+    scene = without_standing_faces(scene)
+    camera = camera.translated(shift) if camera is not None else scene.camera
+    return scene, camera if size is None else camera.with_size(*size)
+
+
+def first_and_fastest(call, repeats: int = 1, clock=time.perf_counter):
+    """(result, first seconds, fastest seconds) of ``call()`` run 1 + ``repeats`` times: the first call
+    pays what a cold call pays (Dr.Jit compiles kernels for a new sample count) and is kept apart; the
+    fastest of the later ones, the least disturbed by other work on shared cores, is the render's own time.
+    ``result`` is the last call's."""
+    start = clock()
+    call()
+    first = clock() - start
+    fastest, result = float("inf"), None
+    for _ in range(max(1, repeats)):
+        start = clock()
+        result = call()
+        fastest = min(fastest, clock() - start)
+    return result, first, fastest
+
+
 class LoadedReference:
-    """The composite's Mitsuba scenes loaded once and warmed, to time Mitsuba as its users run it: only
+    """The composite's Mitsuba scenes loaded once, to time Mitsuba as its users run it: only
     ``mi.render`` of a loaded scene, and only the integrators an image region needs (a caustic region of
     purely diffuse pixels needs the light tracer and the environment's path, not the lights' path).
 
-    ``render(spp, seed)`` returns the composite image and each render's seconds."""
+    ``setup_seconds``: what loading took (the coverage trace, the export and ``mi.load_dict`` of each
+    render); nothing is rendered before the first ``render``, whose first calls at each spp pay the JIT's
+    compilation (and, the first time, its start), as a cold run does. ``render(spp, seed)`` returns the composite image and, per render,
+    its seconds and the first (compiling) call's, ``last_first_seconds``. The scene is the one
+    :func:`render_reference` renders (:func:`prepared`)."""
 
     def __init__(self, scene, size=None, variant: str | None = None, max_depth: int = 16,
-                 analytic_spheres: bool = True):
+                 analytic_spheres: bool = True, clock=time.perf_counter):
+        start = clock()
+        self.clock = clock
         self.mi = mi = mitsuba_module(variant)
-        self.camera = scene.camera if size is None else scene.camera.with_size(*size)
+        scene, self.camera = prepared(scene, size=size)
         coverage = diffuse_coverage(scene, self.camera)
         self.weights = composite_weights(coverage)
         self.renders = planned_renders(scene, coverage)
@@ -253,32 +286,34 @@ class LoadedReference:
         self.scenes = {}
         for channel in self.channels:
             for integrator, emitters in self.renders:
-                loaded = mi.load_dict(scene_to_mitsuba(scene, spp=1, integrator=integrator, max_depth=max_depth,
-                                                       mesh_dir=mesh_dir, channel=channel, camera=self.camera,
-                                                       analytic_spheres=analytic_spheres, emitters=emitters))
-                mi.render(loaded, spp=1, seed=0)  # warm-up: the JIT compiles the kernels
-                self.scenes[channel, integrator, emitters] = loaded
+                self.scenes[channel, integrator, emitters] = mi.load_dict(scene_to_mitsuba(
+                    scene, spp=1, integrator=integrator, max_depth=max_depth, mesh_dir=mesh_dir, channel=channel,
+                    camera=self.camera, analytic_spheres=analytic_spheres, emitters=emitters))
+        self.setup_seconds = clock() - start
+        self.last_first_seconds: dict = {}
 
     def render(self, spp: int, seed: int = 1, repeats: int = 1) -> tuple[np.ndarray, dict]:
         """The composite at ``spp`` samples (one pass per render) and {(integrator, emitters): seconds}, each
-        timed on its second call at this spp: Dr.Jit compiles kernels anew for a new sample count, which a
-        user rendering at one setting pays once. ``repeats`` > 1 keeps the fastest of that many calls (the
-        same samples): the least disturbed by other work on shared cores."""
+        the fastest of ``repeats`` calls after a first one at this spp (:func:`first_and_fastest`): Dr.Jit
+        compiles kernels anew for a new sample count, which a user rendering at one setting pays once. The
+        first calls' seconds go to ``last_first_seconds``, keyed alike."""
         seconds: dict = {}
+        first_seconds: dict = {}
 
         def timed(channel, k, integrator, emitters) -> np.ndarray:
             loaded = self.scenes[channel, integrator, emitters]
-            np.array(self.mi.render(loaded, spp=spp, seed=7_000_000 + k))  # compiles for this spp
-            fastest = float("inf")
-            for _ in range(max(1, repeats)):
-                start = time.perf_counter()
-                part = np.array(self.mi.render(loaded, spp=spp, seed=1000 * k + 100_000 * int(seed)),
-                                dtype=np.float64)[..., :3]
-                fastest = min(fastest, time.perf_counter() - start)
-            seconds[integrator, emitters] = seconds.get((integrator, emitters), 0.0) + fastest
+            seed_value = 1000 * k + 100_000 * int(seed)
+            part, first, fastest = first_and_fastest(
+                lambda: np.array(self.mi.render(loaded, spp=spp, seed=seed_value), dtype=np.float64)[..., :3],
+                repeats, self.clock)
+            key = integrator, emitters
+            seconds[key] = seconds.get(key, 0.0) + fastest
+            first_seconds[key] = first_seconds.get(key, 0.0) + first
             return part.astype(np.float32)
 
-        return _composite(self.camera.size, self.channels, self.renders, self.weights, timed), seconds
+        image = _composite(self.camera.size, self.channels, self.renders, self.weights, timed)
+        self.last_first_seconds = first_seconds
+        return image, seconds
 
 
 def _composite(size, channels, renders, weights, part) -> np.ndarray:
@@ -339,13 +374,7 @@ def render_reference(
         raise ValueError(f"samples per pixel {spp} must be at least 1")
     mi = mitsuba_module(variant)
     active = mi.variant()
-    scene, shift = recentred(scene)  # Mitsuba's float32 variants too: a far scene renders moved to the origin
-    # Glass standing on a receiver touches it, as exact traces it: the faces on the receiver's plane would meet the
-    # receiver coplanar, which Mitsuba resolves face by face (stripes under a cylinder's cap), so they go.
-    scene = without_standing_faces(scene)
-    camera = camera.translated(shift) if camera is not None else scene.camera
-    if size is not None:
-        camera = camera.with_size(*size)
+    scene, camera = prepared(scene, camera, size)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(scene, camera, spp, max_depth, active, analytic_spheres)
     path = cache_dir / reference_file_name(scene, camera, spp, seed, key)
@@ -373,3 +402,4 @@ def render_reference(
     if cache:
         store_array(path, result)
     return result
+
