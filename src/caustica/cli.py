@@ -318,7 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="ms per frame, per-pass ms, ratio to plain shading, time-to-quality vs Mitsuba")
     bench.add_argument("--scenes", type=_names, default=["glass-sphere", "caustic-sphere"], help="comma-separated scenes or presets")
-    bench.add_argument("--techniques", type=_names, default=["env-map", "exact"], help="comma-separated techniques")
+    bench.add_argument("--techniques", type=_names, default=["auto", "env-map", "exact"],
+                       help="comma-separated techniques (default auto,env-map,exact)")
     bench.add_argument("--sizes", type=_sizes, default=[256, 512, 1024], help="comma-separated image sides (default 256,512,1024)")
     _timing_frames_option(bench, 5, "per scene, technique and size")
     _environment_option(bench)
@@ -669,17 +670,16 @@ def cmd_bench(args) -> int:
         get_technique(name)
     scenes = _scenes(args.scenes, args)
     rows, quality = [], []
+    mitsuba = not args.no_mitsuba and _has_mitsuba()
+    pace = _bench_pace(scenes, args, mitsuba)
+    pace.start()
     for scene in scenes:
         rows += speed_rows(scene, args.techniques, args.sizes, args.timing_frames)
-    if not args.no_mitsuba:
-        try:
-            import mitsuba  # noqa: F401
-        except ImportError:
-            note("time-to-quality skipped: Mitsuba is not installed (pip install 'caustica[reference]')")
-        else:
-            for scene in scenes:
-                quality.append(time_to_quality(scene, args.techniques, args.quality_size, args.reference_spp,
-                                               args.max_spp, args.timing_frames))
+        pace.done()
+    for scene in scenes if mitsuba else []:
+        quality.append(time_to_quality(scene, args.techniques, args.quality_size, args.reference_spp,
+                                       args.max_spp, args.timing_frames))
+        pace.done()
     if json_path:
         _write_json(json_path, {"frames": rows, "time_to_quality": quality})
         _say(f"wrote {json_path}")
@@ -688,6 +688,26 @@ def cmd_bench(args) -> int:
             plot(rows, quality, plot_path)
         _say(f"wrote {plot_path}")
     return 0
+
+
+def _has_mitsuba() -> bool:
+    try:
+        import mitsuba  # noqa: F401
+    except ImportError:
+        note("time-to-quality skipped: Mitsuba is not installed (pip install 'caustica[reference]')")
+        return False
+    return True
+
+
+def _bench_pace(scenes, args, mitsuba: bool):
+    """bench's parts, each scene's speed rows then its time to quality, with their estimated seconds."""
+    from .bench.estimate import Pace, quality_seconds, speed_seconds
+
+    parts = [(f"speed {s.name}", speed_seconds(s, args.techniques, args.sizes, args.timing_frames)) for s in scenes]
+    parts += [(f"time to quality {s.name}", quality_seconds(s, args.techniques, args.quality_size, args.reference_spp,
+                                                            args.max_spp, args.timing_frames))
+              for s in scenes if mitsuba]
+    return Pace(parts)
 
 
 def cmd_export(args) -> int:
