@@ -109,3 +109,18 @@ def test_quiet_and_no_progress_still_win(tmp_path, capsys, monkeypatch, args):
     monkeypatch.setenv(progress_module.ENV, "1")
     assert main([*args, "render", "glass-sphere", "-o", str(tmp_path / "x.png"), "--size", "16x16"]) == 0
     assert "timing" not in capsys.readouterr().err
+
+
+def test_a_display_dropped_unclosed_stops_its_heartbeat(monkeypatch):
+    import gc
+    import threading
+
+    monkeypatch.setattr(progress_module, "LINE_INTERVAL_S", 0.05)
+    before = threading.active_count()
+    out = io.StringIO()
+    bar = _Lines(10, "dropped", "steps", out, 0, 0.0, None)
+    assert threading.active_count() == before + 1
+    del bar
+    gc.collect()
+    time.sleep(0.1)
+    assert threading.active_count() == before

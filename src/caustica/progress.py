@@ -24,6 +24,7 @@ import os
 import sys
 import threading
 import time
+import weakref
 
 QUIET, NORMAL, VERBOSE = -1, 0, 1
 DELAY_S = 1.0  # a step shorter than this shows no progress
@@ -172,8 +173,9 @@ class _Lines(Progress):
         self.start = self.last = clock()
         self.lock = threading.Lock()
         self.closed = threading.Event()
-        if heartbeat:
-            threading.Thread(target=self._beat, name=f"progress {desc}", daemon=True).start()
+        if heartbeat:  # by weak reference: a display dropped unclosed (an exception) stops its thread
+            threading.Thread(target=_beat, args=(weakref.ref(self), self.closed), name=f"progress {desc}",
+                             daemon=True).start()
 
     def update(self, n: int = 1) -> None:
         with self.lock:
@@ -189,12 +191,9 @@ class _Lines(Progress):
         """A line when LINE_INTERVAL_S passed since the last one (the work has not moved a LINE_STEP)."""
         with self.lock:
             now = clock()
-            if not self.closed.is_set() and now - self.start >= self.delay and now - self.last >= LINE_INTERVAL_S:
+            if (not self.closed.is_set() and self.done < self.total and now - self.start >= self.delay
+                    and now - self.last >= LINE_INTERVAL_S):
                 self._write(now)
-
-    def _beat(self) -> None:
-        while not self.closed.wait(LINE_INTERVAL_S / 10):
-            self.tick()
 
     def set_postfix_str(self, text: str) -> None:
         self.postfix = text
@@ -210,6 +209,9 @@ class _Lines(Progress):
         self.shown, self.last = self.done, now
         print(self.line() if self.line is not None else self._text(now), file=self.stream, flush=True)
 
+    def __del__(self):
+        self.closed.set()
+
     def _text(self, now: float) -> str:
         elapsed = now - self.start
         share = self.done / self.total if self.total else 1.0
@@ -217,3 +219,14 @@ class _Lines(Progress):
         postfix = f" [{self.postfix}]" if self.postfix else ""
         return (f"{self.desc}: {self.done}/{self.total} {self.unit} ({100 * share:.0f}%), "
                 f"{elapsed:.1f} s{eta}{postfix}")
+
+
+def _beat(display: "weakref.ref[_Lines]", closed: threading.Event) -> None:
+    """The heartbeat of a plain-lines display: :meth:`_Lines.tick` ten times an interval until it is closed
+    or dropped."""
+    while not closed.wait(LINE_INTERVAL_S / 10):
+        shown = display()
+        if shown is None:
+            return
+        shown.tick()
+        del shown
