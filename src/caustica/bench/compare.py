@@ -128,30 +128,48 @@ def reference_image(scene, size, reference_spp: int, progress: bool | None = Non
 
 PILOT_SPP = 32  # the pilot reference of --reference-floor: two halves of 16
 MAX_FLOOR_SPP = 4096  # the most samples --reference-floor renders, whatever floor it is asked for
+FLOOR_ROUNDS = 3  # renders after the pilot, at most: each measures its floor and corrects the count
+FLOOR_TOLERANCE_DB = 0.25  # a render whose floor is this close below the target is kept
 
 
 def spp_for_reference_floor(scene, size, target_db: float, progress: bool | None = None,
                             cap: int = MAX_FLOOR_SPP) -> tuple[int, str]:
-    """(spp, note): the reference's sample count for a whole-image sRGB PSNR floor of ``target_db``, from a
-    PILOT_SPP pilot (caustica.metrics.floor.spp_for_floor), at most ``cap``; ``note`` says how it was picked
+    """(spp, note): the reference's sample count for a whole-image sRGB PSNR floor of ``target_db``, at most
+    ``cap``. A PILOT_SPP pilot predicts the count (caustica.metrics.floor.spp_for_floor: noise variance ~ 1/spp);
+    each render at a predicted count (its halves are cached, so compare reads them again) measures its own floor
+    and, where it falls more than FLOOR_TOLERANCE_DB short, predicts again from itself with the growth it saw
+    (metrics.floor.measured_slope), up to FLOOR_ROUNDS times: a few samples miss the rare bright paths
+    (fireflies) and underestimate the noise. ``note`` gives each step
     and, where the cap was hit, what the capped count gives and what to do."""
     from ..errors import ReferenceUnavailableError
-    from ..metrics.floor import noise_floor, spp_for_floor
+    from ..metrics.floor import measured_slope, noise_floor, spp_for_floor
 
-    try:
-        _, (half_a, half_b, n_a, n_b) = reference_halves(scene, size, PILOT_SPP, progress)
-    except ReferenceUnavailableError as exc:
-        raise ReferenceUnavailableError(f"--reference-floor measures Mitsuba's noise: {exc}") from None
-    pilot_db = noise_floor(half_a, half_b, n_a, n_b)["all"]["psnr_srgb"]
-    needed = spp_for_floor(PILOT_SPP, pilot_db, target_db)
-    if needed <= cap:
-        return needed, (f"{needed} spp for a {target_db:g} dB floor (a {PILOT_SPP} spp pilot measured "
-                        f"{pilot_db:.2f} dB; noise variance ~ 1/spp)")
-    capped = cap - cap % 2
-    reached = pilot_db + 10.0 * math.log10(capped / PILOT_SPP)
-    return capped, (f"a {target_db:g} dB floor needs about {needed} spp (a {PILOT_SPP} spp pilot measured "
-                    f"{pilot_db:.2f} dB), more than the cap of {cap}: rendering {capped} spp for about "
-                    f"{reached:.1f} dB; ask for a lower --reference-floor or a smaller --size")
+    def measured(spp: int) -> float:
+        try:
+            _, halves = reference_halves(scene, size, spp, progress)
+        except ReferenceUnavailableError as exc:
+            raise ReferenceUnavailableError(f"--reference-floor measures Mitsuba's noise: {exc}") from None
+        return noise_floor(*halves)["all"]["psnr_srgb"]
+
+    spp, floor_db = PILOT_SPP, measured(PILOT_SPP)
+    steps_taken, slope = [f"{spp} spp pilot: {floor_db:.2f} dB"], 1.0
+    for _ in range(FLOOR_ROUNDS):
+        if floor_db >= target_db - FLOOR_TOLERANCE_DB and spp > PILOT_SPP:
+            break
+        needed = spp_for_floor(spp, floor_db, target_db, slope)
+        if needed > cap:
+            capped = cap - cap % 2
+            reached = floor_db + 10.0 * math.log10(capped / spp)
+            return capped, (f"a {target_db:g} dB floor needs about {needed} spp ({'; '.join(steps_taken)}), more "
+                            f"than the cap of {cap}: rendering {capped} spp for about {reached:.1f} dB; ask for a "
+                            "lower --reference-floor or a smaller --size")
+        if needed <= spp:
+            break
+        previous, previous_db = spp, floor_db
+        spp, floor_db = needed, measured(needed)
+        slope = measured_slope(previous, previous_db, spp, floor_db)  # the next prediction follows what was seen
+        steps_taken.append(f"{spp} spp: {floor_db:.2f} dB")
+    return spp, f"{spp} spp for a {target_db:g} dB floor ({'; '.join(steps_taken)})"
 
 
 def compare(scene, techniques: list[str], size=None, spp: int = 4, frames: int = 5, reference_spp: int = 256,

@@ -62,14 +62,23 @@ def at_floor(metrics: dict, floor: dict) -> list[str]:
             if not (math.isnan(metrics[key]) or math.isnan(floor[key])) and near[key](metrics[key], floor[key])]
 
 
-def spp_for_floor(pilot_spp: int, pilot_floor_db: float, target_db: float) -> int:
+def spp_for_floor(pilot_spp: int, pilot_floor_db: float, target_db: float, slope: float = 1.0) -> int:
     """Samples a reference needs for a ``target_db`` floor, from a pilot of ``pilot_spp`` that measured
-    ``pilot_floor_db``: noise variance ~ 1/spp, so spp scales by 10^((target - pilot) / 10); rounded up to
-    an even count (two equal halves) and never below the pilot's."""
+    ``pilot_floor_db``: noise variance ~ 1/spp^slope (1: independent samples, +3 dB per doubling), so spp scales
+    by 10^((target - pilot) / (10 slope)); rounded up to an even count (two equal halves) and never below the
+    pilot's."""
     if not math.isfinite(pilot_floor_db):
         return pilot_spp  # the pilot has no noise to speak of (a constant image)
-    needed = pilot_spp * 10.0 ** ((target_db - pilot_floor_db) / 10.0)
-    return max(pilot_spp, 2 * math.ceil(needed / 2.0 - 1e-9))
+    needed = pilot_spp * 10.0 ** ((target_db - pilot_floor_db) / (10.0 * slope))
+    return max(pilot_spp, 2 * math.ceil(min(needed, 1e12) / 2.0 - 1e-9))
+
+
+def measured_slope(spp_a: int, floor_a_db: float, spp_b: int, floor_b_db: float) -> float:
+    """How the floor grew between two counts, as the exponent of noise variance ~ 1/spp^slope, kept in
+    [0.25, 1]: below 1 where the fewer samples missed rare bright paths and measured too little noise."""
+    if spp_b == spp_a or not (math.isfinite(floor_a_db) and math.isfinite(floor_b_db)):
+        return 1.0
+    return min(1.0, max(0.25, (floor_b_db - floor_a_db) / (10.0 * math.log10(spp_b / spp_a))))
 
 
 def split_spp(spp: int) -> tuple[int, int]:
