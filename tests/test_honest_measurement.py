@@ -275,6 +275,13 @@ def test_mitsuba_curve_labels_render_and_end_to_end_and_orders_them(monkeypatch)
     assert "caustic region's renders: render 2.00 s" in lines[0]
 
 
+def test_speed_against_mitsuba_reads_right_under_one():
+    from caustica.bench.harness import speed_text
+
+    assert [speed_text(r) for r in (219.4, 3.24, 0.315, 0.01)] == ["x219 faster", "x3.2 faster", "x3.2 slower",
+                                                                   "x100 slower"]
+
+
 # Glints --------------------------------------------------------------------------------------------------
 
 

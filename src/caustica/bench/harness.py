@@ -107,6 +107,14 @@ def first_reaching(curve: list[dict], key: str, error: float) -> dict | None:
     return next((c for c in curve if c[key] <= error), None)
 
 
+def speed_text(ratio: float) -> str:
+    """A technique's speed against Mitsuba's (``ratio``: Mitsuba's seconds over the technique's), in words: 'x219
+    faster', 'x3.2 faster', 'x3.2 slower' (a ratio under 1 is not 'x0 faster')."""
+    if ratio >= 1.0:
+        return f"x{ratio:.0f} faster" if ratio >= 10.0 else f"x{ratio:.1f} faster"
+    return f"x{1.0 / ratio:.1f} slower" if ratio > 0.1 else f"x{1.0 / ratio:.0f} slower"
+
+
 QUALITY_REGIONS = ("all", "contained", "glint", "refractor", "caustic", "rest")
 # The errors Mitsuba's needed spp is based on, with the suffix of their entries: the pixels the reference can
 # contain (the glints apart), and the caustic region.
@@ -182,7 +190,7 @@ def time_to_quality(scene, techniques, size, reference_spp, max_spp=256, frames=
             entry["speed_ratio" + suffix] = seconds * 1000.0 / entry["ms"] if reached else None
             log(f"{'':16s} {name:12s} {key} {entry[key]:.5f}: "
                 + (f"Mitsuba needs {reached['spp']} spp, {timing_label(reached, suffix)}: "
-                   f"x{entry['speed_ratio' + suffix]:.0f} faster (render to ms)"
+                   f"{speed_text(entry['speed_ratio' + suffix])} than Mitsuba's render"
                    if reached else f"Mitsuba does not reach it within {max_spp} spp"))
     if floor:
         log(f"{'':16s} reference noise floor ({halves[2]}+{halves[3]} spp halves): relMSE "
