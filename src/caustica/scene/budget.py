@@ -101,9 +101,9 @@ class SceneBudget:
         """Add one object drawing ``mesh`` (a Mesh, or anything with ``vertices`` and ``faces``): its
         triangles always, its bytes the first time this very mesh object is seen."""
         self.triangles += len(mesh.faces)
-        at = f" (at {where})" if where else ""
-        check_triangles(self.triangles, f"{self.source}'s objects hold{at}", self.error)
+        upto = f" up to {where}" if where else ""
+        check_triangles(self.triangles, f"{self.source}'s objects{upto} hold", self.error)
         if id(mesh) not in self._meshes:
             self._meshes[id(mesh)] = mesh
             self.bytes += mesh_bytes(len(mesh.vertices), len(mesh.faces))
-            check_bytes(self.bytes, f"{self.source}'s meshes take{at}", self.error)
+            check_bytes(self.bytes, f"{self.source}'s meshes{upto} take", self.error)

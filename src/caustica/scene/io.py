@@ -19,7 +19,9 @@ a scene as glTF or Mitsuba XML by the output's suffix.
 from __future__ import annotations
 
 import errno
+import functools
 import inspect
+import re
 import tomllib
 import warnings
 from pathlib import Path
@@ -27,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError, closest_name, short
-from . import rules
+from . import budget, rules
 from .camera import Camera, fov_y_from_fov_x
 from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment, procedural_environment
 from .gltf import GLTF_SUFFIXES
@@ -70,6 +72,7 @@ OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, 
                "rotation": VEC3, "scale": "scale", "material": "material"}
 GLTF_OBJECT_KEYS = {"gltf": STRING, "position": VEC3, "rotation": VEC3, "scale": "scale", "lights": BOOLEAN}
 EXPORT_SUFFIXES = GLTF_SUFFIXES + (".xml",)
+_OBJECT_HEADER = re.compile(r"^[ \t]*\[\[[ \t]*objects[ \t]*\]\]", re.MULTILINE)
 
 
 def load_scene(source: str | Path, camera: str | None = None) -> Scene:
@@ -152,10 +155,15 @@ def _read_toml(path: Path) -> dict:
         raise SceneError(f"scene file {path} is not UTF-8 text; save it as UTF-8 TOML") from None
     except OSError as exc:
         raise SceneError(f"cannot read scene file {path}: {exc.strerror or exc}; check its permissions") from None
+    # The object budget before the parse, which takes about 50 microseconds an object.
+    budget.check_objects(len(_OBJECT_HEADER.findall(text)), f"scene file {path} has")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"TOML syntax error in {path}: {str(exc).splitlines()[0]}; fix the scene file") from None
+    except RecursionError:  # tomllib recurses once per level of nested arrays or inline tables
+        raise SceneError(f"scene file {path} nests arrays or inline tables too deeply for the TOML parser; "
+                         "flatten the scene file (scenes need at most a few levels)") from None
 
 
 def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "scene",
@@ -380,6 +388,7 @@ def _texture(value: str, base_dir: Path, where: str):
     return load_texture(base_dir / _path(value, where), where)
 
 
+@functools.cache
 def _shape_keys(shape: str) -> dict:
     """The parameters a shape takes (from its function signature) and their kinds (from the defaults)."""
     keys = {}
@@ -398,14 +407,20 @@ def _shape_keys(shape: str) -> dict:
 
 def _objects(entries: list[dict], base_dir: Path, imports: list) -> list[SceneObject]:
     """The objects of ``[[objects]]``; each ``gltf`` entry's file contents are appended to ``imports``
-    as (GltfScene, whether its lights are wanted)."""
+    as (GltfScene, whether its lights are wanted). The scene's budget (scene/budget.py) is checked before
+    any object is built (their count) and as each mesh is known (triangles, bytes); equal shapes and mesh
+    files share one Mesh."""
     objects, meshes, owner = [], {}, {}
+    totals = budget.SceneBudget("the scene")
+    totals.objects(len(entries))
     for i, data in enumerate(entries):
         where = f"objects[{i}]"
         if isinstance(data, dict) and "gltf" in data:
             imported, with_lights = _gltf_entry(data, where, base_dir)
             imports.append((imported, with_lights))
+            totals.objects(len(imported.objects) - 1)  # the entry was counted as one
             for obj in imported.objects:
+                totals.mesh(obj.mesh, where)
                 base, n = obj.name, 2
                 while obj.name in owner:
                     obj.name, n = f"{base}-{n}", n + 1
@@ -413,6 +428,7 @@ def _objects(entries: list[dict], base_dir: Path, imports: list) -> list[SceneOb
                 objects.append(obj)
             continue
         obj = _object(data, where, base_dir, meshes)
+        totals.mesh(obj.mesh, where)
         if obj.name in owner:
             if "name" in data:
                 raise SceneError(f"{where}.name {short(obj.name)} is already used by {owner[obj.name]}; "
@@ -441,7 +457,8 @@ def _gltf_entry(data: dict, where: str, base_dir: Path):
     return read_gltf(path, placement), table.get("lights", BOOLEAN, True)
 
 
-def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) -> SceneObject:
+def _object(data: dict, where: str, base_dir: Path, meshes: dict) -> SceneObject:
+    """One ``[[objects]]`` entry; ``meshes`` holds the meshes made so far, by file path or shape and parameters."""
     if not isinstance(data, dict):
         raise SceneError(f"{where} must be a table")
     # What the geometry is decides which keys are allowed.
@@ -458,7 +475,11 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict[Path, Mesh]) ->
         raise SceneError(f"{where} has both center and position; give only one of them")
     with rules.context(where, table.keys):
         if shape:
-            mesh = _shape(shape, {key: table.get(key, kind) for key, kind in shape_keys.items() if key in table}, where)
+            params = {key: table.get(key, kind) for key, kind in shape_keys.items() if key in table}
+            key = (shape, *sorted((k, np.asarray(v).tobytes()) for k, v in params.items()))
+            if key not in meshes:
+                meshes[key] = _shape(shape, params, where)
+            mesh = meshes[key]
         else:
             path = (base_dir / _path(table.get("mesh", STRING), f"{where}.mesh")).resolve()
             if path.suffix.lower() in GLTF_SUFFIXES:
