@@ -17,7 +17,8 @@ import numpy as np
 from caustica.raytrace.embree_scene import RayScene
 from caustica.raytrace.paths import trace
 from caustica.scene import Camera, Glass, Scene, SceneObject
-from caustica.scene.mesh import Mesh, load_mesh
+from caustica.scene.mesh import Mesh
+from caustica.scene.mesh_files import load_mesh
 from caustica.scene.shapes import sphere
 
 BUNNY = Path(__file__).resolve().parents[2] / "shared" / "data" / "models" / "stanford-bunny.obj"

@@ -39,7 +39,7 @@ from caustica.reference.render import render_reference
 from caustica.renderer import Renderer
 from caustica.scene import Camera, Diffuse, Glass, PointLight, Scene, SceneObject, Transform
 from caustica.scene.environment import procedural_environment
-from caustica.scene.mesh import load_mesh
+from caustica.scene.mesh_files import load_mesh
 from caustica.scene.shapes import box, cylinder, plane, sphere, torus, torus_knot
 
 MODELS = Path(__file__).resolve().parents[2] / "shared" / "data" / "models"

@@ -22,7 +22,7 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "models"
 
 
 def meshes():
-    from caustica.scene.mesh import load_mesh
+    from caustica.scene.mesh_files import load_mesh
     from caustica.scene.shapes import sphere, torus
 
     yield "sphere", sphere(0.5, subdivisions=5)

@@ -273,7 +273,7 @@ def test_cli_precompute_writes_a_table_and_refuses_bad_input(tmp_path, capsys):
 def test_bunny_table_precomputes(data_dir):
     """The 69K-triangle scan precomputes a table for every vertex (its time is a benchmark:
     bench/bench_transport.py, docs/benchmarks.md; a wall-clock bound here was flaky under load)."""
-    from caustica.scene.mesh import load_mesh
+    from caustica.scene.mesh_files import load_mesh
 
     mesh = load_mesh(data_dir / "models" / "stanford-bunny.obj")
     table = precompute_table(mesh, IOR, 129, progress=False)

@@ -56,7 +56,7 @@ _LAZY = {
     "SceneObject": ".scene.scene",
     "Transform": ".scene.transform",
     "Mesh": ".scene.mesh",
-    "load_mesh": ".scene.mesh",
+    "load_mesh": ".scene.mesh_files",
     "Glass": ".scene.materials",
     "Diffuse": ".scene.materials",
     "Mirror": ".scene.materials",

@@ -722,7 +722,7 @@ def cmd_export(args) -> int:
 
 
 def cmd_precompute(args) -> int:
-    from .scene.mesh import load_mesh
+    from .scene.mesh_files import load_mesh
     from .transport.compress import quantization_errors, quantize, save_table, table_bytes
     from .transport.precompute import DirectionGrid, precompute_table
     from .transport.runtime import table_mesh, table_path

@@ -3,7 +3,8 @@ from .camera import Camera, fov_x_from_fov_y, fov_y_from_fov_x
 from .environment import Environment, direction_to_uv, load_environment, procedural_environment, uv_to_direction
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
-from .mesh import Mesh, load_mesh
+from .mesh import Mesh
+from .mesh_files import load_mesh
 from .scene import Scene, SceneObject
 from .transform import Transform
 

@@ -35,7 +35,8 @@ from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment,
 from .gltf import GLTF_SUFFIXES
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
-from .mesh import Mesh, load_mesh
+from .mesh import Mesh
+from .mesh_files import load_mesh
 from .scene import Scene, SceneObject
 from .shapes import SHAPES
 from .textures import PROCEDURAL_TEXTURES, load_texture, procedural_texture

@@ -5,11 +5,10 @@ Meshes are pure data (numpy); the GPU and Embree layers upload them as needed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError, first_line, short
+from ..errors import MeshError, short
 from . import rules
 from .transform import normal_matrix
 
@@ -457,42 +456,3 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(n, axis=1, keepdims=True)
     n = np.where(length > 1e-30, n / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
     return n.astype(np.float32)
-
-
-def load_mesh(path: str | Path) -> Mesh:
-    """Read OBJ, PLY, STL, OFF or glTF/GLB geometry through trimesh (scenes are merged), with the
-    file's texture coordinates where it has them."""
-    path = Path(path)
-    if not path.exists():
-        raise MeshError(f"mesh file not found: {path}; check the path (relative paths are relative to the scene file)")
-    if path.suffix.lower() not in SUPPORTED_MESH_SUFFIXES:
-        raise MeshError(
-            f"unsupported mesh format '{path.suffix}' for {path}; use one of {', '.join(SUPPORTED_MESH_SUFFIXES)}"
-        )
-    if path.suffix.lower() in (".obj", ".off"):  # text formats: trimesh would guess an encoding
-        try:
-            path.read_bytes().decode("utf-8")
-        except UnicodeDecodeError:
-            raise MeshError(f"mesh file {path} is not UTF-8 text; save it as UTF-8 (or ASCII) {path.suffix}") from None
-        except OSError:
-            pass  # trimesh reports it below
-    import trimesh
-
-    try:
-        # Unprocessed first: processing silently drops the faces of non-finite vertices.
-        loaded = trimesh.load(str(path), force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types on malformed files
-        raise MeshError(f"cannot read mesh {path}: {first_line(exc)}; check the file") from None
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(f"mesh file {path} holds no triangles; give a mesh with at least one triangle")
-    check_positions(np.asarray(loaded.vertices, dtype=np.float64), f"mesh file {path}")
-    check_faces(np.asarray(loaded.faces), len(loaded.vertices), f"mesh file {path}")
-    loaded.process()
-    vertices = np.asarray(loaded.vertices)
-    faces = np.asarray(loaded.faces)
-    uv = getattr(loaded.visual, "uv", None)  # trimesh's convention, v upwards (OBJ's, PLY's; glTF's it turns)
-    uvs = None
-    if uv is not None and len(uv) == len(vertices):
-        uv = np.asarray(uv, dtype=np.float64)
-        uvs = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])  # Mesh.uvs: v downwards from the image's top
-    return Mesh(vertices, vertex_normals(vertices, faces), faces, name=path.stem, uvs=uvs)

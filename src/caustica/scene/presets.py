@@ -11,7 +11,8 @@ from .camera import Camera
 from .environment import Environment, procedural_environment, sky_checker
 from .lights import DirectionalLight, PointLight, SpotLight
 from .materials import Diffuse, Glass, Mirror, water
-from .mesh import Mesh, load_mesh
+from .mesh import Mesh
+from .mesh_files import load_mesh
 from .presets_impostors import IMPOSTOR_PRESETS
 from .presets_per_vertex import PER_VERTEX_PRESETS
 from .presets_transport import TRANSPORT_PRESETS
