@@ -482,14 +482,15 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict) -> SceneObject
                 meshes[key] = _shape(shape, params, where)
             mesh = meshes[key]
         else:
-            path = (base_dir / _path(table.get("mesh", STRING), f"{where}.mesh")).resolve()
+            path = base_dir / _path(table.get("mesh", STRING), f"{where}.mesh")
             if path.suffix.lower() in GLTF_SUFFIXES:
                 warnings.warn(f"{where}.mesh {short(path.name)} merges the glTF's nodes into one mesh with this "
                               f"entry's one material; write gltf = {path.name!r} to keep its objects, materials "
                               "and lights", stacklevel=2)
-            if path not in meshes:
-                meshes[path] = load_mesh(path)
-            mesh = meshes[path]
+            key = path.resolve()  # one Mesh per file, however it is named; messages name it as written
+            if key not in meshes:
+                meshes[key] = load_mesh(path)
+            mesh = meshes[key]
         transform = Transform(
             position=table.get("position" if "position" in table else "center", VEC3, np.zeros(3)),
             rotation=table.get("rotation", VEC3, np.zeros(3)),

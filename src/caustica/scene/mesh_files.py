@@ -10,13 +10,14 @@ file, the problem and the fix, never the parser's internals.
 """
 from __future__ import annotations
 
+import logging
 import re
 import struct
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError, first_line
+from ..errors import MeshError
 from ..input_files import described, path_kind
 from . import budget, rules
 from .gltf import GLTF_SUFFIXES
@@ -75,10 +76,15 @@ def _trimesh_mesh(path: Path, label: str) -> Mesh:
     """The file through trimesh, unprocessed first (processing silently drops the faces of non-finite vertices)."""
     import trimesh
 
+    quiet = logging.getLogger("trimesh")
+    level, quiet.level = quiet.level, logging.CRITICAL + 1  # it logs tracebacks of what it recovers from
     try:
         loaded = trimesh.load(str(path), file_type=path.suffix.lower()[1:], force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types on malformed files
-        raise MeshError(f"cannot read {label}: {first_line(exc)}; {_REPAIR}") from None
+    except Exception:  # trimesh raises many types on malformed files, in numpy's words (not the user's)
+        raise MeshError(f"cannot read {label}: its {path.suffix.lower()[1:].upper()} data is malformed (a value that "
+                        f"is not a number, or rows that do not match its header); {_REPAIR}") from None
+    finally:
+        quiet.setLevel(level)
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{label} holds no triangles; give a mesh with at least one triangle")
     vertices = np.asarray(loaded.vertices, dtype=np.float64)
@@ -342,6 +348,10 @@ def _check_off(data: bytes, label: str) -> None:
         if declared < 3 or len(words) - 1 < declared:
             raise MeshError(f"cannot read {label}: face {row} declares {words[0][:20]!r} indices and gives {len(words) - 1}; "
                             f"a face needs a count of at least three and that many indices; {_REPAIR}")
+        wrong = next((word for word in words[1:declared + 1] if not word.isdigit() or int(word) >= vertices), None)
+        if wrong is not None:
+            raise MeshError(f"cannot read {label}: face {row} has index {wrong[:20]!r}, not one of its {vertices:,} "
+                            f"vertices (0 to {vertices - 1:,}); {_REPAIR}")
 
 
 _CHECKS = {".obj": _check_obj, ".ply": _check_ply, ".stl": _check_stl, ".off": _check_off}
