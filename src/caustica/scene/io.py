@@ -196,6 +196,8 @@ def parse_scene(data: dict, base_dir: str | Path = ".", default_name: str = "sce
                          "drop the camera name or set [camera] in the scene")
     if imports and (camera is not None or "camera" not in top):
         scene.camera = choose_camera([g for g, _ in imports], camera, scene.bounds())
+    if imports:  # what export writes back of the glTF files' parts (scene/gltf/origin.py)
+        scene.gltf = functools.reduce(lambda a, b: a.merged(b), [g.origin for g, _ in imports])
     return scene
 
 

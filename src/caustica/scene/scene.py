@@ -82,8 +82,9 @@ class SceneObject:
 @dataclass
 class Scene:
     """Everything one frame renders: camera, objects, lights and environment (radiance scaled by
-    ``intensity_scale``). Pure data; the ``with_camera``, ``orbited`` and ``replace_object`` methods return
-    new scenes that share the untouched parts."""
+    ``intensity_scale``; ``gltf``: what a glTF file said that export writes back). Pure data; the
+    ``with_camera``, ``orbited`` and ``replace_object`` methods return new scenes that share the untouched
+    parts."""
 
     camera: Camera = field(default_factory=Camera)
     objects: list[SceneObject] = field(default_factory=list)
@@ -91,6 +92,7 @@ class Scene:
     environment: Environment = field(default_factory=lambda: procedural_environment("sky-checker"))
     intensity_scale: float = 1.0
     name: str = "scene"
+    gltf: object | None = field(default=None, repr=False, compare=False)  # scene/gltf/origin.py: what export keeps
 
     def validate(self) -> "Scene":
         """Check every part with the TOML loader's rules (scene/rules.py and each part's ``validate``), for a

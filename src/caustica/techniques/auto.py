@@ -39,6 +39,7 @@ from ..passes.convex_exits import convex_shape
 from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
                                         lobe_occlusion, scene_floor)
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
+from ..scene.gltf.origin import thin_walled_glass, thin_walled_note
 from ..scene.scene import invisible_objects, without_invisible_glass
 from .base import Params, Technique, get_technique, param
 
@@ -246,6 +247,9 @@ def _plan_visible(scene, quality: str, frame_size) -> Plan:
                      f"{BOUNCE_VIEW[0]}x{BOUNCE_VIEW[1]})")
     if not objects:
         notes.append("the scene has no objects: the environment alone")
+    thin = thin_walled_glass(scene)
+    if thin:
+        notes.append(thin_walled_note(thin))
     return Plan(technique, params, quality, entries, notes)
 
 

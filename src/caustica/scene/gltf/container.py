@@ -12,8 +12,10 @@ from __future__ import annotations
 import base64
 import binascii
 import json
+import math
 import re
 import struct
+import sys
 import urllib.parse
 from pathlib import Path
 
@@ -28,6 +30,7 @@ COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9
 COMPONENT_TYPES = {5120: "<i1", 5121: "<u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
 _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
 _FIX = "re-export the file"
+_FLOAT_MAX = sys.float_info.max
 
 
 class GltfFile:
@@ -38,6 +41,7 @@ class GltfFile:
         self.path, self.doc, self.binary = path, doc, binary
         self.folder = path.parent.resolve()
         self._buffers: dict[int, memoryview] = {}
+        self._checked: dict[str, list[dict]] = {}  # top-level arrays whose entries were checked once
 
     # Errors and JSON values ------------------------------------------------------
 
@@ -45,10 +49,14 @@ class GltfFile:
         return kind(f"{self.path.name}: {message}")
 
     def items(self, name: str) -> list[dict]:
-        """The top-level array ``name`` (``nodes``, ``meshes``...), each entry a JSON object."""
+        """The top-level array ``name`` (``nodes``, ``meshes``...), each entry a JSON object (checked once)."""
+        checked = self._checked.get(name)
+        if checked is not None:
+            return checked
         value = self.doc.get(name, [])
         if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
             raise self.error(f"'{name}' must be an array of objects; {_FIX}")
+        self._checked[name] = value
         return value
 
     def item(self, name: str, index, where: str) -> dict:
@@ -67,7 +75,7 @@ class GltfFile:
 
     def numbers(self, obj: dict, key: str, count: int, default, where: str) -> np.ndarray:
         value = obj.get(key, default)
-        if not (isinstance(value, list) and len(value) == count and all(rules.finite(v) for v in value)):
+        if not (isinstance(value, list) and len(value) == count and all(map(_json_finite, value))):
             raise self.error(f"{where}.{key} must be {count} numbers (got {short(value)}); {_FIX}")
         return np.array(value, dtype=np.float64)
 
@@ -226,6 +234,13 @@ class GltfFile:
         return decode_texture(data, label, f"{here} texture")
 
 
+def _json_finite(value) -> bool:
+    """Whether a JSON value is a finite number (bools are not): a fast rules.finite for parsed JSON,
+    whose numbers are Python ints and floats (an int beyond float range is not finite)."""
+    kind = type(value)
+    return (kind is float and math.isfinite(value)) or (kind is int and -_FLOAT_MAX <= value <= _FLOAT_MAX)
+
+
 def _is_index(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= 0
 
@@ -254,6 +269,9 @@ def open_gltf(path: Path) -> GltfFile:
     except json.JSONDecodeError as exc:
         raise SceneError(f"{path.name}: the glTF JSON is malformed ({exc.msg} at line {exc.lineno}); "
                          "re-export the file") from None
+    except RecursionError:  # the JSON parser recurses once per level of nested arrays and objects
+        raise SceneError(f"{path.name}: the glTF JSON nests arrays or objects too deeply to parse; re-export the "
+                         "file (glTF needs a few levels)") from None
     if not isinstance(doc, dict):
         raise SceneError(f"{path.name}: the glTF JSON must be an object; re-export the file")
     version = doc.get("asset", {}).get("version") if isinstance(doc.get("asset"), dict) else None

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import MeshError, SceneError, closest_name, first_line, short
-from .. import rules
+from .. import budget, rules
 from ..camera import Camera
 from ..lights import DirectionalLight, PointLight, SpotLight
 from ..materials import Diffuse, Glass, Mirror
@@ -25,6 +25,7 @@ from ..scene import SceneObject
 from ..transform import Transform
 from .container import GltfFile, open_gltf
 from .matrices import transform_of, trs_matrix
+from .origin import CameraOrigin, GltfOrigin, LightOrigin, MaterialOrigin
 from .units import radiometric
 
 SUPPORTED_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
@@ -38,6 +39,9 @@ MAX_SPOT_OUTER = 89.9  # degrees: caustica's outer cone stays below 90
 FLOAT, BYTE, UBYTE, SHORT, USHORT, UINT = 5126, 5120, 5121, 5122, 5123, 5125
 TRIANGLES = 4
 DEGENERATE_DETERMINANT = 1e-24  # a node world matrix scaling volumes by less draws nothing (scale 0 hides a node)
+GLASS_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                    "KHR_materials_dispersion")  # what caustica's Glass models (export writes them from it)
+TRANSFORM_KEYS = ("matrix", "translation", "rotation", "scale")
 _MODES = {0: "points", 1: "lines", 2: "line loops", 3: "line strips", 5: "triangle strips", 6: "triangle fans"}
 _NAMES_SHOWN = 3
 
@@ -55,13 +59,17 @@ class GltfCamera:
 
 @dataclass
 class GltfScene:
-    """What a glTF file holds, in caustica's terms (the camera is made once the scene bounds are known)."""
+    """What a glTF file holds, in caustica's terms (the camera is made once the scene bounds are known);
+    ``origin``: what export writes back; ``environment``: caustica's ``extras.caustica.environment`` (a
+    TOML [environment] table), or None."""
 
     name: str
     objects: list[SceneObject] = field(default_factory=list)
     lights: list = field(default_factory=list)
     cameras: list[GltfCamera] = field(default_factory=list)
     source: str = ""
+    origin: GltfOrigin = field(default_factory=GltfOrigin)
+    environment: dict | None = None
 
 
 def read_gltf(path: str | Path, placement: np.ndarray | None = None) -> GltfScene:
@@ -111,12 +119,29 @@ class _Reader:
         for name in f.table(f.doc, "extensions", "the document"):
             if name not in SUPPORTED_EXTENSIONS:
                 self.note(name, "the document")
+        budget.check_nodes(len(f.items("nodes")), f"{f.path.name} has")
         scene_name, roots = self._roots()
-        result = GltfScene(name=scene_name, source=str(f.path))
+        result = GltfScene(name=scene_name, source=str(f.path), environment=self._environment())
+        result.origin.extensions_required = [e for e in required if isinstance(e, str)] \
+            if isinstance(required, list) else []
         self._lights_table = f.table(f.table(f.doc, "extensions", "the document"), "KHR_lights_punctual",
                                      "extensions").get("lights", [])
+        placed = self._hierarchy(roots, placement, result)
+        self.budget = self._check_budget(placed)
+        for index, node, label, world in placed:
+            named = isinstance(node.get("name"), str) and node["name"].strip()
+            self._mesh_objects(node["mesh"], f"nodes[{index}].mesh", label, None if named else f"node{index}",
+                               world, result)
+        return result
+
+    def _hierarchy(self, roots: list, placement: np.ndarray, result: GltfScene) -> list[tuple]:
+        """Walk the node tree once (iteratively, each node once): lights and cameras go into ``result``;
+        returns (index, node, label, world) of the nodes with a mesh, in document order of the walk."""
+        f = self.file
+        nodes = f.items("nodes")
         stack = [(index, placement) for index in reversed(roots)]
         seen: set[int] = set()
+        placed = []
         while stack:
             index, parent = stack.pop()
             node = f.item("nodes", index, "a node reference")
@@ -124,16 +149,41 @@ class _Reader:
                 raise f.error(f"nodes[{index}] is reached twice in the hierarchy (a cycle, or a node with two "
                               "parents); re-export the file")
             seen.add(index)
-            world = parent @ self._local_matrix(node, f"nodes[{index}]")
+            world = self._world(parent, node, f"nodes[{index}]")
             label = f.name(node, f"nodes[{index}]")
             self._node(node, index, label, world, result)
+            if "mesh" in node:
+                placed.append((index, node, label, world))
             children = node.get("children", [])
             if not isinstance(children, list):
                 raise f.error(f"nodes[{index}].children must be an array of node indices; re-export the file")
             for child in reversed(children):
-                f.item("nodes", child, f"nodes[{index}].children")
+                if not _index_in(child, nodes):
+                    f.item("nodes", child, f"nodes[{index}].children")  # raises, naming the reference
                 stack.append((child, world))
-        return result
+        return placed
+
+    def _check_budget(self, placed: list[tuple]) -> budget.SceneBudget:
+        """Refuse, before any mesh is built, a file whose mesh nodes would make more objects than
+        scene/budget.py allows; the budget returned then counts triangles and bytes as meshes are built."""
+        meshes = self.file.items("meshes")
+        objects = 0
+        for _, node, _, _ in placed:
+            mesh = node["mesh"]
+            primitives = meshes[mesh].get("primitives") if _index_in(mesh, meshes) else None
+            objects += sum(isinstance(p, dict) and p.get("mode", TRIANGLES) == TRIANGLES
+                           for p in (primitives if isinstance(primitives, list) else []))
+        scene_budget = budget.SceneBudget(self.file.path.name)
+        scene_budget.objects(objects)
+        return scene_budget
+
+    def _environment(self) -> dict | None:
+        """The document's ``extras.caustica.environment`` table (caustica's export writes it), or None."""
+        table = _caustica_extras(self.file.doc).get("environment")
+        if table is not None and not isinstance(table, dict):
+            raise self.file.error(f"extras.caustica.environment {short(table)} must be a JSON object; re-export "
+                                  "the file")
+        return table
 
     def _roots(self) -> tuple[str, list[int]]:
         """The scene's name and root nodes: ``scene`` (default 0) of ``scenes``, or every parentless node."""
@@ -150,15 +200,25 @@ class _Reader:
                     for c in node["children"] if isinstance(c, int)}
         return f.path.stem, [i for i in range(len(f.items("nodes"))) if i not in children]
 
+    def _world(self, parent: np.ndarray, node: dict, where: str) -> np.ndarray:
+        """The node's world matrix: ``parent`` itself for a node without a transform (most of a big file)."""
+        if not any(key in node for key in TRANSFORM_KEYS):
+            return parent
+        return parent @ self._local_matrix(node, where)
+
     def _local_matrix(self, node: dict, where: str) -> np.ndarray:
         f = self.file
         if "matrix" in node:
             return f.numbers(node, "matrix", 16, None, where).reshape(4, 4).T  # column-major
+        translation = f.numbers(node, "translation", 3, [0.0, 0.0, 0.0], where)
+        if "rotation" not in node and "scale" not in node:  # the common case of a big file: a shift
+            local = np.eye(4)
+            local[:3, 3] = translation
+            return local
         rotation = f.numbers(node, "rotation", 4, [0.0, 0.0, 0.0, 1.0], where)
-        if np.linalg.norm(rotation) < 1e-12:
+        if math.hypot(*rotation) < 1e-12:
             raise f.error(f"{where}.rotation {short(rotation)} is not a unit quaternion; re-export the file")
-        return trs_matrix(f.numbers(node, "translation", 3, [0.0, 0.0, 0.0], where), rotation,
-                          f.numbers(node, "scale", 3, [1.0, 1.0, 1.0], where))
+        return trs_matrix(translation, rotation, f.numbers(node, "scale", 3, [1.0, 1.0, 1.0], where))
 
     def _node(self, node: dict, index: int, label: str, world: np.ndarray, result: GltfScene) -> None:
         f = self.file
@@ -173,7 +233,10 @@ class _Reader:
                 self.note(name, label)
         if "KHR_lights_punctual" in extensions:
             light = f.table(extensions, "KHR_lights_punctual", f"{where}.extensions").get("light")
-            result.lights.append(self._light(light, f"{where}.extensions.KHR_lights_punctual.light", label, world))
+            made = self._light(light, f"{where}.extensions.KHR_lights_punctual.light", label, world)
+            result.lights.append(made)
+            result.origin.add("lights", made, LightOrigin(_name_or_none(self._lights_table[light]),
+                                                          _name_or_none(node)))
         if "camera" in node:
             camera = f.item("cameras", node["camera"], f"{where}.camera")
             if camera.get("type") == "perspective":
@@ -183,9 +246,6 @@ class _Reader:
             else:
                 self.note(f"{camera.get('type')} cameras" if isinstance(camera.get("type"), str) else
                           "cameras without a type", label)
-        if "mesh" in node:
-            named = isinstance(node.get("name"), str) and node["name"].strip()
-            self._mesh_objects(node["mesh"], f"{where}.mesh", label, None if named else f"node{index}", world, result)
 
     # Meshes -----------------------------------------------------------------------
 
@@ -215,7 +275,8 @@ class _Reader:
             for name in f.table(primitive, "extensions", f"meshes[{mesh_index}].primitives[{k}]"):
                 self.note(name, label)
             geometry = self._primitive(mesh_index, k, primitive, f.name(mesh, f"mesh{mesh_index}"))
-            material = self._material_for(primitive, label, geometry)
+            self.budget.mesh(geometry, f"{where}.primitives[{k}]")
+            material = self._material_for(primitive, label, geometry, result.origin)
             base = label if unnamed is None else f.name(mesh, unnamed)
             name = self._unique(f"{base}.{k}" if len(triangles) > 1 else base)
             transform = transform_of(world)
@@ -289,13 +350,14 @@ class _Reader:
 
     # Materials --------------------------------------------------------------------
 
-    def _material_for(self, primitive: dict, label: str, mesh: Mesh):
+    def _material_for(self, primitive: dict, label: str, mesh: Mesh, origin: GltfOrigin):
         if "material" not in primitive:
             return Diffuse()
         index = primitive["material"]
         entry = self.file.item("materials", index, "a primitive's material")
         if index not in self.materials:
             self.materials[index] = self._material(entry, f"materials[{index}]")
+            origin.add("materials", self.materials[index][0], _material_origin(entry, self.materials[index][0]))
         material, features = self.materials[index]
         for feature in features:
             self.note(feature, label)
@@ -425,6 +487,21 @@ class _Reader:
         raise f.error(f"{here}.type {short(kind)} must be point, spot or directional; re-export the file")
 
 
+def _name_or_none(obj: dict) -> str | None:
+    name = obj.get("name")
+    return name if isinstance(name, str) else None
+
+
+def _material_origin(entry: dict, material) -> MaterialOrigin:
+    """What export keeps of a glTF material: name, doubleSided and the extensions caustica does not write
+    from ``material`` (for glass, all but GLASS_EXTENSIONS; for other kinds, all)."""
+    extensions = entry.get("extensions", {})
+    glass = isinstance(material, Glass)
+    carried = {name: data for name, data in extensions.items() if not (glass and name in GLASS_EXTENSIONS)}
+    return MaterialOrigin(_name_or_none(entry), entry.get("doubleSided") is True, carried,
+                          thin_walled=glass and "KHR_materials_volume" not in extensions)
+
+
 def _caustica_extras(obj: dict) -> dict:
     """``obj.extras.caustica`` (what caustica's exporter keeps), or {}: extras may hold anything."""
     extras = obj.get("extras")
@@ -454,20 +531,29 @@ def camera_names(imports: list[GltfScene]) -> list[str]:
 def choose_camera(imports: list[GltfScene], name: str | None, bounds: np.ndarray) -> Camera:
     """The glTF camera called ``name`` (a camera's or its node's name), else the first one; without any,
     a camera framing ``bounds`` (said in a warning)."""
-    cameras = [c for g in imports for c in g.cameras]
+    cameras = [(g, c) for g in imports for c in g.cameras]
     if name is not None:
-        chosen = [c for c in cameras if name in (c.name, c.node_name)]
+        chosen = [(g, c) for g, c in cameras if name in (c.name, c.node_name)]
         if not chosen:
             names = camera_names(imports) or ["none"]
             raise SceneError(f"camera {short(name)} not found{closest_name(name, names)}; the glTF cameras are: "
                              f"{', '.join(map(repr, names[:10]))}")
-        return gltf_camera(chosen[0], bounds)
+        return _recorded_camera(*chosen[0], bounds)
     if cameras:
-        return gltf_camera(cameras[0], bounds)
+        return _recorded_camera(*cameras[0], bounds)
     source = ", ".join(Path(g.source).name for g in imports)
     warnings.warn(f"{source} has no camera: a camera frames the scene from +Z and above "
                   "(add one in the file, or a [camera] table in a TOML scene)", stacklevel=3)
     return framing_camera(bounds)
+
+
+def _recorded_camera(imported: GltfScene, camera: GltfCamera, bounds: np.ndarray) -> Camera:
+    """:func:`gltf_camera`, its names and extras keys recorded in the file's origin for export."""
+    made = gltf_camera(camera, bounds)
+    focus = float(np.linalg.norm(np.asarray(made.look_at) - np.asarray(made.position)))
+    imported.origin.add("cameras", made, CameraOrigin(camera.name, camera.node_name, frozenset(camera.extras),
+                                                      tuple(made.size), focus, dict(camera.fields)))
+    return made
 
 
 def gltf_camera(camera: GltfCamera, bounds: np.ndarray) -> Camera:

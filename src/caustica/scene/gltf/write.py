@@ -4,8 +4,10 @@ One node per object (TRS from its Transform) with one mesh primitive (POSITION, 
 uint32 or uint16 indices), materials with KHR_materials_transmission / _ior / _volume / _dispersion,
 KHR_lights_punctual lights in photometric units, the camera, and textures as embedded PNG. ``.glb``
 holds one binary chunk; ``.gltf`` embeds the same buffer as a base64 data URI, so either is one
-self-contained file. What glTF cannot say (the environment, line lights, colours above 1) is said in
-one warning.
+self-contained file. A scene read from glTF keeps what its file said (scene/gltf/origin.py): names,
+doubleSided, the extensions caustica does not render, extensionsRequired. The environment goes into
+``extras.caustica.environment``, which only caustica reads; that, and what glTF cannot say (line lights,
+colours above 1), is said in one warning.
 """
 from __future__ import annotations
 
@@ -26,11 +28,12 @@ from ..materials import Diffuse, Glass, Mirror
 from ..transform import rotation_from_euler_degrees, up_hint
 from .container import GLB_BIN, GLB_JSON, GLB_MAGIC
 from .matrices import quaternion_from_matrix
+from .origin import aspect_ratio, camera_extras, origin_of
 from .units import photometric
 
 FLOAT, USHORT, UINT = 5126, 5123, 5125
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
-DEFAULT_ENVIRONMENT = "procedural:sky-checker"
+PROCEDURAL = "procedural:"
 
 
 def write_gltf(scene, path: str | Path) -> Path:
@@ -39,7 +42,7 @@ def write_gltf(scene, path: str | Path) -> Path:
     binary = path.suffix.lower() == ".glb"
     if path.suffix.lower() not in (".glb", ".gltf"):
         raise OutputError(f"glTF output '{path.name}' must end in .glb or .gltf")
-    writer = _Writer(scene)
+    writer = _Writer(scene, path.parent)
     doc, blob = writer.document()
     if writer.notes:
         warnings.warn(f"{path.name}: {'; '.join(writer.notes)}", stacklevel=3)
@@ -80,8 +83,9 @@ def frame_quaternion(forward, up=None) -> list[float]:
 
 
 class _Writer:
-    def __init__(self, scene):
-        self.scene = scene
+    def __init__(self, scene, folder: Path):
+        self.scene, self.folder = scene, folder
+        self.origin = origin_of(scene)
         self.blob = bytearray()
         self.doc: dict = {"asset": {"version": "2.0", "generator": _generator()}, "scene": 0,
                           "scenes": [{"name": scene.name, "nodes": []}], "nodes": [], "meshes": [],
@@ -105,17 +109,30 @@ class _Writer:
         self._camera()
         for i, light in enumerate(scene.lights):
             self._light(light, i)
-        if scene.environment.source != DEFAULT_ENVIRONMENT or scene.intensity_scale != 1.0:
-            self.notes.insert(0, f"the environment ({scene.environment.source}, times intensity_scale "
-                              f"{scene.intensity_scale:g}) is not part of glTF: give it again with --environment or "
-                              "a TOML [environment] (lights carry intensity_scale)")
+        self._environment()
         doc["buffers"].append({"byteLength": len(self.blob)})
         if self.used:
             doc["extensionsUsed"] = sorted(self.used)
+        required = [e for e in self.origin.extensions_required if e in self.used]
+        if required:
+            doc["extensionsRequired"] = required
         for key in ("materials", "meshes", "accessors", "bufferViews"):
             if not doc[key]:
                 del doc[key]
         return doc, bytes(self.blob)
+
+    def _environment(self) -> None:
+        """The environment as a TOML [environment] table in ``extras.caustica.environment`` (intensity_scale
+        baked into its strength, as the lights carry it), said in the warning; nothing for the default one."""
+        env, scale = self.scene.environment, float(self.scene.intensity_scale)
+        table = environment_table(env, scale, self.folder)
+        if table is None:
+            self.notes.insert(0, f"the environment ({env.describe()}) is not kept: it has no file or procedural "
+                              "source glTF can name; give it again with --environment or a TOML [environment]")
+        elif table:
+            self.doc.setdefault("extras", {}).setdefault("caustica", {})["environment"] = table
+            self.notes.insert(0, f"the environment ({env.describe()}{f', times {scale:g}' if scale != 1 else ''}) "
+                              "is kept in extras.caustica, which caustica reads back and other glTF readers ignore")
 
     def _add_node(self, node: dict) -> None:
         self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]))
@@ -171,11 +188,14 @@ class _Writer:
     def _material(self, material, obj, where: str) -> int:
         if id(material) in self.materials:
             return self.materials[id(material)]
-        entry: dict = {"name": f"{obj.name}-{material.kind}"}
+        origin = self.origin.of("materials", material)
+        entry: dict = {"name": origin.name if origin and origin.name is not None else f"{obj.name}-{material.kind}"}
+        if origin and origin.double_sided:
+            entry["doubleSided"] = True
         if isinstance(material, Glass):
             entry["pbrMetallicRoughness"] = {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,
                                              "roughnessFactor": 0.0}
-            entry["extensions"] = self._glass(material, obj, where)
+            entry["extensions"] = self._glass(material, obj, where, thin_walled=bool(origin and origin.thin_walled))
         elif isinstance(material, Mirror):
             entry["pbrMetallicRoughness"] = {"baseColorFactor": _clamped(material.color, where, self.notes) + [1.0],
                                              "metallicFactor": 1.0, "roughnessFactor": 0.0}
@@ -185,19 +205,37 @@ class _Writer:
             if material.texture is not None:
                 pbr["baseColorTexture"] = {"index": self._texture(material.texture)}
             entry["pbrMetallicRoughness"] = pbr
+        if origin:
+            self._carry(entry, origin.extensions, where)
         self.doc["materials"].append(entry)
         self.materials[id(material)] = len(self.doc["materials"]) - 1
         return self.materials[id(material)]
 
-    def _glass(self, glass: Glass, obj, where: str) -> dict:
-        lo, hi = obj.mesh.bounds.astype(np.float64)
-        thickness = glass.thickness if glass.thickness is not None else float((hi - lo).min())
-        volume = {"thicknessFactor": float(thickness)}
-        if np.any(glass.absorption_color < 1.0):
-            volume["attenuationColor"] = [float(c) for c in glass.absorption_color]
-            volume["attenuationDistance"] = float(glass.absorption_distance)
+    def _carry(self, entry: dict, extensions: dict, where: str) -> None:
+        """Add a glTF material's extensions that caustica does not write itself, unchanged but for their
+        texture references (indices into the source file's textures), which are left out and said."""
+        for name, data in extensions.items():
+            if not isinstance(data, dict) or name in entry.get("extensions", {}):
+                continue
+            textures = [key for key, value in data.items() if isinstance(value, dict) and "index" in value]
+            if textures:
+                self.notes.append(f"{where}: {name}'s {', '.join(textures)} not kept (caustica does not carry "
+                                  "textures it does not render)")
+            entry.setdefault("extensions", {})[name] = {k: v for k, v in data.items() if k not in textures}
+            self.used.add(name)
+
+    def _glass(self, glass: Glass, obj, where: str, thin_walled: bool = False) -> dict:
         extensions = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                      "KHR_materials_ior": {"ior": float(glass.ior)}, "KHR_materials_volume": volume}
+                      "KHR_materials_ior": {"ior": float(glass.ior)}}
+        absorbs = bool(np.any(glass.absorption_color < 1.0))
+        if not thin_walled or absorbs or glass.thickness is not None:  # a file's thin-walled glass stays so
+            lo, hi = obj.mesh.bounds.astype(np.float64)
+            thickness = glass.thickness if glass.thickness is not None else float((hi - lo).min())
+            volume = {"thicknessFactor": float(thickness)}
+            if absorbs:
+                volume["attenuationColor"] = [float(c) for c in glass.absorption_color]
+                volume["attenuationDistance"] = float(glass.absorption_distance)
+            extensions["KHR_materials_volume"] = volume
         if glass.ior < 1.0:
             self.notes.append(f"{where}: ior {glass.ior:g} is below KHR_materials_ior's minimum of 1 (caustica reads "
                               "it back; other viewers may not)")
@@ -226,14 +264,17 @@ class _Writer:
 
     def _camera(self) -> None:
         camera = self.scene.camera
+        origin = self.origin.of("cameras", camera)
         forward = camera.look_at - camera.position
-        width, height = camera.size
-        self.doc["cameras"] = [{"name": "camera", "type": "perspective",
-                                "perspective": {"yfov": math.radians(camera.fov_y), "aspectRatio": width / height,
-                                                "znear": float(camera.near), "zfar": float(camera.far)},
-                                "extras": {"caustica": {"size": [int(width), int(height)],
-                                                        "focus_distance": float(np.linalg.norm(forward))}}}]
-        self._add_node({"name": "camera", "camera": 0, "translation": [float(x) for x in camera.position],
+        entry = {"name": origin.name if origin and origin.name else "camera", "type": "perspective",
+                 "perspective": {"yfov": math.radians(camera.fov_y), "aspectRatio": aspect_ratio(origin, camera.size),
+                                 "znear": float(camera.near), "zfar": float(camera.far)}}
+        extras = camera_extras(origin, camera.size, float(np.linalg.norm(forward)))
+        if extras:
+            entry["extras"] = {"caustica": extras}
+        self.doc["cameras"] = [entry]
+        self._add_node({"name": origin.node_name if origin and origin.node_name else entry["name"], "camera": 0,
+                        "translation": [float(x) for x in camera.position],
                         "rotation": frame_quaternion(forward, camera.up)})
 
     def _light(self, light, index: int) -> None:
@@ -252,17 +293,44 @@ class _Writer:
         if isinstance(light, SpotLight):
             entry["spot"] = {"innerConeAngle": math.radians(light.inner_angle),
                              "outerConeAngle": math.radians(light.outer_angle)}
-        self._punctual(entry, light.intensity * scale, f"lights[{index}]", node)
+        origin = self.origin.of("lights", light)
+        name = origin.name if origin and origin.name is not None else f"lights[{index}]"
+        node_name = origin.node_name if origin and origin.node_name is not None else name
+        self._punctual(entry, light.intensity * scale, name, node, node_name)
 
-    def _punctual(self, entry: dict, intensity, name: str, node: dict) -> None:
+    def _punctual(self, entry: dict, intensity, name: str, node: dict, node_name: str | None = None) -> None:
         color, value = photometric(intensity)
         lights = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual", {"lights": []})["lights"]
         lights.append(dict(entry, name=name, color=color, intensity=value))
         self.used.add("KHR_lights_punctual")
-        self._add_node(dict(node, name=name, extensions={"KHR_lights_punctual": {"light": len(lights) - 1}}))
+        self._add_node(dict(node, name=node_name or name,
+                            extensions={"KHR_lights_punctual": {"light": len(lights) - 1}}))
 
 
 def _generator() -> str:
     from ... import __version__
 
     return f"caustica {__version__}"
+
+
+def environment_table(env, scale: float, folder: Path) -> dict | None:
+    """``env`` (radiance times ``scale``) as a TOML [environment] table for ``extras.caustica``: {} for
+    caustica's default environment, None for one without a procedural or file source (an image made in
+    Python) or a file outside ``folder`` (the reader takes only files beside the glTF)."""
+    strength = float(env.strength) * scale
+    if env.source.startswith(PROCEDURAL):
+        name, _, factor = env.source[len(PROCEDURAL):].partition("*")  # presets dim the sky: 'sky-checker*0.2'
+        table = {"procedural": name}
+        strength *= float(factor) if factor else 1.0
+    else:
+        try:
+            table = {"file": Path(env.source).resolve().relative_to(folder.resolve()).as_posix()}
+        except (ValueError, OSError, RuntimeError):
+            return None
+    if env.rotation:
+        table["rotation"] = float(env.rotation)
+    if strength != 1.0:
+        table["strength"] = strength
+    if env.filter != "footprint":
+        table["filter"] = env.filter
+    return {} if table == {"procedural": "sky-checker"} else table
