@@ -63,6 +63,17 @@ class GltfOrigin:
         kept = getattr(self, table).get(id(part))
         return kept[1] if kept is not None and kept[0] is part else None
 
+    def camera(self, camera) -> CameraOrigin | None:
+        """The record of ``camera``, or of the file's camera it was made from (the same eye, look_at and up,
+        e.g. with another size): its names stay, and only what changed is written as caustica's."""
+        record = self.of("cameras", camera)
+        if record is not None:
+            return record
+        for kept, record in self.cameras.values():
+            if all(np.array_equal(getattr(kept, key), getattr(camera, key)) for key in ("position", "look_at", "up")):
+                return record
+        return None
+
     def merged(self, other: "GltfOrigin") -> "GltfOrigin":
         """One record of two files' parts (a TOML scene with several gltf entries)."""
         required = self.extensions_required + [e for e in other.extensions_required

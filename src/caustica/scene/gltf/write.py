@@ -264,7 +264,7 @@ class _Writer:
 
     def _camera(self) -> None:
         camera = self.scene.camera
-        origin = self.origin.of("cameras", camera)
+        origin = self.origin.camera(camera)
         forward = camera.look_at - camera.position
         entry = {"name": origin.name if origin and origin.name else "camera", "type": "perspective",
                  "perspective": {"yfov": math.radians(camera.fov_y), "aspectRatio": aspect_ratio(origin, camera.size),
