@@ -224,3 +224,35 @@ def test_blender_reads_the_round_trip_as_it_read_its_own_file(tmp_path, source):
         pytest.importorskip("bpy")
     round_trip(source, tmp_path / "out.gltf")
     assert blender_import(tmp_path / "out.gltf") == blender_import(source)
+
+
+def test_file_environment_beside_the_output_comes_back(tmp_path):
+    from PIL import Image
+
+    from caustica.scene.environment import load_environment
+
+    codes = (np.arange(4 * 8 * 3).reshape(4, 8, 3) * 2).astype(np.uint8)
+    Image.fromarray(codes, "RGB").save(tmp_path / "sky.png")
+    scene = quiet_load(DATA / "blender-glass-ball.glb")
+    scene.environment = load_environment(tmp_path / "sky.png").rotated(90.0)
+    with pytest.warns(UserWarning, match="kept in extras.caustica"):
+        export_scene(scene, tmp_path / "with-file.glb")
+    assert glb_json(tmp_path / "with-file.glb")["extras"]["caustica"]["environment"] == \
+        {"file": "sky.png", "rotation": 90.0}
+    np.testing.assert_allclose(quiet_load(tmp_path / "with-file.glb").environment.image, scene.environment.image)
+    # Elsewhere the file is not named (the reader takes only files beside the glTF): said, not written.
+    (tmp_path / "elsewhere").mkdir()
+    with pytest.warns(UserWarning, match="environment .* is not kept"):
+        export_scene(scene, tmp_path / "elsewhere" / "without.glb")
+    assert "extras" not in glb_json(tmp_path / "elsewhere" / "without.glb")
+
+
+def test_cli_plan_says_thin_walled_once_and_export_keeps_names(tmp_path, capsys):
+    from caustica.cli import main
+
+    assert main(["plan", str(DATA / "blender-glass-ball.glb")]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if "KHR_materials_volume" in line]
+    assert len(lines) == 1 and "'Ball'" in lines[0]
+    assert main(["export", str(DATA / "blender-materials.glb"), "-o", str(tmp_path / "out.gltf")]) == 0
+    written = json.loads((tmp_path / "out.gltf").read_text())
+    assert [light["name"] for light in lights(written)] == ["Rim Spot", "Sun"]
