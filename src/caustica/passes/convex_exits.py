@@ -43,6 +43,8 @@ from ..scene.transform import normal_matrix
 MAX_CONVEX_PLANES = 128  # uniform vec4s: 4 a plane (its plane and normal field); llvmpipe allows 4096
 MAX_CONVEX_QUADRICS = 4  # the round faces' balls and cylinders (a lens has two balls and a cylinder)
 SHAPE_NONE, SHAPE_SOLID = 0, 1  # convex_kind in the shader
+# CONVEX_EXITS: no glass object of the frame has an exact shape, every one has, some have (chosen per object)
+EXITS_SEARCHED, EXITS_ALL_EXACT, EXITS_SOME_EXACT = CONVEX_EXITS_MODES = (0, 1, 2)
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,8 @@ def convex_defines(frame) -> dict:
     MAX_CONVEX_PLANES."""
     glass = frame.scene.objects_of("glass")
     exact = [convex_shape(o) is not None for o in glass]
-    return {"CONVEX_EXITS": 1 if exact and all(exact) else 2 if any(exact) else 0,
+    mode = EXITS_ALL_EXACT if exact and all(exact) else EXITS_SOME_EXACT if any(exact) else EXITS_SEARCHED
+    return {"CONVEX_EXITS": mode,
             "MAX_CONVEX_PLANES": MAX_CONVEX_PLANES, "MAX_CONVEX_QUADRICS": MAX_CONVEX_QUADRICS}
 
 

@@ -51,6 +51,8 @@
 #include "common/impostors.glsl"
 #if CONVEX_EXITS
 #include "common/convex_exits.glsl"
+#endif
+#if GLASS_CONTACT && NEARBY != NEARBY_NONE  // departure()'s contact test: searched exits need it as exact ones do
 #include "common/glass_contact.glsl"
 #endif
 
