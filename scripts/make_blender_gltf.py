@@ -7,7 +7,9 @@ Needs Blender as a Python module (Python 3.11: ``pip install bpy==5.0.1`` in a v
   the glTF spec) over a floor, a point light "Key Light" and a camera "Main Camera";
 - ``blender-materials.glb``: a double-sided diffuse plane "Backdrop", a single-sided one, and a cube whose
   Principled specular (Specular IOR Level 0.8, a tinted Specular Tint) gives KHR_materials_specular, a
-  spot light "Rim Spot" and a sun "Sun", a camera "Side Camera".
+  spot light "Rim Spot" and a sun "Sun", a camera "Side Camera";
+- ``blender-two-materials.glb``: a cube "Twotone" with two materials (its top face "Top Coat", the rest
+  "Body Paint"): one node whose mesh has two primitives.
 """
 from __future__ import annotations
 
@@ -92,7 +94,20 @@ def materials() -> None:
     export("blender-materials.glb")
 
 
+def two_materials() -> None:
+    empty_scene()
+    cube = add(bpy.ops.mesh.primitive_cube_add, "Twotone", principled("Body Paint", (0.2, 0.6, 0.3)), size=1.0,
+               location=(0.0, 0.0, 0.5))
+    cube.data.materials.append(principled("Top Coat", (0.9, 0.9, 0.1)))
+    for face in cube.data.polygons:
+        face.material_index = 1 if face.normal.z > 0.5 else 0
+    light("POINT", "Lamp", (0.0, -2.0, 3.0))
+    camera("Front Camera", (0.0, -4.0, 1.5), (math.radians(75.0), 0.0, 0.0))
+    export("blender-two-materials.glb")
+
+
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
     glass_ball()
     materials()
+    two_materials()

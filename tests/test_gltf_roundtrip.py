@@ -57,7 +57,8 @@ def material_summary(doc: dict) -> list[tuple]:
 
 
 def test_there_are_blender_files():
-    assert [p.name for p in BLENDER_FILES] == ["blender-glass-ball.glb", "blender-materials.glb"]
+    assert [p.name for p in BLENDER_FILES] == ["blender-glass-ball.glb", "blender-materials.glb",
+                                               "blender-two-materials.glb"]
     assert all(p.stat().st_size < 200_000 for p in BLENDER_FILES)
     assert all(glb_json(p)["asset"]["generator"].startswith("Khronos glTF Blender I/O") for p in BLENDER_FILES)
 
@@ -71,6 +72,10 @@ def test_blender_file_round_trip_keeps_names_sides_and_extensions(tmp_path, sour
         [(light["name"], light["type"]) for light in lights(before)]
     assert [c["name"] for c in after["cameras"]] == [c["name"] for c in before["cameras"]]
     assert sorted(n["name"] for n in after["nodes"]) == sorted(n["name"] for n in before["nodes"])
+    meshes = {n["name"]: (d["meshes"][n["mesh"]]["name"], len(d["meshes"][n["mesh"]]["primitives"]))
+              for d in (before, after) for n in d["nodes"] if "mesh" in n}
+    assert meshes == {n["name"]: (before["meshes"][n["mesh"]]["name"], len(before["meshes"][n["mesh"]]["primitives"]))
+                      for n in before["nodes"] if "mesh" in n}
     assert after.get("extensionsRequired") == before.get("extensionsRequired")
     assert set(after["extensionsUsed"]) == set(before["extensionsUsed"])
     # No extras the file did not have: Blender wrote none on its camera, nor on the document.
@@ -256,3 +261,21 @@ def test_cli_plan_says_thin_walled_once_and_export_keeps_names(tmp_path, capsys)
     assert main(["export", str(DATA / "blender-materials.glb"), "-o", str(tmp_path / "out.gltf")]) == 0
     written = json.loads((tmp_path / "out.gltf").read_text())
     assert [light["name"] for light in lights(written)] == ["Rim Spot", "Sun"]
+
+
+def test_a_node_of_two_primitives_comes_back_as_one_node(tmp_path):
+    """Blender's two-material cube is one node of two primitives: caustica draws two objects ('Twotone.0',
+    'Twotone.1') and writes one node again, unless they no longer share one place."""
+    source = DATA / "blender-two-materials.glb"
+    scene = quiet_load(source)
+    assert [o.name for o in scene.objects] == ["Twotone.0", "Twotone.1"]
+    after = round_trip(source, tmp_path / "out.gltf")
+    node = next(n for n in after["nodes"] if "mesh" in n)
+    assert node["name"] == "Twotone" and len(after["meshes"][node["mesh"]]["primitives"]) == 2
+    moved = scene.objects[1].moved(dataclasses.replace(scene.objects[1].transform, position=[1.0, 0.5, 0.0]))
+    scene.objects[1] = moved
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        export_scene(scene, tmp_path / "apart.gltf")
+    apart = json.loads((tmp_path / "apart.gltf").read_text())
+    assert sorted(n["name"] for n in apart["nodes"] if "mesh" in n) == ["Twotone.0", "Twotone.1"]

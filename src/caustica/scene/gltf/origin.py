@@ -46,6 +46,14 @@ class CameraOrigin:
 
 
 @dataclass
+class NodeOrigin:
+    """A node whose mesh has several primitives: caustica makes one object of each (``name.k``), export
+    writes them back as one node ``name`` while they stay together with one transform."""
+
+    name: str
+
+
+@dataclass
 class GltfOrigin:
     """Records of the glTF parts of one scene, each keyed by id() of the caustica part it became."""
 
@@ -53,9 +61,10 @@ class GltfOrigin:
     materials: dict[int, tuple[object, MaterialOrigin]] = field(default_factory=dict)
     lights: dict[int, tuple[object, LightOrigin]] = field(default_factory=dict)
     cameras: dict[int, tuple[object, CameraOrigin]] = field(default_factory=dict)
+    objects: dict[int, tuple[object, NodeOrigin]] = field(default_factory=dict)
 
     def add(self, table: str, part, record) -> None:
-        """Remember ``record`` for ``part`` in ``table`` ('materials', 'lights' or 'cameras')."""
+        """Remember ``record`` for ``part`` in ``table`` ('materials', 'lights', 'cameras' or 'objects')."""
         getattr(self, table)[id(part)] = (part, record)
 
     def of(self, table: str, part):
@@ -79,7 +88,7 @@ class GltfOrigin:
         required = self.extensions_required + [e for e in other.extensions_required
                                                if e not in self.extensions_required]
         return GltfOrigin(required, {**self.materials, **other.materials}, {**self.lights, **other.lights},
-                          {**self.cameras, **other.cameras})
+                          {**self.cameras, **other.cameras}, {**self.objects, **other.objects})
 
 
 def origin_of(scene) -> GltfOrigin:

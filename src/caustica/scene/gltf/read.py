@@ -25,7 +25,7 @@ from ..scene import SceneObject
 from ..transform import Transform
 from .container import GltfFile, open_gltf
 from .matrices import transform_of, trs_matrix
-from .origin import CameraOrigin, GltfOrigin, LightOrigin, MaterialOrigin
+from .origin import CameraOrigin, GltfOrigin, LightOrigin, MaterialOrigin, NodeOrigin
 from .units import radiometric
 
 SUPPORTED_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
@@ -264,6 +264,8 @@ class _Reader:
             self.note("zero-scale nodes (not drawn)", label)
             return
         triangles = [k for k, p in enumerate(primitives) if p.get("mode", TRIANGLES) == TRIANGLES]
+        base = label if unnamed is None else f.name(mesh, unnamed)
+        node = NodeOrigin(base) if len(triangles) > 1 else None
         for k, primitive in enumerate(primitives):
             mode = primitive.get("mode", TRIANGLES)
             if mode != TRIANGLES:
@@ -277,12 +279,13 @@ class _Reader:
             geometry = self._primitive(mesh_index, k, primitive, f.name(mesh, f"mesh{mesh_index}"))
             self.budget.mesh(geometry, f"{where}.primitives[{k}]")
             material = self._material_for(primitive, label, geometry, result.origin)
-            base = label if unnamed is None else f.name(mesh, unnamed)
-            name = self._unique(f"{base}.{k}" if len(triangles) > 1 else base)
+            name = self._unique(f"{base}.{k}" if node is not None else base)
             transform = transform_of(world)
             if transform is None:  # shear or mirroring: baked into the vertices
                 geometry, transform = geometry.transformed(world), Transform()
             result.objects.append(SceneObject(name, geometry, material, transform))
+            if node is not None:
+                result.origin.add("objects", result.objects[-1], node)
 
     def _unique(self, name: str) -> str:
         candidate, n = name, 2

@@ -99,9 +99,11 @@ class _Writer:
 
     def document(self) -> tuple[dict, bytes]:
         scene, doc = self.scene, self.doc
-        for i, obj in enumerate(scene.objects):
-            t = obj.transform
-            node = {"name": obj.name, "mesh": self._mesh(obj, f"objects[{i}]"),
+        for first, group in self._node_groups():
+            t = scene.objects[first].transform
+            record = self.origin.of("objects", scene.objects[first])
+            node = {"name": record.name if len(group) > 1 else scene.objects[first].name,
+                    "mesh": self._mesh(group, first),
                     "translation": [float(x) for x in t.position],
                     "rotation": [float(q) for q in quaternion_from_matrix(rotation_from_euler_degrees(t.rotation))],
                     "scale": [float(s) for s in t.scale]}
@@ -162,28 +164,47 @@ class _Writer:
 
     # Meshes and materials ---------------------------------------------------------
 
-    def _mesh(self, obj, where: str) -> int:
-        mesh, material = obj.mesh, obj.material
-        key = (id(mesh), id(material))
+    def _node_groups(self) -> list[tuple[int, list]]:
+        """(index of the first, objects) of each node to write: one object, or the consecutive objects that
+        one glTF node's primitives became (the same NodeOrigin, transform and mesh name)."""
+        groups: list[tuple[int, list]] = []
+        previous = None
+        for i, obj in enumerate(self.scene.objects):
+            record = self.origin.of("objects", obj)
+            if record is not None and record is previous and _same_place(groups[-1][1][0], obj):
+                groups[-1][1].append(obj)
+            else:
+                groups.append((i, [obj]))
+            previous = record
+        return groups
+
+    def _mesh(self, group: list, first: int) -> int:
+        """The glTF mesh of a node's objects (one primitive each), shared by nodes drawing the same ones."""
+        key = tuple((id(o.mesh), id(o.material)) for o in group)
         if key not in self.meshes:
-            if id(mesh) not in self.geometry:
-                attributes = {"POSITION": self._accessor(mesh.vertices, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True),
-                              "NORMAL": self._accessor(mesh.normals, "VEC3", FLOAT, ARRAY_BUFFER)}
-                if mesh.uvs is not None:
-                    attributes["TEXCOORD_0"] = self._accessor(mesh.uvs, "VEC2", FLOAT, ARRAY_BUFFER)
-                small = len(mesh.vertices) < 65536
-                indices = self._accessor(mesh.faces.reshape(-1), "SCALAR", USHORT if small else UINT,
-                                         ELEMENT_ARRAY_BUFFER)
-                primitive = {"attributes": attributes, "indices": indices, "mode": 4}
-                if mesh.analytic_sphere is not None:
-                    center, radius = mesh.analytic_sphere
-                    sphere = [float(c) for c in center] + [float(radius)]
-                    primitive["extras"] = {"caustica": {"analytic_sphere": sphere}}
-                self.geometry[id(mesh)] = primitive
-            primitive = dict(self.geometry[id(mesh)], material=self._material(material, obj, where))
-            self.doc["meshes"].append({"name": mesh.name, "primitives": [primitive]})
+            primitives = [self._primitive(obj, f"objects[{first + k}]") for k, obj in enumerate(group)]
+            self.doc["meshes"].append({"name": group[0].mesh.name, "primitives": primitives})
             self.meshes[key] = len(self.doc["meshes"]) - 1
         return self.meshes[key]
+
+    def _primitive(self, obj, where: str) -> dict:
+        """The object's primitive: its mesh's accessors (written once per mesh) and its material."""
+        mesh, material = obj.mesh, obj.material
+        if id(mesh) not in self.geometry:
+            attributes = {"POSITION": self._accessor(mesh.vertices, "VEC3", FLOAT, ARRAY_BUFFER, bounds=True),
+                          "NORMAL": self._accessor(mesh.normals, "VEC3", FLOAT, ARRAY_BUFFER)}
+            if mesh.uvs is not None:
+                attributes["TEXCOORD_0"] = self._accessor(mesh.uvs, "VEC2", FLOAT, ARRAY_BUFFER)
+            small = len(mesh.vertices) < 65536
+            indices = self._accessor(mesh.faces.reshape(-1), "SCALAR", USHORT if small else UINT,
+                                     ELEMENT_ARRAY_BUFFER)
+            primitive = {"attributes": attributes, "indices": indices, "mode": 4}
+            if mesh.analytic_sphere is not None:
+                center, radius = mesh.analytic_sphere
+                sphere = [float(c) for c in center] + [float(radius)]
+                primitive["extras"] = {"caustica": {"analytic_sphere": sphere}}
+            self.geometry[id(mesh)] = primitive
+        return dict(self.geometry[id(mesh)], material=self._material(material, obj, where))
 
     def _material(self, material, obj, where: str) -> int:
         if id(material) in self.materials:
@@ -334,3 +355,10 @@ def environment_table(env, scale: float, folder: Path) -> dict | None:
     if env.filter != "footprint":
         table["filter"] = env.filter
     return {} if table == {"procedural": "sky-checker"} else table
+
+
+def _same_place(a, b) -> bool:
+    """Whether objects ``a`` and ``b`` have one transform and one mesh name (parts of one glTF node)."""
+    ta, tb = a.transform, b.transform
+    return a.mesh.name == b.mesh.name and all(np.array_equal(getattr(ta, k), getattr(tb, k))
+                                              for k in ("position", "rotation", "scale"))
