@@ -279,3 +279,14 @@ def test_a_node_of_two_primitives_comes_back_as_one_node(tmp_path):
         export_scene(scene, tmp_path / "apart.gltf")
     apart = json.loads((tmp_path / "apart.gltf").read_text())
     assert sorted(n["name"] for n in apart["nodes"] if "mesh" in n) == ["Twotone.0", "Twotone.1"]
+
+
+def test_an_environment_glTF_cannot_name_is_said_and_not_written(tmp_path):
+    from caustica.scene.environment import Environment
+
+    scene = quiet_load(DATA / "blender-glass-ball.glb")
+    for source in ("made in Python", "procedural:mine", "procedural:sky-checker*dim"):
+        scene.environment = Environment(np.full((4, 8, 3), 0.5, np.float32), source=source)
+        with pytest.warns(UserWarning, match="environment .* is not kept"):
+            export_scene(scene, tmp_path / "env.glb")
+        assert "extras" not in glb_json(tmp_path / "env.glb")

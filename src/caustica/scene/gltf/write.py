@@ -23,6 +23,7 @@ import numpy as np
 
 from ...atomic import write_atomic
 from ...errors import OutputError
+from ..environment import PROCEDURAL_ENVIRONMENTS
 from ..lights import DirectionalLight, LineLight, PointLight, SpotLight
 from ..materials import Diffuse, Glass, Mirror
 from ..transform import rotation_from_euler_degrees, up_hint
@@ -341,8 +342,13 @@ def environment_table(env, scale: float, folder: Path) -> dict | None:
     strength = float(env.strength) * scale
     if env.source.startswith(PROCEDURAL):
         name, _, factor = env.source[len(PROCEDURAL):].partition("*")  # presets dim the sky: 'sky-checker*0.2'
+        try:
+            strength *= float(factor) if factor else 1.0
+        except ValueError:
+            return None
+        if name not in PROCEDURAL_ENVIRONMENTS:
+            return None
         table = {"procedural": name}
-        strength *= float(factor) if factor else 1.0
     else:
         try:
             table = {"file": Path(env.source).resolve().relative_to(folder.resolve()).as_posix()}
