@@ -206,3 +206,16 @@ def test_face_order_keeps_every_face_and_its_winding_and_shares_vertices():
         return sum(len(np.unique(indices[s:s + 96])) for s in range(0, len(indices), 96))
 
     assert shaded(ordered) < 0.5 * shaded(mesh.faces)
+
+
+def test_include_may_carry_a_trailing_comment(ctx, tmp_path):
+    _write(tmp_path, "common/one.glsl", "float one() { return 1.0; }\n")
+    _write(tmp_path, "main.comp", "#version 430 core\n#include \"common/one.glsl\"  // one()\nvoid main() {}\n")
+    source, files = ShaderLibrary(ctx, tmp_path).source("main.comp")
+    assert "float one()" in source and files == ["main.comp", "common/one.glsl"]
+
+
+def test_unreadable_include_line_names_the_file_and_line(ctx, tmp_path):
+    _write(tmp_path, "main.comp", "#version 430 core\n\n#include <common/one.glsl>\nvoid main() {}\n")
+    with pytest.raises(ShaderError, match=r"main.comp:3: cannot read the include"):
+        ShaderLibrary(ctx, tmp_path).source("main.comp")

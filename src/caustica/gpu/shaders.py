@@ -22,7 +22,8 @@ from ..errors import CausticaError
 from ..scene.codes import CODE_DEFINES
 
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "shaders"
-_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*(//.*)?$')
+_ANY_INCLUDE = re.compile(r'^\s*#include\b')
 _VERSION = re.compile(r"^\s*#version\b")
 # Right after #version in every program (GLSL allows it nowhere later): fine derivatives where the driver
 # has them (common/environment.glsl); "enable" only warns where it does not.
@@ -77,6 +78,9 @@ class ShaderLibrary:
             if match:
                 out.extend(self._expand(match.group(1), files, stack + (name,)))
                 out.append(_line_directive(file_id, number + 1))
+            elif _ANY_INCLUDE.match(line):
+                raise ShaderError(f"{name}:{number}: cannot read the include {line.strip()!r}; "
+                                  'write it as #include "folder/file.glsl", optionally followed by a // comment')
             elif _VERSION.match(line) and number == 1 and not stack:
                 out.append(line)
                 out.append(_line_directive(file_id, number + 1))
