@@ -306,3 +306,20 @@ def test_unknown_tonemap_is_one_line_and_writes_nothing(tmp_path):
     with pytest.raises(OutputError, match="unknown tonemap 'aces'.*use one of clip, filmic"):
         write_image(tmp_path / "t.png", gradient(), tonemap="aces")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("keep", [20, 200, 300, 360, -8])
+def test_truncated_exr_is_one_clean_error_and_prints_nothing(tmp_path, capfd, keep):
+    """OpenEXR prints its reasons on stdout/stderr and, for damaged pixel data, may only warn: every cut of a
+    valid file must be an EnvironmentImageError in words, with nothing reaching the terminal."""
+    whole = tmp_path / "whole.exr"
+    write_image(whole, np.full((8, 8, 3), 0.5, np.float32))
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.exr"
+    cut.write_bytes(data[:keep])
+    capfd.readouterr()
+    with pytest.raises(EnvironmentImageError, match=r"cut\.exr: it(s data)? is (damaged or )?truncated") as err:
+        read_image(cut)
+    assert "part index" not in str(err.value) and "EXR_ERR" not in str(err.value)
+    printed = capfd.readouterr()
+    assert printed.out == "" and printed.err == ""

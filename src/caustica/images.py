@@ -9,7 +9,12 @@ temporary file in the target directory first, so a failed write leaves nothing.
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import os
 import re
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -93,8 +98,61 @@ def read_exr_channels(path: str | Path, error: type[Exception] = EnvironmentImag
 def _exr_channels(path: Path) -> dict[str, np.ndarray]:
     import OpenEXR
 
-    with OpenEXR.File(str(path), separate_channels=True) as exr:
-        return {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
+    failure = None
+    with _library_messages() as messages:
+        try:
+            with OpenEXR.File(str(path), separate_channels=True) as exr:
+                channels = {name: np.array(ch.pixels) for name, ch in exr.channels().items()}
+        except Exception as exc:  # OpenEXR raises RuntimeError, UnicodeDecodeError, ...
+            failure = first_line(exc)
+    # OpenEXR prints its specific reason (or only a warning, returning what it could decode) before it raises
+    if messages or failure:
+        raise ValueError(_damaged_exr(messages[0] if messages else failure, path))
+    return channels
+
+
+def _damaged_exr(detail: str, path: Path) -> str:
+    """What a damaged or truncated OpenEXR file is, in words, with OpenEXR's own reason after it."""
+    detail = detail.replace(f"'{path}'", "it").replace(str(path) + ": ", "")
+    detail = re.sub(r"^Warning: |\(EXR_ERR_\w+\)\s*", "", detail).strip().rstrip(".")
+    if re.search(r"Unable to open|has 0 parts|missing attribute|codec can't decode", detail):
+        return "it is truncated or not an OpenEXR file (its header cannot be read)"
+    return f"its data is damaged or truncated ({detail[:120]})"
+
+
+def _flush_c_streams() -> None:
+    """fflush(NULL): C stdio (and C++ streams synced with it) buffer what they print to a file."""
+    import ctypes
+
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # no C library by that name (not glibc/musl): nothing to flush
+        pass
+
+
+@contextlib.contextmanager
+def _library_messages():
+    """Catch what a C library writes to file descriptors 1 and 2 while the block runs: yields a list that
+    holds its non-empty lines afterwards (OpenEXR prints its warnings there instead of raising)."""
+    lines: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    printed = io.StringIO()  # what the extension prints through Python's sys.stdout (pybind11's print)
+    with tempfile.TemporaryFile() as caught:
+        saved = {fd: os.dup(fd) for fd in (1, 2)}
+        for fd in saved:
+            os.dup2(caught.fileno(), fd)
+        try:
+            with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(printed):
+                yield lines
+        finally:
+            _flush_c_streams()
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+            caught.seek(0)
+            text = caught.read().decode(errors="replace") + printed.getvalue()
+            lines.extend(line for line in text.splitlines() if line.strip())
 
 
 def decode_8bit(source) -> np.ndarray:
