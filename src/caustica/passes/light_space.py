@@ -61,6 +61,13 @@ COARSE_MAP_SIZE = 256  # texels a side of the coarse views at most
 # grid under a 3-sigma Gaussian of 0.7 cells sums flat to a few 1e-3), and the largest sigma (texels).
 FOOTPRINT_SCALE = 0.7
 FOOTPRINT_CAP = 32.0
+# FitCausticViews: the flux fraction a side the widened caustic view lets go at least (a few stray photons of
+# a 512^2 grid) and in photons' shares of the grid, how many times its texels a side may grow to keep the
+# core's density, and the most texels a side it grows to.
+HALO_TRIM = 1e-5
+MAX_VIEW_GROWTH = 2.0
+MAX_GROWN_SIZE = 2048
+STRAY_PHOTONS = 5.0
 @dataclass
 class Photons:
     """Photons in an SSBO: ``count`` entries of {vec4 position (w = 1 landed), vec4 flux (W, RGB)}."""
@@ -232,15 +239,22 @@ class FitCausticViews(Pass):
 
     Shah et al. III-F: caustics outside the light's frustum are lost, and a map
     spread over the whole receiver blurs the focus. Landing points come from a
-    first photon pass against ``coarse_view`` receivers; the flux-weighted
-    ``trim`` fraction at each side is let go. Point lights fall back to the
-    cube atlas when the landing points spread wider than one frustum.
+    first photon pass against ``coarse_view`` receivers. The flux-weighted
+    ``trim`` fraction at each side sets the texel density (``size`` texels
+    over that core); for point and spot lights the view then widens to let
+    only ``halo_trim`` go (or STRAY_PHOTONS photons' share of a sparse grid),
+    with texels added to keep that density, up to ``max_growth`` times
+    ``size`` a side (``halo_trim`` None, the default: the core's view;
+    :func:`landing_chain` gives HALO_TRIM). A per-axis trim of
+    1e-3 alone cut a ball's outer halo along a square under a close light (0.1 percent of the flux lies beyond 20 degrees, the
+    trimmed view held 15; tests/test_caustic_views.py). Point lights fall back
+    to the cube atlas when the landing points spread wider than one frustum.
     """
 
     def __init__(self, photons: str, size: int, margin_texels: float = 3.0, trim: float = 1e-3, point_map: str = "frustum",
-                 channel: str = "caustic_views"):
+                 channel: str = "caustic_views", halo_trim: float | None = None, max_growth: float = MAX_VIEW_GROWTH):
         self.photons, self.size, self.margin, self.trim = photons, int(size), margin_texels, trim
-        self.point_map = point_map
+        self.point_map, self.halo_trim, self.max_growth = point_map, halo_trim, max_growth
         self.reads = ("light_samples", photons)
         self.writes = (Channel(channel, "host[light]", "per light: LightView of the caustic map, or None"),)
 
@@ -257,12 +271,28 @@ class FitCausticViews(Pass):
                 weights = flux.sum(axis=1)
                 keep = weights > 0
                 if keep.any():
-                    view = fit_view(sample, points[keep], self.size, frame.scene, self.margin, weights[keep], self.trim)
+                    view = self.fit(sample, points[keep], weights[keep], frame.scene, listed(photons)[-1].count)
                     if view is None:
                         view = cube_view(sample, self.size, frame.scene) if sample.type == LIGHT_POINT else \
                             coarse_view(sample, self.size, frame.scene)
             views.append(view)
         frame.write(self.writes[0].name, views)
+
+    def fit(self, sample, points: np.ndarray, weights: np.ndarray, scene, grid_photons: int) -> LightView | None:
+        """The view around the core (``trim``) widened to the halo (``halo_trim``) at the core's texel density."""
+        core = fit_view(sample, points, self.size, scene, self.margin, weights, self.trim)
+        # Let go at least STRAY_PHOTONS photons' share of the (finest) grid: a sparse grid's strays would
+        # widen it alone.
+        halo_trim = None if self.halo_trim is None else max(self.halo_trim, STRAY_PHOTONS / max(grid_photons, 1))
+        # Parallel light: the halo stays near the casters' shadow.
+        if sample.type == LIGHT_DIRECTIONAL or halo_trim is None or halo_trim >= self.trim:
+            return core
+        halo = fit_view(sample, points, self.size, scene, self.margin, weights, halo_trim)
+        if core is None or halo is None:
+            return core
+        widening = np.sqrt(halo.unit_area / max(core.unit_area, 1e-300))
+        size = int(min(np.ceil(self.size * widening / 8.0) * 8, self.max_growth * self.size, MAX_GROWN_SIZE))
+        return fit_view(sample, points, max(size, self.size), scene, self.margin, weights, halo_trim)
 
 
 def float_atomics(frame: Frame) -> bool:
@@ -451,7 +481,8 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
         FitCoarseViews(min(map_size, COARSE_MAP_SIZE)),
         LightSurfaces("coarse_views", "coarse_receivers"),
         *listed(land("coarse_receivers", "coarse_views", "coarse_photons", max(COARSE_NEWTON_STEPS, steps))),
-        FitCausticViews("coarse_photons", map_size, margin_texels=splat_radius + 2.0, point_map=point_map),
+        FitCausticViews("coarse_photons", map_size, margin_texels=splat_radius + 2.0, point_map=point_map,
+                        halo_trim=HALO_TRIM),
         LightSurfaces("caustic_views", "receivers"),
         *listed(land("receivers", "caustic_views", "photons", steps, initial="coarse_photons")),
         SplatPhotons("photons", mode=splat, radius=splat_radius),
