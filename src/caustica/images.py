@@ -21,6 +21,7 @@ import numpy as np
 
 from .atomic import write_atomic
 from .errors import EnvironmentImageError, OutputError, first_line
+from .input_files import check_regular_file
 
 READ_SUFFIXES = (".exr", ".hdr", ".png", ".jpg", ".jpeg")
 MAX_READ_PIXELS = 1 << 28  # 16384 x 16384: the largest texture any GL takes; 3 GiB as float32 RGB
@@ -45,13 +46,7 @@ def srgb_to_linear(x) -> np.ndarray:
 def check_image_path(path: Path, error: type[Exception], where: str = "") -> None:
     """``error`` in one line unless ``path`` is a regular file (links followed): not found, or what it
     is instead (a directory, a FIFO, a device), checked before anything opens it."""
-    from .input_files import described, path_kind
-
-    kind = path_kind(path)
-    if kind == "missing":
-        raise error(f"image file not found: {path}; check the path{where}")
-    if kind is not None:
-        raise error(f"{described(path, kind)}, not an image file; give an image file ({', '.join(READ_SUFFIXES)})")
+    check_regular_file(path, "image", READ_SUFFIXES, error, where)
 
 
 def read_image(path: str | Path, error: type[Exception] = EnvironmentImageError) -> np.ndarray:

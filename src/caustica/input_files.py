@@ -28,3 +28,18 @@ def described(path: str | Path, kind: str) -> str:
     if path.is_symlink():
         return f"{path} links to {os.path.realpath(path)}, {kind}"
     return f"{path} is {kind}"
+
+
+def check_regular_file(path: str | Path, what: str, suffixes, error: type[Exception], where: str = "") -> None:
+    """``error`` in one line unless ``path`` is a regular file: '<what> file not found' (``where`` says how
+    paths are read), or what it is instead, with the ``suffixes`` a <what> file may have."""
+    kind = path_kind(path)
+    if kind == "missing":
+        raise error(f"{what} file not found: {path}; check the path{where}")
+    if kind is not None:
+        raise error(f"{described(path, kind)}, not {_article(what)} {what} file; give {_article(what)} {what} file "
+                    f"({', '.join(suffixes)})")
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1] in "aeiou" else "a"

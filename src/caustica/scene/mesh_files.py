@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError
-from ..input_files import described, path_kind
+from ..input_files import check_regular_file
 from . import budget, rules
 from .gltf import GLTF_SUFFIXES
 from .mesh import SUPPORTED_MESH_SUFFIXES, Mesh, check_faces, check_positions, vertex_normals
@@ -37,13 +37,9 @@ def load_mesh(path: str | Path) -> Mesh:
     file's texture coordinates where it has them; MeshError (one line) for a file that is not a valid mesh."""
     path = Path(path)
     label = f"mesh file {path}"
-    kind = path_kind(path)
-    if kind == "missing":
-        raise MeshError(f"mesh file not found: {path}; check the path (relative paths are relative to the scene file)")
+    check_regular_file(path, "mesh", SUPPORTED_MESH_SUFFIXES, MeshError,
+                       " (relative paths are relative to the scene file)")
     suffix = path.suffix.lower()
-    if kind is not None:
-        raise MeshError(f"{described(path, kind)}, not a mesh file; give a mesh file "
-                        f"({', '.join(SUPPORTED_MESH_SUFFIXES)})")
     if suffix not in SUPPORTED_MESH_SUFFIXES:
         raise MeshError(f"unsupported mesh format '{path.suffix}' for {path}; use one of "
                         f"{', '.join(SUPPORTED_MESH_SUFFIXES)}")
