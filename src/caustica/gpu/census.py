@@ -10,7 +10,7 @@ from __future__ import annotations
 import ctypes
 import functools
 
-from .context import gl_function
+from .egl import gl_function
 
 KINDS = ("Texture", "Buffer", "Framebuffer", "Renderbuffer", "Program", "VertexArray", "Shader", "Query", "Sampler")
 

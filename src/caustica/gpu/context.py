@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import atexit
 import ctypes
-import functools
 import os
 from collections import deque
 
 from ..errors import GLUnavailableError, first_line
+from .egl import gl_function, libegl
 from .egl_devices import checked_env_device
 
 REQUIRED_GL = 430
@@ -131,28 +131,6 @@ def _started_elsewhere(kind: str) -> bool:
     """Whether another process (our parent, before a fork) started the driver of this EGL display."""
     pid = _displays.get(kind)
     return pid is not None and pid != os.getpid()
-
-
-@functools.cache
-def libegl():
-    """libEGL through ctypes with ``eglGetProcAddress`` typed, or None where it cannot be loaded."""
-    import ctypes.util
-
-    try:
-        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-    except OSError:
-        return None
-    egl.eglGetProcAddress.restype = ctypes.c_void_p
-    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-    return egl
-
-
-def gl_function(name: str, restype, *argtypes):
-    """The GL (or EGL) entry point ``name`` through EGL's loader, or None; glvnd dispatches a GL
-    function to whichever context is current."""
-    egl = libegl()
-    address = egl.eglGetProcAddress(name.encode()) if egl is not None else None
-    return ctypes.CFUNCTYPE(restype, *argtypes)(address) if address else None
 
 
 class _SurfacelessLoader:

@@ -12,6 +12,7 @@ import os
 from dataclasses import dataclass
 
 from ..errors import DeviceError, short
+from .egl import gl_function
 
 ENV = "CAUSTICA_EGL_DEVICE"
 MAX_DEVICES = 32
@@ -38,8 +39,6 @@ class EglDevice:
 
 def egl_devices() -> list[EglDevice]:
     """EGL's devices, in its order ([] where EGL cannot list them); opens no display and no context."""
-    from .context import gl_function
-
     pointer, integer = ctypes.c_void_p, ctypes.c_int
     query = gl_function("eglQueryDevicesEXT", ctypes.c_uint, integer, ctypes.POINTER(pointer), ctypes.POINTER(integer))
     text = gl_function("eglQueryDeviceStringEXT", ctypes.c_char_p, pointer, integer)

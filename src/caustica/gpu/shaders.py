@@ -193,6 +193,6 @@ def _gl_use_program():
     """glUseProgram through EGL's loader (glvnd dispatches it to whichever context is current), or None."""
     import ctypes
 
-    from .context import gl_function
+    from .egl import gl_function
 
     return gl_function("glUseProgram", None, ctypes.c_uint)
