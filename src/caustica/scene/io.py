@@ -102,10 +102,45 @@ def load_scene(source: str | Path, camera: str | None = None) -> Scene:
     if not path.is_file():
         raise SceneError(f"scene path {path} is not a file; give a .toml scene file")
     if path.suffix.lower() in GLTF_SUFFIXES:
-        from .gltf import load_gltf
-
-        return load_gltf(path, camera)
+        return _load_gltf(path, camera)
     return parse_scene(_read_toml(path), base_dir=path.parent, default_name=path.stem, camera=camera)
+
+
+def _load_gltf(path: str | Path, camera: str | None = None):
+    """A Scene from a ``.glb``/``.gltf`` file: its objects and lights, the camera called ``camera`` (else
+    the first; without any, one framing the scene) and the environment caustica's export kept in
+    ``extras.caustica`` (else caustica's default one). ``scene.gltf`` records what export writes back."""
+    from .gltf.read import choose_camera, read_gltf
+
+    path = Path(path)
+    imported = read_gltf(path)
+    scene = Scene(objects=imported.objects, lights=imported.lights, name=imported.name, gltf=imported.origin)
+    if imported.environment is not None:
+        scene.environment = _kept_environment(imported.environment, path)
+    scene.camera = choose_camera([imported], camera, scene.bounds())
+    return scene
+
+
+def _kept_environment(table: dict, path: Path):
+    """The environment of caustica's ``extras.caustica.environment`` in a glTF document: a TOML
+    [environment] table, its file inside the glTF's folder."""
+    file = table.get("file")
+    folder = path.parent.resolve()
+    if isinstance(file, str) and not _inside(folder, file):
+        raise SceneError(f"{path.name}: extras.caustica.environment.file {file!r} leaves the glTF's folder; copy "
+                         "the image beside the glTF and name it by a relative path")
+    try:
+        return _environment(table, path.parent)
+    except SceneError as exc:
+        raise type(exc)(f"{path.name}: in extras.caustica: {exc}") from None
+
+
+def _inside(folder: Path, relative: str) -> bool:
+    """Whether ``relative`` names a path inside ``folder`` (False for one that cannot be resolved)."""
+    try:
+        return (folder / relative).resolve().is_relative_to(folder)
+    except (OSError, ValueError, RuntimeError):
+        return False
 
 
 def export_scene(scene: Scene, path: str | Path) -> Path:
