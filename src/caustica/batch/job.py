@@ -13,7 +13,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..atomic import Terminated
+from ..atomic import Terminated, missing_folders
 from ..errors import CausticaError, OutputError, short
 from .manifest import JOB_FILE, LOCK_FILE, MANIFEST, Manifest
 from .sweep import (DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output,
@@ -211,7 +211,7 @@ def run_job(job: Job, base=None, *, workers: int = 1, ray: str | None = None, de
     if out.exists() and not out.is_dir():
         raise OutputError(f"output folder {out} is a file; give a folder name")
     description = job.description(job.base_scene() if base is None else base)
-    made = _missing_folders(out)
+    made = missing_folders(out / JOB_FILE)[::-1]  # out and its missing parents, deepest first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -240,16 +240,6 @@ def _kept(state: Progress, out: Path) -> str:
     left = state.total - state.done
     return (f"kept {state.done} of {state.total} frames in {out} (manifest.jsonl)"
             + (f"; run the same command again to render the other {left}" if left else ""))
-
-
-def _missing_folders(out: Path) -> list[Path]:
-    """``out`` and its parents that do not exist yet, deepest first."""
-    missing = []
-    for folder in (out, *out.parents):
-        if folder.exists():
-            break
-        missing.append(folder)
-    return missing
 
 
 def _remove_new(out: Path, made: list[Path], records: set | None, state: Progress | None = None) -> None:
