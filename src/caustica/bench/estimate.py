@@ -1,5 +1,4 @@
-"""How long ``caustica bench`` will take, said before it starts and corrected as it goes (issue 43: the README's
-bench ran about 14 minutes with nothing said).
+"""How long ``caustica bench`` will take, said before it starts and corrected as it goes.
 
 A cost model, not a measurement: seconds per frame, per exact pixel and per Mitsuba sample measured on
 llvmpipe with 2 cores (a GPU is faster at the raster frames, not at exact or Mitsuba, which run on the CPU).

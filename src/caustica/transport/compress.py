@@ -133,8 +133,8 @@ def quantization_errors(table: TransportTable, q: QuantizedTable | None = None) 
 
 
 def table_bytes(q: QuantizedTable) -> bytes:
-    """The ``.npz`` file of a quantized table (no pickles), stored: deflate took 1.3 s a write on the bunny's
-    54 MB and saved 6 % of it (16-bit samples hardly compress)."""
+    """The ``.npz`` file of a quantized table (no pickles), stored uncompressed: 16-bit samples hardly
+    deflate (docs/cli.md, precompute)."""
     buffer = io.BytesIO()
     np.savez(buffer, version=np.int64(TABLE_VERSION), mesh_hash=np.str_(q.mesh_hash), ior=np.float64(q.ior),
                         rings=np.int64(q.grid.rings), max_depth=np.int64(q.max_depth), bounds=q.bounds,
