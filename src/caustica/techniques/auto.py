@@ -202,7 +202,7 @@ def _plan_visible(scene, quality: str, frame_size) -> Plan:
     if caustics:
         sized = caustic_map_size(map_size, scene.camera.size if frame_size is None else frame_size)
         params[f"{caustics_by}.map_size"] = sized if caustics_by == CAUSTICS else map_size
-    if tabled:  # the table's rays traced for the light (no table): 30 dB on the bunny over a floor, 22 looked up
+    if tabled:  # the table's rays traced for the light's own directions: no table is looked up or cached
         params.update({f"{TABLE}.exit_rays": "traced", f"{TABLE}.photon_budget": table_photons})
     baked = _baked_receivers(scene)
     occluded = not baked and _occluded_ambient(scene)
@@ -271,13 +271,10 @@ OCCLUDED = (f"; the sky's light shadowed by the other objects: environment_lobes
 
 def _occluded_ambient(scene) -> bool:
     """Whether the environment lobes' shadows pay: diffuse surfaces with another object to occlude their
-    environment light, an environment that sheds some, and no lights of the scene's own. Where the scene
-    has lights, the sky's share of the diffuse light is small: on caustics-point and caustics-spot the
-    lobes changed no figure (35.25 and 36.73 dB against Mitsuba either way) for 1.8x the frame, and
-    mirror-concave lost 0.9 dB (docs/environment-light.md). Where the scene has no floor (whose bounce they
-    bring) and objects block no more than LOBE_SHARE of the sky on the diffuse surfaces (lobe_occlusion: exact
-    rays towards each lobe), the lobes would change next to no pixel for a fifth of the frame
-    (spectacle-convex: a lens before a flat chart)."""
+    environment light, an environment that sheds some, and no lights of the scene's own (where the scene has
+    lights, the sky's share of the diffuse light is too small to pay), and a floor (whose bounce the lobes bring)
+    or objects that block more than LOBE_SHARE of the sky on the diffuse surfaces (lobe_occlusion: exact rays
+    towards each lobe). The measurements behind the rule: docs/auto.md and docs/environment-light.md."""
     diffuse = [o for o in scene.objects if o.material.kind == "diffuse"]
     return (bool(diffuse) and len(scene.objects) > 1 and not scene.lights
             and _sheds_light(scene.environment)
@@ -307,9 +304,8 @@ def _baked_receivers(scene) -> bool:
     """Whether the light maps pay (environment_lights.bake_plan: the floor, box faces, planes, curved receivers per
     vertex): a diffuse object and another object, under an environment that sheds some light, with a floor (which
     the others shadow or the sky's caustic lights) or, without one, objects that take more than LOBE_SHARE of the
-    sky's light on the diffuse faces the camera sees (lobe_occlusion; a chart of coplanar squares before a thin
-    lens, spectacle-convex's 0.4 %, keeps the unoccluded SH); in any environment, where a light shines through
-    glass onto a floor (:func:`_bounced_through_glass`)."""
+    sky's light on the diffuse faces the camera sees (lobe_occlusion; below it the unoccluded SH is kept); in any
+    environment, where a light shines through glass onto a floor (:func:`_bounced_through_glass`)."""
     return (len(scene.objects) > 1 and any(o.material.kind == "diffuse" for o in scene.objects)
             and _sheds_light(scene.environment)
             and (scene_floor(scene) is not None or lobe_occlusion(scene) > LOBE_SHARE)) or _bounced_through_glass(scene)
@@ -333,12 +329,10 @@ BOUNCE_VIEW = (64, 48)  # the camera's pixels at which the exact paths measure t
 def _bounces_that_pay(scene, bounces: int, least: float) -> tuple[int, int]:
     """(bounces followed, bounces left out): the most internal bounces, up to ``bounces``, whose last carries
     at least ``least`` (BOUNCE_SHARE) of the light that enters the glass at the camera's glass pixels
-    (raytrace/paths.exit_shares: Fresnel-weighted exact paths, Embree). The second bounce carries 1.2 percent
-    on a ball (glass-sphere: 1.8 dB against Mitsuba) and 0.05 percent through spectacle-convex's thin lens
-    (0.07 dB), for a quarter of its frame. Where no light leaves through a glass exit (caustics-pool's water
-    sheet: the refracted light lands on the floor, and the shader finds no exit to bounce from) none is
-    followed: each cost the pool 0.4x plain's CPU time and changed no pixel; with no glass pixel in view, all.
-    Cached on the scene by its state and camera."""
+    (raytrace/paths.exit_shares: Fresnel-weighted exact paths, Embree; Hu and Qin 2.1's bounces inside the
+    object). Where no light leaves through a glass exit (a water sheet: the refracted light lands on the floor,
+    and the shader finds no exit to bounce from) none is followed; with no glass pixel in view, all. Cached on
+    the scene by its state and camera. What a bounce carries and costs on the presets: docs/auto.md."""
     from ..raytrace.paths import exit_shares
 
     if bounces <= 0 or least <= 0.0:
@@ -356,15 +350,11 @@ def _bounces_that_pay(scene, bounces: int, least: float) -> tuple[int, int]:
     return kept_on(scene, "_bounce_cache", key, weighed)
 
 
-# The lobes pay where objects block more than this share of the sky on diffuse surfaces: spectacle-convex's lens
-# takes 0.4 % (+0.01 dB against Mitsuba with the lobes, for 0.8x plain's CPU time); a lens before a chart and
-# two boxes, 12 % (+1.4 dB; docs/auto.md).
+# The lobes pay where objects block more than this share of the sky on diffuse surfaces (docs/auto.md, the lobes).
 LOBE_SHARE = 1e-2
 PLAN_PHOTONS = 4096  # photons that decide whether a light's caustic reaches a diffuse surface at all
 # The least share of the flux the lights send towards the casters that must land on diffuse surfaces as caustics
-# for a caustic map to pay: on lens-before-chart 0.6 % lands (the sun behind the chart, the lens's internal
-# reflections onto a box) and the map changed no pixel, for 0.3x plain's CPU time; on the presets with caustics
-# the least is spectacle-concave's 3.1 % (docs/auto.md).
+# for a caustic map to pay (docs/auto.md, caustic mapping: below it the map changed no pixel).
 CAUSTIC_SHARE = 1e-2
 
 
@@ -381,10 +371,10 @@ def _caustic_paths(scene, lit: list) -> CausticPaths:
     """PLAN_PHOTONS photons from the ``lit`` lights (the environment's sun among them), refracted through the
     glass and reflected off the mirrors (``branches="transmit"``: glass reflects only on TIR, as in caustic
     mapping), traced to the diffuse surfaces (raytrace/photons.py, Embree). Where none lands, or less than
-    CAUSTIC_SHARE of the flux sent towards the casters, a caustic map would cost every frame and add no light:
-    on spectacle-convex the sun comes from behind the chart, and the lens sends its light towards the camera. The share of the landed flux on other than two interfaces (one
-    through a scan's hole, three or four through a second lobe, internal reflections) is what caustic mapping's
-    two-interface estimate misses and a transport table follows. Cached on the scene by its state."""
+    CAUSTIC_SHARE of the flux sent towards the casters, a caustic map would cost every frame and add no light.
+    The share of the landed flux on other than two interfaces (one through a scan's hole, three or four through a
+    second lobe, internal reflections) is what caustic mapping's two-interface estimate (Shah et al. 3.1) misses
+    and a transport table (Iwasaki et al. 4) follows. Cached on the scene by its state."""
     from dataclasses import replace
 
     from ..raytrace.photons import trace_photons
@@ -409,12 +399,9 @@ def _lights(lit: list, sun) -> str:
 
 CONCAVE = 0.25  # a mirror is concave when this fraction of its surface bends towards the camera
 # Per-vertex pays while its least-squares viewpoint sees the mirror's hits within this many degrees of the reflected
-# rays on average (per_vertex.viewpoint_parallax): mirror-flat 0, door-mirror 0.04 (a street far from a small
-# mirror, whose houses outnumber max_impostors), where it is ahead of impostors; from mirror-convex's 0.47 up
-# (mirror-patches 0.77 and 0.92, cylinder-mirror 3.3, saddle-mirror 10, nine held-out mirrors 0.45 to 8.5)
-# impostors is 0.6 to 7.5 dB ahead, both with auto's light maps, against the completed reference (docs/benchmarks.md,
-# "Mirrors far from one viewpoint, and invisible glass"). No hysteresis: the plan is a function of the scene's state
-# and camera, so that batch workers rendering frames in any order plan alike (docs/determinism.md).
+# rays on average (per_vertex.viewpoint_parallax; Kakimoto et al. 3.2); above it impostors is ahead (the presets'
+# angles and scores: docs/auto.md). No hysteresis: the plan is a function of the scene's state and camera, so that
+# batch workers rendering frames in any order plan alike (docs/determinism.md).
 PARALLAX = 0.3
 NESTED = 0.01  # a mirror whose vertices' rays meet another mirror this often keeps per-vertex (Kakimoto et al. 4.4)
 
@@ -424,8 +411,7 @@ def _per_vertex_fails(mirrors: list, scene) -> str:
     (:func:`_concave`) focuses the reflected rays; a mirror whose rays pass far from one viewpoint (above
     PARALLAX: :func:`_mirror_rays`) is seen from it with the nearby objects shifted, unless one of the mirrors
     shows another (NESTED): per-vertex renders a mirror in a mirror exact at its vertices level by level (4.4),
-    where impostors' recursive textures are distorted (Hu and Qin 2.2.1); mirror-in-mirror, 0.53 degrees, 0.3 dB
-    ahead with per-vertex."""
+    where impostors' recursive textures are distorted (Hu and Qin 2.2.1)."""
     if hollow := [o.name for o in mirrors if _concave(o, scene.camera)]:
         return f"a concave mirror ({', '.join(hollow)}) focuses the reflected rays"
     rays = _mirror_rays(mirrors, scene)
@@ -477,12 +463,10 @@ def _traced_table_pays(glass: list, beyond_two: float) -> bool:
     """Whether ``transport-table`` with its rays traced for the light (``exit_rays="traced"``: no table to cache)
     gives the caustics of ``glass`` better than caustic mapping: every object a solid of one IOR (Iwasaki et
     al. 4 trace through closed objects; not a water sheet; dispersive glass, whose rays would be traced once per
-    channel, keeps caustic mapping, unmeasured), one at least not convex, and more than TABLE_SHARE of the
-    caustic flux on other than the two interfaces caustic mapping estimates (docs/auto.md, "Which glass takes
-    the traced table": at shares from 0.085 to 0.31 it was ahead of caustic mapping on seven scenes of nine, Suzanne
-    mixed and an absorbing bunny 0.6 dB behind; on a ring lying flat, 0.001, 0.4 dB behind). In convex glass the light beyond two interfaces is reflected totally inside, which caustic
-    mapping's exit_reflections follow (a cylinder: 0.61 of its flux, caustic relMSE 0.004 against the table's
-    0.65)."""
+    channel, keeps caustic mapping), one at least not convex, and more than TABLE_SHARE of the caustic flux on
+    other than the two interfaces caustic mapping estimates (Shah et al. 3.1). In convex glass the light beyond
+    two interfaces is reflected totally inside, which caustic mapping's exit_reflections follow. The scenes that
+    set TABLE_SHARE: docs/auto.md, "Which glass takes the traced table"."""
     from ..passes.casters import nearly_closed
 
     return (all(nearly_closed(o.mesh) and o.material.abbe is None for o in glass)
@@ -546,8 +530,8 @@ class Auto(Technique):
         # Lobes named without a light map: the lobes light the floor too (the rule set aside for both).
         bake = params.environment_bake if "environment_bake" in given or (
             "environment_lobes" not in given and "environment_bake" in chosen.params) else 0
-        # The light maps replace the lobes: with the floor's they changed the other diffuse pixels by -0.4 to +0.7 dB
-        # for twice its frame and more (docs/auto.md); with every receiver baked none is left to them.
+        # The light maps replace the lobes (the lobes' change beside the floor's map did not pay: docs/auto.md); with
+        # every receiver baked none is left to them.
         lobes = params.environment_lobes if "environment_lobes" in given or (
             not bake and _occluded_ambient(without_invisible_glass(scene))) else 0
         for name, value in (("environment_bake", bake), ("environment_lobes", lobes)):
