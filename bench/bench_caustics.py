@@ -24,7 +24,7 @@ import caustica
 from caustica.bench.compare import compare
 from caustica.bench.sheet import contact_sheet, save_sheet
 from caustica.bench.timing import timed_render
-from caustica.passes.graph import evict
+from caustica.render.graph import evict
 from caustica.renderer import Renderer
 
 TECHNIQUES = ["depth-search+caustic-mapping", "depth-search+photon-splats"]

@@ -9,7 +9,7 @@ import pytest
 import caustica
 from caustica.errors import RenderOptionError
 from caustica.gpu.readback import read_rgb
-from caustica.passes.base import Frame
+from caustica.render.frame import Frame
 from caustica.passes.resolve import resolved
 from caustica.metrics.images import psnr_linear
 

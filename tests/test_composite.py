@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from caustica.errors import TechniqueError
-from caustica.passes.base import Channel, Pass
+from caustica.render.frame import Channel, Pass
 from caustica.passes.caustics import CAUSTIC_PROJECTIVE, CausticMap
 from caustica.scene import Camera, Diffuse, DirectionalLight, Scene, SceneObject, procedural_environment
 from caustica.scene.shapes import plane

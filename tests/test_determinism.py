@@ -111,7 +111,7 @@ def test_two_processes_render_the_same_bytes(two_processes, case):
 
 def splat(renderer, view, positions: np.ndarray, flux: np.ndarray) -> np.ndarray:
     """SplatPhotons' compute splat of photons at world ``positions`` with ``flux`` (W, RGB): (3, h, w) flux."""
-    from caustica.passes.base import Frame
+    from caustica.render.frame import Frame
     from caustica.passes.light_space import Photons, SplatPhotons
 
     gpu = renderer.device

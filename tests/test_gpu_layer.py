@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from caustica.gpu.shaders import ShaderError, ShaderLibrary
-from caustica.passes.base import Channel, Frame, Pass, PassWiringError, run_passes
+from caustica.render.frame import Channel, Frame, Pass, PassWiringError
+from caustica.render.graph import run_passes
 
 
 @pytest.fixture()

@@ -1,4 +1,4 @@
-"""The render graph (passes/graph.py): wiring, lending and giving back, caching across frames, `caustica graph`."""
+"""The render graph (render/graph.py): wiring, lending and giving back, caching across frames, `caustica graph`."""
 from __future__ import annotations
 
 import ast
@@ -9,8 +9,8 @@ import pytest
 
 from caustica import Renderer
 from caustica.gpu.device import gl_objects
-from caustica.passes.base import Channel, Frame, Pass, PassWiringError
-from caustica.passes.graph import RenderGraph, run_graph
+from caustica.render.frame import Channel, Frame, Pass, PassWiringError
+from caustica.render.graph import RenderGraph, run_graph
 from caustica.scene.presets import PRESETS
 from caustica.techniques import get_technique, technique_names
 

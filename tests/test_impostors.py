@@ -176,7 +176,7 @@ def test_reflections_switch_only_changes_reflected_rays(renderer):
 
 
 def _frame(renderer, scene, params):
-    from caustica.passes.base import Frame
+    from caustica.render.frame import Frame
 
     return Frame(renderer.device, scene, scene.camera.with_size(64, 64), params)
 
@@ -210,7 +210,7 @@ def test_caustic_filter_equals_the_formula(renderer):
 # Measured on llvmpipe: 2.4347 W in the caustic textures, 2.4379 W exact (0.13 percent).
 def test_caustic_energy_is_conserved(renderer):
     """The caustic textures hold the flux the light sends through the ball: I x solid angle x exact transmittance."""
-    from caustica.passes.base import run_passes
+    from caustica.render.graph import run_passes
     from caustica.scene.presets import PRESETS
     from caustica.techniques.base import get_technique
     from caustica.techniques.raster import read_rgba

@@ -8,7 +8,8 @@ import pytest
 
 from caustica.errors import TechniqueError
 from caustica.metrics import psnr_linear
-from caustica.passes.base import Frame, run_passes
+from caustica.render.frame import Frame
+from caustica.render.graph import run_passes
 from caustica.passes.lights import ShadowMaps
 from caustica.per_vertex import closest_point_to_lines, double_refraction, principal_directions, split_patches
 from caustica.per_vertex.viewpoint import Lines, fit_view_volume

@@ -476,7 +476,8 @@ def _say(text: str, end: str = "\n") -> None:
 def cmd_render(args) -> int:
     from .images import write_image
     from .renderer import Renderer
-    from .techniques.base import check_spp, get_technique
+    from .techniques import get_technique
+    from .techniques.base import check_spp
 
     output = _check_output(args.output, OUTPUT_SUFFIXES)
     technique = get_technique(args.technique)
@@ -633,7 +634,8 @@ def _write_json(path: Path, data) -> None:
 def cmd_compare(args) -> int:
     from .bench.compare import compare, format_table
     from .bench.sheet import compare_sheet, save_sheet
-    from .techniques.base import check_spp, get_technique
+    from .techniques import get_technique
+    from .techniques.base import check_spp
 
     if args.reference_floor is not None and args.reference_spp is not None:
         raise CausticaError("--reference-floor picks the reference's samples itself; give it or --reference-spp, "
@@ -801,7 +803,7 @@ def _with_quality(args) -> dict:
 
 
 def cmd_graph(args) -> int:
-    from .passes.graph import RenderGraph
+    from .render.graph import RenderGraph
     from .techniques import get_technique
 
     technique = get_technique(args.name)

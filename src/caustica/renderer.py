@@ -11,15 +11,16 @@ from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, 
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
 from .passes.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
-from .passes.base import Frame, frame_setting
-from .passes.graph import run_graph
+from .render.frame import Frame, frame_setting
+from .render.graph import run_graph
 from .passes.labels import label_pass, read_label_buffers
 from .passes.resolve import check_antialias, resolved
 from .passes.subpixel import check_multisampling
 from .progress import progress_policy
 from .scene import Scene, rules
 from .scene.scene import check_scene, recentred, without_invisible_glass
-from .techniques.base import check_spp, get_technique
+from .techniques import get_technique
+from .techniques.base import check_spp
 
 
 class Renderer:

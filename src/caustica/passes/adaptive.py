@@ -13,7 +13,7 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from ..gpu.readback import read_rgba
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .resolve import fullscreen_pass
 
 THRESHOLD = 0.01  # a pixel is flagged when a neighbour's compressed channel c / (1 + c) differs by more

@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
-from .base import Frame
+from ..render.frame import Frame
 
 DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
 MAX_DEFERRED = 255  # G-buffer ids 1..255 keyed as depth id / 256

@@ -30,7 +30,7 @@ from ..progress import detail
 from ..raytrace.environment_light import environment_light, hammersley
 from ..scene.environment import Environment, irradiance_sh_of, texel_grid, uv_to_direction
 from ..scene.lights import DirectionalLight
-from .base import frame_setting
+from ..render.frame import frame_setting
 
 SUN_SAMPLES = 16384  # stratified samples of the bright part (its integral to about 1e-4 on sky-checker's sun)
 SUN_SPREAD = 10.0  # degrees: the largest angular radius (from the mean resultant length) of a sun

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..cache import LruCache
 from ..gpu.meshes import set_uniform
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .surfaces import draw_refractor_buffer
 
 DN_ATTRIBUTE = "in_dn"

@@ -36,8 +36,8 @@ from ..gpu.meshes import set_uniform, write_uniform_array
 from ..parameters import Params, param
 from ..scene import rules
 from ..scene.textures import texture_of
-from .base import Channel, Frame, Pass
-from .offscreen import aimed_camera, offscreen_channels, scene_subset
+from ..render.frame import Channel, Frame, Pass
+from ..render.offscreen import aimed_camera, offscreen_channels, scene_subset
 from .surfaces import ShadeSurfaces
 
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)

@@ -15,7 +15,7 @@ import moderngl
 
 from ..gpu.meshes import set_uniform
 from ..gpu.readback import read_rgba
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .lights import MAX_LIGHTS, bind_lights, draw_objects
 from .surfaces import _culled_back_faces  # ShadeSurfaces' back-face culling of solids

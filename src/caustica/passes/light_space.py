@@ -9,7 +9,7 @@ map onto receivers like a shadow map; Wyman's photon splats follow the same
 outline. This module holds the passes they share, each declaring its channels
 (one list entry per light sample, None where a light makes no caustic); the
 views they draw in are ``passes/light_views.py``, the cache across frames
-``passes/cached_passes.py``:
+``render/cached.py``:
 
 - :class:`FitCasterViews` (III-B: the photon grid's view around the casters),
   :class:`FitCoarseViews` and :class:`FitCausticViews` (III-F, "view frustum
@@ -46,8 +46,8 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
 from ..gpu.shaders import run_compute
-from .base import Channel, Frame, Pass
-from .cached_passes import CachedPasses
+from ..render.frame import Channel, Frame, Pass
+from ..render.cached import CachedPasses
 from .fixed_flux import splat_fixed_point
 from .light_views import LightView, caster_points, coarse_view, cube_view, fit_view
 from .lights import LIGHT_DIRECTIONAL, LIGHT_POINT
@@ -416,7 +416,7 @@ class ResolveCausticMaps(Pass):
     The receiver area of a texel is its solid angle times d^2 (or its
     perpendicular area) over the cosine between the receiver normal and the
     light, from the receivers' normal texture. The maps are new textures owned
-    by the caller (:class:`~caustica.passes.cached_passes.CachedPasses` keeps them across frames).
+    by the caller (:class:`~caustica.render.cached.CachedPasses` keeps them across frames).
     """
 
     def __init__(self, receivers: str = "receivers", views: str = "caustic_views"):
@@ -470,7 +470,7 @@ def landing_chain(tag: str, params, makers: list, land, *, caster_size: int, map
     ``land(receivers, views, channel, steps, initial=None)`` makes a landing pass or passes (photons onto the
     ``receivers`` textures laid out in ``views``, into ``channel``; first guesses where the ``initial``
     channel's photons landed; none for the footprint, which ``land`` makes Newton-Raphson). The chain reruns only when lights, objects,
-    materials or ``params`` change (:class:`~caustica.passes.cached_passes.CachedPasses` ``tag``). ``extra``
+    materials or ``params`` change (:class:`~caustica.render.cached.CachedPasses` ``tag``). ``extra``
     passes run last; the chain keeps what they write with the caustic maps.
     """
     kept = ("caustic_maps", *(c.name for stage in extra for c in stage.writes))

@@ -29,7 +29,7 @@ from ..scene.transform import (
     perspective_clip_from_view,
     up_hint,
 )
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .environment_lights import (EnvironmentBake, EnvironmentShadows, bake_atlas, bake_settings, environment_lobes,
                                  environment_sun, floor_bounce_sh, lobe_settings, mean_albedo, scene_bake,
                                  scene_floor)

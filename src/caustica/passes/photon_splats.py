@@ -23,7 +23,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_object_transform, set_uniform
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .casters import CASTER_NONE, CASTER_SOLID, MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from .glass_contact import bind_contact_plane, contact_defines
 from .image_space import DN_ATTRIBUTE, distance_along_normal

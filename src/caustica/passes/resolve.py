@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 from ..errors import RenderOptionError, short
 
 if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
-    from .base import Frame
+    from ..render.frame import Frame
 
 ANTIALIAS_MODES = ("none", "edge", "msaa", "adaptive")
 """``none``: pixels as rendered (k x k supersampling with spp > 1); ``edge``: the post-process edge blend

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from ..errors import RenderOptionError
 from ..gpu.meshes import set_uniform
-from .base import Frame
+from ..render.frame import Frame
 from .labels import draw_first_surfaces, label_program
 
 SAMPLES = 4  # geometry samples per pixel (llvmpipe's GL_MAX_SAMPLES is 4)

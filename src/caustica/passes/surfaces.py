@@ -14,7 +14,7 @@ from ..scene.codes import MATERIAL_CODES
 from ..scene.textures import texture_of
 from . import deferred
 from .adaptive import FLAGS, preset_depth
-from .base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
 from .environment_lights import ambient_sh, bind_baked_object, bind_environment_bake, bind_environment_shadows

@@ -41,7 +41,8 @@ from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_p
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from ..scene.gltf.origin import thin_walled_glass, thin_walled_note
 from ..scene.scene import invisible_objects, without_invisible_glass
-from .base import Params, Technique, get_technique, param
+from .base import Params, Technique, param
+from .registry import get_technique
 
 QUALITY = {  # quality -> (internal bounces, impostor texels, caustic-map texels, shadow-map texels, table photons)
     "draft": (0, 256, 256, 512, 1 << 16),
@@ -479,6 +480,7 @@ class Auto(Technique):
     name = "auto"
     summary = "The most accurate real-time combination for the scene: impostors, depth-search or per-vertex, with caustics"
     Params = AutoParams
+    role = "planner"
     plan_used: Plan | None = None  # the plan of the last for_scene (the renderer keeps it as last_plan)
 
     def make_params(self, **values):

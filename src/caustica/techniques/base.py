@@ -1,7 +1,10 @@
-"""Technique base class and registry.
+"""The Technique base class: what every technique declares.
 
 A technique is an ordered set of passes (or a CPU algorithm, for ``exact``),
-its parameters as a validated dataclass, and a docstring citing its paper.
+its parameters as a validated dataclass, and a docstring citing its paper. It
+declares its name and its role as class attributes; techniques/registry.py
+finds every declared technique and derives the lists of view and caustic
+techniques from these declarations.
 """
 from __future__ import annotations
 
@@ -17,7 +20,13 @@ from ..parameters import Params, param  # noqa: F401 (the techniques declare wit
 if TYPE_CHECKING:  # pragma: no cover
     from ..scene import Camera, Scene
 
-_REGISTRY: dict[str, type["Technique"]] = {}
+# What a technique does in a render, and where it may stand in a ``view+caustics`` name.
+ROLES = {
+    "view": "renders what the camera sees with GPU passes; stands before the '+' of a composite",
+    "caustics": "builds caustic maps (CausticTechnique); stands after the '+', or alone with the default view",
+    "planner": "chooses another technique for each scene (auto)",
+    "reference": "renders on the CPU what the others are measured against (exact, mitsuba)",
+}
 
 
 @dataclasses.dataclass
@@ -26,11 +35,16 @@ class NoParams(Params):
 
 
 class Technique:
-    """One way of rendering a scene. Subclasses set ``name``, ``summary``, ``Params``."""
+    """One way of rendering a scene. Subclasses set ``name``, ``summary``, ``Params`` and ``role``."""
 
-    name: ClassVar[str] = ""
+    name: ClassVar[str] = ""  # a class that declares a name is a technique of the registry
     summary: ClassVar[str] = ""
     Params: ClassVar[type] = NoParams
+    role: ClassVar[str] = ""  # one of ROLES; RasterTechnique declares "view", CausticTechnique "caustics"
+    # A view technique whose passes end in one ShadeSurfaces that per-object can restrict to some objects
+    # declares its place among the view techniques: per-object offers those, the composites' messages name
+    # them, in this order (lowest first).
+    view_order: ClassVar[int | None] = None
     uses_gl: ClassVar[bool] = True
     # Samples per pixel form a k x k grid (raster supersampling, exact's stratified rays), so spp must be
     # a square; False where any count is honoured (Mitsuba's sampler).
@@ -40,9 +54,14 @@ class Technique:
     qualified_prefixes: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs):
+        """A declared technique's role must be one of ROLES; only a view technique takes a view_order."""
         super().__init_subclass__(**kwargs)
-        if cls.name:
-            _REGISTRY[cls.name] = cls
+        if "name" not in vars(cls):
+            return
+        if cls.role not in ROLES:
+            raise TypeError(f"technique '{cls.name}' declares role {cls.role!r}; give one of {', '.join(ROLES)}")
+        if cls.view_order is not None and cls.role != "view":
+            raise TypeError(f"technique '{cls.name}' declares a view_order but its role is {cls.role!r}, not 'view'")
 
     def make_params(self, **values: Any):
         """Build the parameter dataclass, rejecting unknown names with a hint."""
@@ -81,49 +100,3 @@ def check_spp(technique: "Technique", spp: int) -> None:
             f"spp {spp} is not a square; '{technique.name}' takes k x k samples per pixel: "
             f"use {k * k} or {(k + 1) ** 2} (any of 1, 4, 9, 16, ...)"
         )
-
-
-def technique_names() -> list[str]:
-    _load_builtin()
-    return sorted(_REGISTRY)
-
-
-def get_technique(name: str) -> Technique:
-    """A technique by name; ``view+caustics`` composes a view technique with a caustic technique. A
-    Technique instance (one built in code, e.g. a Composite) is returned as it is."""
-    _load_builtin()
-    if isinstance(name, Technique):
-        return name
-    if not isinstance(name, str):
-        raise TechniqueError(f"technique {short(name)} must be a technique name such as 'env-map'; "
-                             "run 'caustica techniques' to list them")
-    if "+" in name:
-        from .composite import composite_technique
-
-        return composite_technique(name, get_technique)
-    if name not in _REGISTRY:
-        raise TechniqueError(
-            f"unknown technique {short(name)}{closest_name(name, _REGISTRY)}; run 'caustica techniques' to list them"
-        )
-    return _REGISTRY[name]()
-
-
-_HELPER_MODULES = {"base", "raster", "composite"}
-
-
-_LOADED = False
-
-
-def _load_builtin() -> None:
-    """Import every module of this package once: each technique registers itself by subclassing."""
-    global _LOADED
-    if _LOADED:
-        return
-    import importlib
-    import pkgutil
-    from pathlib import Path
-
-    for info in pkgutil.iter_modules([str(Path(__file__).parent)]):
-        if info.name not in _HELPER_MODULES:
-            importlib.import_module(f"{__package__}.{info.name}")
-    _LOADED = True

@@ -110,7 +110,7 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
 from ..errors import TechniqueError
-from ..passes.base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from ..passes.glass_contact import bind_caster_contacts
 from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
 from ..gpu.shaders import run_compute

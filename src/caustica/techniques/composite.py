@@ -18,6 +18,7 @@ import dataclasses
 from ..errors import TechniqueError, closest_name
 from ..passes.surfaces import ShadeSurfaces
 from .raster import RasterTechnique
+from .registry import get_technique
 
 DEFAULT_VIEW = "depth-search"  # the most accurate view technique without preprocessing
 SPLATS = ("auto", "compute", "points")  # caustic techniques' splat: compute shader, point sprites, or the GL's best
@@ -38,13 +39,17 @@ def is_shared(view: RasterTechnique, caustics: RasterTechnique, name: str) -> bo
 class CausticTechnique(RasterTechnique):
     """A technique that builds caustic maps; subclasses implement :meth:`caustic_passes`."""
 
+    role = "caustics"
+
     def caustic_passes(self, params) -> list:
         """Passes that read ``light_samples`` (and shadow maps) and write ``caustic_maps`` or ``caustic_tiles``."""
         raise NotImplementedError
 
-    def build_passes(self, params):
-        from .base import get_technique
+    def composed_with(self, view: RasterTechnique) -> "Composite":
+        """``view`` for what the camera sees with these caustics (``view+caustics``, registry.py)."""
+        return Composite(view, self)
 
+    def build_passes(self, params):
         view = get_technique(DEFAULT_VIEW)
         return compose_passes(view, self, _shared_params(view, self, params), params)
 
@@ -112,16 +117,3 @@ def _shared_params(view: RasterTechnique, caustics: RasterTechnique, caustic_par
     shared = {k: v for k, v in dataclasses.asdict(caustic_params).items()
               if k in view_fields and is_shared(view, caustics, k)}
     return view.make_params(**shared)
-
-
-def composite_technique(name: str, lookup) -> Composite:
-    """``view+caustics`` -> Composite, or a TechniqueError naming what is wrong."""
-    parts = name.split("+")
-    if len(parts) != 2 or not all(parts):
-        raise TechniqueError(f"technique '{name}' must be 'view+caustics', e.g. 'depth-search+caustic-mapping'")
-    view, caustics = lookup(parts[0]), lookup(parts[1])
-    if isinstance(view, CausticTechnique) or not isinstance(view, RasterTechnique):
-        raise TechniqueError(f"'{parts[0]}' cannot show the camera view in '{name}'; use env-map, image-space or depth-search")
-    if not isinstance(caustics, CausticTechnique):
-        raise TechniqueError(f"'{parts[1]}' makes no caustics in '{name}'; use a caustic technique after the '+'")
-    return Composite(view, caustics)

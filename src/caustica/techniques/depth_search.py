@@ -97,6 +97,7 @@ class DepthSearch(RasterTechnique):
     name = "depth-search"
     summary = "Two-interface refraction: silhouette binary search + iterative dT against depth buffers (Hu and Qin)"
     Params = DepthSearchParams
+    view_order = 30
 
     def build_passes(self, params):
         def set_uniforms(program, frame, obj):

@@ -44,6 +44,7 @@ class EnvMap(RasterTechnique):
     name = "env-map"
     summary = "Single-interface reflection/refraction of the environment with Fresnel (the baseline)"
     Params = ShadowedParams
+    view_order = 10
 
     def build_passes(self, params):
         # The back faces only give the Beer-Lambert thickness: skipped when no glass absorbs.

@@ -87,6 +87,7 @@ class Exact(Technique):
     name = "exact"
     summary = "Exact specular paths through glass and mirrors, ray traced on the CPU with Embree (the accuracy oracle)"
     Params = ExactParams
+    role = "reference"
     uses_gl = False
 
     def render(self, scene, camera, params, spp: int) -> np.ndarray:

@@ -66,6 +66,7 @@ class ImageSpace(RasterTechnique):
     name = "image-space"
     summary = "Two-interface refraction: d_V/d_N distance estimate, back-face normals, TIR fallbacks (Wyman)"
     Params = ImageSpaceParams
+    view_order = 20
 
     def build_passes(self, params):
         inputs = ("back_surface", "front_dn") if params.use_dn else ("back_surface",)

@@ -62,12 +62,12 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
-from ..passes.base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from ..passes.impostors import BuildImpostors
 from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
 from ..passes.fixed_flux import splat_fixed_point
 from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
-from ..passes.offscreen import aimed_camera, render_offscreen
+from ..render.offscreen import aimed_camera, render_offscreen
 from .base import param
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes

@@ -34,6 +34,7 @@ class MitsubaReference(Technique):
     name = "mitsuba"
     summary = "Ground truth from Mitsuba 3: path tracing composited with light tracing for caustics (CPU, cached)"
     Params = MitsubaParams
+    role = "reference"
     uses_gl = False
     square_spp = False  # Mitsuba's independent sampler takes any count
 

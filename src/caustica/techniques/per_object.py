@@ -1,8 +1,8 @@
 """``per-object``: each glass object shown by its own view technique, in one image.
 
-``techniques`` maps glass object names to ``env-map``, ``image-space`` or
-``depth-search``; every other object (and every glass object not named) takes
-``default``. The passes are the union of what the chosen techniques need
+``techniques`` maps glass object names to view techniques (those that declare
+a ``view_order``: ``env-map``, ``image-space``, ``depth-search``); every other
+object (and every glass object not named) takes ``default``. The passes are the union of what the chosen techniques need
 before shading (shadow maps, refractor front/back buffers, image-space's d_N
 buffer), each channel made once, then one :class:`ShadeSurfaces` run per
 technique: the first (the default technique, which also shades diffuse
@@ -21,13 +21,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import TechniqueError, closest_name
-from ..passes.base import Pass
+from ..render.frame import Pass
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
+from .registry import get_technique, view_technique_names
 
-VIEW_TECHNIQUES = ("env-map", "image-space", "depth-search")
+VIEW_TECHNIQUES = view_technique_names()  # those that declare a view_order (base.Technique)
 
 
 def _check_view_technique(technique, subject: str) -> None:
@@ -69,8 +70,6 @@ class PerObjectParams(ShadowedParams):
 
     def params_for(self, technique: str):
         """The parameters ``technique`` runs with here: its own settings and the shared shadow map size."""
-        from .base import get_technique
-
         values = {**self.technique_params.get(technique, {}), "shadow_map_size": self.shadow_map_size}
         try:
             return get_technique(technique).make_params(**values)
@@ -113,7 +112,7 @@ class CheckObjectNames(Pass):
 
 class PerObject(RasterTechnique):
     name = "per-object"
-    summary = "A view technique per glass object (env-map, image-space, depth-search) in one image"
+    summary = f"A view technique per glass object ({', '.join(VIEW_TECHNIQUES)}) in one image"
     Params = PerObjectParams
     qualified_prefixes = VIEW_TECHNIQUES
 
@@ -138,8 +137,6 @@ class PerObject(RasterTechnique):
         return super().make_params(**own)
 
     def build_passes(self, params):
-        from .base import get_technique
-
         order = [params.default] + [t for t in dict.fromkeys(params.techniques.values()) if t != params.default]
         before, shades, made = [CheckObjectNames(params.techniques)], [], set()
         for technique in order:

@@ -68,10 +68,10 @@ import numpy as np
 
 from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
-from ..passes.base import Channel, Frame, Pass
+from ..render.frame import Channel, Frame, Pass
 from ..passes.caustics import maps_reaching
 from ..passes.lights import ShadowMaps
-from ..passes.offscreen import OffscreenCamera, render_offscreen, scene_subset
+from ..render.offscreen import OffscreenCamera, render_offscreen, scene_subset
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..per_vertex.patches import Patch, split_patches, unique_indices
 from ..per_vertex.refine import Traced, refine

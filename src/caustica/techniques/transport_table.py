@@ -41,8 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..passes.base import Channel, Frame, Pass
-from ..passes.cached_passes import CachedPasses
+from ..render.frame import Channel, Frame, Pass
+from ..render.cached import CachedPasses
 from ..passes.light_space import (
     PHOTON_BYTES,
     FitCausticViews,

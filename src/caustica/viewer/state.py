@@ -17,7 +17,8 @@ from ..errors import CausticaError, RenderOptionError
 from ..images import TONEMAPS
 from ..passes.resolve import ANTIALIAS_MODES, check_antialias
 from ..scene import Scene
-from ..techniques.base import check_spp, get_technique
+from ..techniques import get_technique
+from ..techniques.base import check_spp
 from .display import auto_mode, value_range
 from .orbit import OrbitCamera
 from .params import param_specs

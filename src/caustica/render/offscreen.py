@@ -14,7 +14,8 @@ import numpy as np
 from ..cache import LruCache
 from ..scene.scene import Scene
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view
-from .base import Frame, run_passes
+from .frame import Frame
+from .graph import run_passes
 
 _SUBSCENES = LruCache(64)  # sub-scenes by their objects, lights and environment
 

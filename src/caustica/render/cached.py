@@ -4,19 +4,20 @@ Shah et al. (III-F) and Wyman ("Putting it Together") build the caustic map
 from the light alone: it does not depend on the camera, so while lights,
 objects and materials stay as they are the map of the last frame is the map of
 this one. :class:`CachedPasses` runs a chain of passes as one pass whose
-:meth:`~caustica.passes.base.Pass.cache_key` is those (plus the technique's
-parameters); the render graph (``passes/graph.py``) keeps its outputs.
+:meth:`~caustica.render.frame.Pass.cache_key` is those (plus the technique's
+parameters); the render graph (``render/graph.py``) keeps its outputs.
 """
 from __future__ import annotations
 
 from ..cache import material_state_key, scene_state_key
-from .base import Frame, Pass, run_passes
+from .frame import Frame, Pass
+from .graph import run_passes
 
 
 class CachedPasses(Pass):
     """Run ``passes`` only when lights, objects, materials or ``key`` change; reuse their outputs otherwise.
 
-    The graph caches the ``keep`` channels (passes/graph.py, :meth:`Pass.cache_key`); whatever else
+    The graph caches the ``keep`` channels (render/graph.py, :meth:`Pass.cache_key`); whatever else
     the inner passes wrote is given back when they finish.
     """
 

@@ -3,7 +3,7 @@
 After Falcor's RenderPassReflection: a reader sees the data flow from the
 declarations alone. ``Frame.channels`` is the blackboard the passes share, and
 the frame lends every GPU resource a pass allocates (``Frame.texture``): the
-graph (passes/graph.py) takes each back once no later pass reads it.
+graph (render/graph.py) takes each back once no later pass reads it.
 """
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ class Pass:
         """A hashable value of everything this pass's outputs depend on, or None (run every frame).
 
         When not None, the graph keeps the outputs in the device cache and, while the key stays the
-        same, writes them instead of running the pass (passes/graph.py)."""
+        same, writes them instead of running the pass (render/graph.py)."""
         return None
 
     def run(self, frame: "Frame") -> None:
@@ -89,7 +89,7 @@ class Frame:
     pass_ms: dict[str, float] | None = None  # filled with per-pass milliseconds when not None
     lent: dict[int, Any] = field(default_factory=dict, repr=False)  # id -> texture or GL object on loan
     running: Any = field(default=None, repr=False)  # the pass being run (for optional_defines)
-    versions: dict[str, Any] = field(default_factory=dict, repr=False)  # channel -> version (passes/graph.py)
+    versions: dict[str, Any] = field(default_factory=dict, repr=False)  # channel -> version (render/graph.py)
 
     def read(self, name: str):
         return self.channels[name]
@@ -159,17 +159,3 @@ class Frame:
     def sub_frame(self, scene, camera, channels: dict, params=None) -> "Frame":
         """A frame over another scene or camera (reflection maps, impostor textures) sharing the GPU."""
         return Frame(self.gpu, scene, camera, self.params if params is None else params, channels=dict(channels))
-
-
-def run_passes(passes, frame: Frame, keep=None) -> None:
-    """Run ``passes`` on ``frame`` as one graph (passes/graph.py); ``keep`` as in run_graph."""
-    from .graph import run_graph
-
-    run_graph(passes, frame, keep)
-
-
-def describe_passes(passes) -> str:
-    """A readable data-flow listing: each pass, what it reads, what it writes."""
-    from .graph import RenderGraph
-
-    return RenderGraph(passes).describe()

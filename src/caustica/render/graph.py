@@ -15,7 +15,7 @@ import itertools
 import time
 
 from ..text import summary
-from .base import Frame, Pass, PassWiringError
+from .frame import Frame, Pass, PassWiringError
 
 
 class RenderGraph:
@@ -192,3 +192,13 @@ def _timed(stage: Pass, frame: Frame) -> float:
     with query:
         stage.run(frame)
     return query.elapsed / 1e6
+
+
+def run_passes(passes, frame: Frame, keep=None) -> None:
+    """Run ``passes`` on ``frame`` as one graph; ``keep`` as in run_graph."""
+    run_graph(passes, frame, keep)
+
+
+def describe_passes(passes) -> str:
+    """A readable data-flow listing: each pass, what it reads, what it writes."""
+    return RenderGraph(passes).describe()
