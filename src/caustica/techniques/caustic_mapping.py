@@ -1,106 +1,22 @@
 """``caustic-mapping``: caustics by image-space photon tracing from the light (Shah et al.).
 
-Shah, Konttinen and Pattanaik, "Caustics Mapping: An Image-space Technique for
-Real-time Caustics" (TVCG 2007). Per light sample (``passes/light_space.py``,
-``landing_chain``, which ``photon-splats`` shares):
+Shah, Konttinen and Pattanaik, "Caustics Mapping: An Image-space Technique for Real-time Caustics" (TVCG 2007).
+Per light sample (``passes/light_space.py``, ``landing_chain``, which ``photon-splats`` shares):
 
-1. Casters (glass and mirrors) from the light (III-B, second pass): nearest
-   front faces of every object (positions + distance, normals + caster code;
-   diffuse objects occlude the grid) and farthest back faces of the glass, in a
-   view fitted tightly around the casters (``photon_grid`` texels a side; a
-   point light whose casters do not fit one 120-degree frustum gets the cube
-   atlas). One photon per covered texel (the paper's vertex grid).
-2. Photon flux (III-E): the paper weights each vertex by (N.L)/V, V the
-   occlusion-query pixel count, which spreads a fixed total over the visible
-   grid. Our grid lives in light space, so each texel's flux is known exactly:
-   intensity times the texel's solid angle (point, spot, with the cone falloff)
-   or irradiance times its area perpendicular to the light (directional); N.L
-   drops out, and V is the count of photons (``stats``). Then exact Fresnel
-   transmittance at each interface, per channel.
-3. Refraction (III-A, III-C): two interfaces for closed glass (Wyman's
-   image-space method: P2 = P1 + d T1 with d = d_V, the front-to-back distance
-   seen from the light, refined by ``exit_iterations`` steps of the same
-   estimator against the back-face position texture; N2 from the back-face
-   normal texture). Total internal reflection at the exit (our extension, as depth-search's internal
-   bounces from the eye): in convex glass the photon reflects inside and leaves where its ray crosses
-   the front or back faces seen from the light (a march and a bisection), up to ``exit_reflections``
-   times: the light a glass block or cylinder sends down through its bottom after reflecting off its side
-   walls (Embree's photons: a fifth of the caustic's flux under a block, nearly half under a cylinder;
-   tests/test_caustic_radiometry.py, docs/benchmarks.md).
-   Nonconvex glass drops the photon there: its one layer from the light bounds other parts of it, and the
-   reflected photons landed worse under a teapot, a cow and the bunny than none.
-   ``exit_surface`` 'nearest' (default) takes the nearest back faces, where
-   light that entered a nonconvex refractor meets its far side first; Wyman
-   takes the farthest for the eye's refraction. Against Mitsuba (bench_exact_caustics,
-   docs/benchmarks.md) the nearest halves the caustic's relMSE under a glass
-   cow and cuts it by a tenth under the bunny; a convex one has one back layer.
-   ``second_layer`` (with 'nearest'; our extension, a one-layer depth peel from the light): a photon
-   leaving through the nearest back faces that meets the glass's next front faces (those behind the
-   nearest back faces) enters there and leaves through the farthest back faces: four interfaces, as
-   light through a head and then a body, or a ball and then a plate;
-   one interface for open meshes (water surfaces: the photon continues to the
-   receiver; a mesh with small holes, a scanned model, is closed:
-   ``casters.caster_code``), and where a closed one's texel, inside its silhouette, has no back
-   face behind it (light leaving through a scanned model's hole: 18 percent of the caustic under the
-   Stanford bunny); a single specular bounce off Mirror objects (reflective caustics).
-   Beer-Lambert e^(-sigma_a d) over the inside distance (or, for one surface,
-   the distance to the receiver; III-E eq. 7). RGB dispersion: where a glass
-   has ``ior_rgb`` that differ, three photons per texel, one per channel.
-4. Intersection estimate (III-C/D) against the receivers' position texture:
-   ``estimator='iterate'`` is the paper's approximation d <- |S(o + d r) - o|,
-   ``iterations`` times (1 by default, as in the paper); ``'newton'`` is the
-   appendix's Newton-Raphson with a finite-difference derivative, on the signed
-   f(d) = light distance of o + d r minus the stored receiver distance, keeping
-   a bracket and falling back to bisection when a step oscillates or leaves it.
-   Unlike the paper's d0 = 1 (scene-unit dependent), the first guess is where
-   the footprint pass (step 5) landed the photon, so ``iterations`` steps refine
-   a converged guess against the fine receiver texture. The final position is
-   a bilinear lookup of the receiver texture (sub-texel on smooth receivers).
-5. Caustic map: the photons land first on a coarse receiver view over the
-   whole scene (footprint pass: Newton-Raphson, light_space.COARSE_NEWTON_STEPS steps,
-   first guess the receiver behind the origin); the caustic map's view is then fitted tightly around the
-   landing points (III-F: frustum limitation; a point light whose footprint is
-   wider than a frustum, or ``point_map='cube'``, gets the omnidirectional cube
-   atlas), the receivers are rendered again in it and the photons retraced.
-   Splat (III-F): compute shader with fixed-point atomics, or additive Gaussian
-   point sprites (``splat``), each Gaussian sized by the photon's footprint (the
-   area its grid cell lands on, from the grid neighbours' landing points: a ray
-   differential; ``passes/light_space.py``, SplatPhotons) and at least
-   ``splat_radius`` texels: a fixed kernel beat against the map's texels where the
-   photons spread apart (moire rings, issue 19). Irradiance = flux / receiver area
-   of the texel; alpha = receiver distance to the light.
-   The maps are rebuilt only when lights, objects or materials change.
-6. Adaptive caustic maps (Wyman and Nichols, "Adaptive Caustic Maps Using Deferred Shading", EG 2009;
-   the paper is not in shared/papers: built from its idea, :class:`AdaptivePhotons`): with
-   ``adaptive_levels`` L > 0 the photons start one per 2^L x 2^L block of caster texels (the caster
-   textures stay at ``photon_grid``: each level looks up the same deferred buffers) and, level by level,
-   split into four children at half the spacing, a quarter of the flux each (a photon carries the summed
-   flux of its block's texels that see its caster, so the children sum to the parent), where the cell lies
-   on a caster's rim, its photon was lost, or its landing bends by more than ``adaptive_threshold``
-   caustic-map texels across the cell (the second difference of the neighbours' landings: where the
-   footprint splat's linear model fails, i.e. where the caustic has detail). Cells that miss the casters
-   are culled. Each level lands twice as the grid does; the caustic view is fitted around every level's
-   live photons. For the splat, each live photon is split into the finest cells of its block along the
-   first-order model of its landing (a ray differential, ``ExpandPhotons``): Gaussians of two sizes
-   meeting at a level's edge do not sum flat (bands of about 20 percent), one grid's do. So tracing is
-   adaptive, the splat is the finest grid's. 0 keeps the regular grid (bit-identical maps).
+1. The casters (glass and mirrors) are rendered from the light into a view fitted around them (III-B): front
+   faces of every object, back faces of the glass; one photon per covered texel, carrying the light's exact flux
+   through that texel (III-E, with exact Fresnel transmittance per channel).
+2. :class:`TracePhotons` (``caustic_trace.comp``) refracts each photon at the front face and leaves closed glass
+   through the back faces (III-A, III-C; Wyman's d_V refined by ``exit_iterations`` regula falsi steps), reflects
+   it inside convex glass on total internal reflection (``exit_reflections``, ours), through a second layer
+   (``second_layer``, ours) or off a mirror, attenuates it (Beer-Lambert, III-E eq. 7), and lands it on the
+   receivers' position texture by the intersection estimate (III-C, III-D; ``estimator``).
+3. The photons land first on a coarse view of the receivers; the caustic map's view is fitted around those
+   landings (III-F) and they are traced again, then splatted as Gaussians sized by their footprints (III-F).
+4. With ``adaptive_levels``, :class:`AdaptivePhotons` refines the photon grid where the caustic has detail
+   (Wyman and Nichols 2009) and :class:`ExpandPhotons` splats the finest grid.
 
-Approximate: the exit point through the back buffer (one layer: concave or
-overlapping refractors exit wrongly; d_V + estimator steps), photons dropped at
-exit TIR in nonconvex glass (and after ``exit_reflections`` in convex glass), the intersection estimate (exact on planes in
-a few steps; near receiver discontinuities, e.g. a mirror's reflection onto
-another wall, it can land on the wrong surface, as the paper notes for
-reflections), the first caster layer only (light through two glass objects in
-a row, or glass then mirror, is not followed; ``second_layer`` follows glass
-then glass, the second layer entered once), one photon per grid texel
-(the footprint splats blur the caustic to the photons' spacing where they
-spread apart, and clamp a grazing photon's footprint, dropping the flux
-beyond; adaptive levels: a photon left coarse lands its block along its
-landing's first-order model, and the refinement test measures bends in a view
-fitted around the coarsest level's landings), Fresnel-reflected light
-off glass is not splatted. Limits: receivers must be seen from the light
-(the receiver texture holds one layer: a caustic on a surface hidden from the
-light behind another diffuse object is lost); at most 32 casters.
+Each step, what is approximate and the figures behind the extensions: docs/caustic-mapping.md.
 """
 from __future__ import annotations
 
