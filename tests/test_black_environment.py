@@ -9,7 +9,7 @@ import caustica.passes.environment_lights as environment_lights
 from caustica.cli import main
 from caustica.scene.environment import environment_option
 from caustica.scene.materials import Diffuse
-from caustica.techniques.base import get_technique
+from caustica.techniques import get_technique
 from caustica.techniques.exact import environment_sampling
 
 

@@ -84,7 +84,7 @@ def test_moved_objects_are_kept_across_frames_while_nothing_changes():
 def test_viewer_frames_of_a_far_scene_are_moved_too(renderer):
     """Renderer.render_frame (the viewer's path) moves a far scene as render does."""
     from caustica.gpu.readback import read_rgb
-    from caustica.techniques.base import get_technique
+    from caustica.techniques import get_technique
 
     near, far = _pair()
     tech = get_technique("depth-search")

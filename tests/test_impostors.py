@@ -212,7 +212,7 @@ def test_caustic_energy_is_conserved(renderer):
     """The caustic textures hold the flux the light sends through the ball: I x solid angle x exact transmittance."""
     from caustica.render.graph import run_passes
     from caustica.scene.presets import PRESETS
-    from caustica.techniques.base import get_technique
+    from caustica.techniques import get_technique
     from caustica.techniques.raster import read_rgba
 
     scene = PRESETS["caustic-sphere"]()

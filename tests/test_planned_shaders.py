@@ -29,7 +29,7 @@ from caustica.scene.codes import MATERIAL_CODES
 from caustica.scene.mesh import Mesh, vertex_normals
 from caustica.scene.shapes import plane, sphere, torus_knot
 from caustica.techniques.auto import QUALITY, plan
-from caustica.techniques.base import get_technique
+from caustica.techniques import get_technique
 
 SKY = Environment(np.full((16, 32, 3), 0.5, np.float32))
 ABSENT = None  # a free define's value: not defined at all

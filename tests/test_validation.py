@@ -20,7 +20,7 @@ from caustica.scene.io import load_scene
 from caustica.scene.mesh import Mesh
 from caustica.scene.scene import Scene, SceneObject
 from caustica.scene.transform import Transform
-from caustica.techniques.base import get_technique, technique_names
+from caustica.techniques import get_technique, technique_names
 
 
 def raises(kind, fragment, call):

@@ -17,7 +17,7 @@ class FrameWorker:
 
     def __init__(self, job):
         from ..renderer import Renderer
-        from ..techniques.base import get_technique
+        from ..techniques import get_technique
         from .edits import SceneEditor
 
         self.job = job

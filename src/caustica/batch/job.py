@@ -167,7 +167,8 @@ def _labels(names) -> tuple:
 
 def _check_technique(job: Job) -> None:
     from .. import frame_limits
-    from ..techniques.base import check_spp, get_technique
+    from ..techniques import get_technique
+    from ..techniques.base import check_spp
 
     frame_limits.check_spp(job.spp)
     check_spp(get_technique(job.technique), job.spp)
