@@ -84,7 +84,7 @@ DIGEST_BYTES = 4096  # arrays larger than this (a texture) are keyed by array_di
 
 def state_key(value):
     """A hashable stand-in for a dataclass of numbers and arrays (a light, a material), for keys of
-    per-frame caches: equal exactly when the values are. About 50x faster than ``repr``, which
+    per-frame caches: equal exactly when the values are. Cheaper than ``repr``, which
     formats every array. An array above DIGEST_BYTES (a material's texture) is keyed by
     :func:`array_digest`, hashed once while it lives."""
     if isinstance(value, np.ndarray):

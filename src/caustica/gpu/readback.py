@@ -1,7 +1,7 @@
 """Reading GL textures back into numpy, and the k x k box filter of supersampling.
 
 No technique knowledge: the renderer, the techniques' raster driver and the viewer read frames
-back through these (the renderer used to import them from ``techniques/raster.py``).
+back through these.
 """
 from __future__ import annotations
 

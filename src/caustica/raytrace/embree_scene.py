@@ -33,7 +33,7 @@ CHUNK_SIZE = 1 << 20
 _GEOMETRY_CACHE: OrderedDict[tuple, "_Geometry"] = OrderedDict()
 _GEOMETRY_CACHE_SIZE = 32  # entries kept at most
 # Bytes kept at most (the newest entry always stays): an animated mesh is new geometry every frame,
-# and 32 entries of the 160x160 pool water (9.1 MB each) held 290 MB (the soak's step, issue 17).
+# so a bound on the count alone lets large animated meshes fill memory (docs/benchmarks-archive.md, "Soak").
 _GEOMETRY_CACHE_BYTES = 64 << 20
 
 

@@ -1,4 +1,4 @@
-"""Light maps of the environment's light on the diffuse receivers, baked with ``exact``'s rays (issue 23, real time).
+"""Light maps of the environment's light on the diffuse receivers, baked with ``exact``'s rays, looked up in real time.
 
 The raster techniques light diffuse surfaces with the environment's SH irradiance, unoccluded, or with a
 few lobes' shadow maps (passes/environment_lights.py); neither has the sky's light refracted by glass

@@ -416,7 +416,7 @@ def check_faces(faces: np.ndarray, vertex_count: int, label: str) -> None:
 
 def check_positions(vertices: np.ndarray, label: str) -> np.ndarray:
     """The (2, 3) bounds of ``vertices``; MeshError unless every coordinate is finite and within
-    +-rules.MAX_COORDINATE (min and max propagate NaN; per column, 8x faster than axis=0 on (N, 3))."""
+    +-rules.MAX_COORDINATE (min and max propagate NaN; per column, which is faster than axis=0 on (N, 3))."""
     if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
         raise MeshError(f"{label} has no vertices of three coordinates; give a mesh with at least one triangle")
     bounds = np.array([[vertices[:, k].min() for k in range(3)], [vertices[:, k].max() for k in range(3)]])

@@ -16,7 +16,14 @@ Per light sample (``passes/light_space.py``, ``landing_chain``, which ``photon-s
 4. With ``adaptive_levels``, :class:`AdaptivePhotons` refines the photon grid where the caustic has detail
    (Wyman and Nichols 2009) and :class:`ExpandPhotons` splats the finest grid.
 
-Each step, what is approximate and the figures behind the extensions: docs/caustic-mapping.md.
+Approximate: the exit point through the back buffer (one layer: concave or overlapping refractors exit wrongly),
+photons dropped at exit TIR in nonconvex glass (and after ``exit_reflections`` in convex glass), the intersection
+estimate (near receiver discontinuities it can land on the wrong surface, as the paper notes for reflections), the
+first caster layer only (``second_layer`` follows glass then glass), one photon per grid texel (the footprint
+splats blur the caustic to the photons' spacing), Fresnel-reflected light off glass is not splatted. Limits:
+receivers must be seen from the light (one receiver layer); at most 32 casters.
+
+Each step in full, and the figures behind the extensions: docs/caustic-mapping.md.
 """
 from __future__ import annotations
 

@@ -38,7 +38,7 @@ search line and one layer per buffer (concave objects and overlapping
 refractors give wrong exits, as the paper states); nothing nearby is seen
 through the glass unless ``nearby`` (``passes/impostors.py``; the ``impostors``
 technique is the paper's own answer, 2.2). Design notes and measurements:
-docs/benchmarks.md, "depth-search design notes".
+docs/benchmarks-archive.md, "depth-search design notes".
 """
 from __future__ import annotations
 

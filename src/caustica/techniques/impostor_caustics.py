@@ -13,8 +13,8 @@ Per light sample, each frame, no readback:
 2. Caustic textures (3.2, fig. 19c): a compute shader adds each photon's flux
    (intensity x the texel's solid angle x throughput) bilinearly around
    texel (u, v) of rectangle k's tile (``caustic_size`` a side; the paper adds
-   it to one texel, which rings against a photon grid as fine as the tile:
-   30 percent under a spot, tests/test_caustic_radiometry.py) with integer atomics on 64-bit
+   it to one texel, which rings against a photon grid as fine as the tile,
+   tests/test_caustic_radiometry.py) with integer atomics on 64-bit
    fixed-point sums (``passes/fixed_flux.py``: the bytes do not depend on the
    order of the adds); the paper's glReadPixels path is replaced by this.
    Then the filter
@@ -24,10 +24,8 @@ Per light sample, each frame, no readback:
    the default) sets s = 1 / sum sqrt(...), so the filtered irradiance
    integrates to the photons' flux (energy conserved) and compares with
    Mitsuba in W/m^2. The filter's reach is k texels of a tile spanning the
-   receiver's whole rectangle: at 256 texels on a 10 m floor (3.9 cm texels)
-   the k = 2 filter is 20 cm wide and blurs a glass ball's focus (2-3 pixels)
-   to a caustic-region relMSE of 0.080 against Mitsuba; 512 (the default)
-   gives 0.011, 1024 0.004 (docs/benchmarks.md, issue 22).
+   receiver's whole rectangle, so a small ``caustic_size`` on a large floor
+   blurs a focused caustic (the default: docs/measured-defaults.md).
 3. Caustics on receivers (3.3, fig. 21-23), as the paper does it: while the
    camera view shades a diffuse object, each fragment looks up the tiles of
    that object by the rectangles' parallel projections (a planar receiver is

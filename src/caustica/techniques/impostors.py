@@ -29,8 +29,7 @@ impostors, and is refracted by it like any other object.
 
 ``merge_planes`` (ours; auto sets it): flat diffuse objects that lie in one plane share one rectangle and
 texture (passes/impostors.py ``coplanar_groups``); a plane's texture is exact, so nothing is lost, and each
-ray makes one lookup for them all (a lens before a chart of six colour groups: 2.9x plain's frame instead
-of 4.9x, and +0.9 dB against Mitsuba, the seams between the groups' textures gone; docs/auto.md).
+ray makes one lookup for them all, and the seams between separate textures are gone (docs/auto.md).
 
 Limits (the paper's): one rectangle per object, so visibility within an object
 is fixed as seen from R's centre (highly concave objects, or objects that hide

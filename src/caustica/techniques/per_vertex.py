@@ -24,8 +24,7 @@ and lens in the scene, each frame:
    passes/caustics.maps_reaching). The paper's map is square and fixed (``map_size``); by default (``map_size`` 0,
    our extension) it holds ``map_density`` texels per screen pixel the patch
    covers, shaped like the frustum, since on a CPU rasterizer this second
-   render is most of the frame's cost (1 texel: 0.5 blurred the box edges a
-   curved mirror reflects, up to 5 dB, for about 1 ms a frame at 256x192).
+   render is most of the frame's cost (the default density: docs/measured-defaults.md).
    Hits between a concave mirror (or a convex lens) and E, the zooming region,
    get a second map looking back at the reflector with the reversed depth test
    (4.2, fig. 8-9). Mirrors inside a map are themselves rendered per vertex

@@ -13,9 +13,8 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    ``image-space`` ('keep-t1', 'clamp', 'reflect') or 'drop'. Through a sphere
    the exact paths never meet TIR, but d~ and N2 send about a fifth of the flux
    (the rim) beyond the critical angle at the estimated exit; 'keep-t1' (the
-   default here) keeps those photons near their true path: caustic-region
-   relMSE against Mitsuba on caustic-sphere 0.0041 ('clamp', image-space's
-   default, 0.0045, and it scatters them far: 3x the spot's spread). The photon buffer
+   default here) keeps those photons near their true path, where 'clamp'
+   (image-space's default) scatters them far (docs/measured-defaults.md). The photon buffer
    is ``photon_buffer_size`` texels a side, fitted around the refractors (the
    paper couples it to the shadow map; fitting spends every photon on the
    refractors). Water (open meshes, not those with small holes:

@@ -51,7 +51,7 @@ from ..scene.mesh import Mesh
 from ..scene.scene import Scene, SceneObject
 
 # 2: a ray reflected totally and then leaking out of an open mesh was invalid; 3: light leaving through a
-# hole of an open mesh exits there (it was dropped: 15 % of the bunny scan's lit vertices under the bench's light);
+# hole of an open mesh exits there (version 2 dropped it);
 # 4: the shading normal decides the side of each interface (raytrace/paths.interface), as in exact's images
 TABLE_VERSION = 4
 DEFAULT_DIRECTIONS = 129

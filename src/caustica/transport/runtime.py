@@ -35,9 +35,9 @@ looked up, and a volume whose three rays part (:func:`parting`: their exit point
 PARTING_SPREAD of its edges, or their directions over 15 degrees) sends its m^2 sub-rays from their points
 inside the face, each traced, instead of blends of the vertex rays. Why: on a scanned bunny the exit rays of a
 vertex change branch (through an ear into the body or past it, out of a hole, reflected totally or not) between
-the table's neighbouring directions: against rays traced for the light's own directions, the 129-direction
-lookup is off by 11 degrees at the median (67 degrees at the 90th percentile with 2049 directions), and half the
-bunny's lit volumes part (docs/benchmarks.md, "the bunny's caustic through the transport table"). The cost
+the table's neighbouring directions, so a lookup blended between them can be far from the ray traced for the
+light's own direction, and many of the bunny's lit volumes part (docs/benchmarks-archive.md, "the bunny's caustic
+through the transport table"). The cost
 moves from the precompute to every light or object change (the vertex rays and the parting volumes' sub-rays).
 
 Limits: only the refracted branch (Fresnel-reflected light is not splatted,

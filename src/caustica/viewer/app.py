@@ -132,7 +132,7 @@ class Viewer:
 
         # After a headless (EGL) render in this process a GLX window fails in X (BadAccess at
         # glXMakeCurrent), so the window's context is EGL then; otherwise GLX, whose swaps through
-        # Xvfb measured faster. PyOpenGL (ImGui's renderer) must then look for contexts through EGL.
+        # Xvfb are faster. PyOpenGL (ImGui's renderer) must then look for contexts through EGL.
         egl = headless_context_exists()
         if egl:
             os.environ.setdefault("PYOPENGL_PLATFORM", "egl")

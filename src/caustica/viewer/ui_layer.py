@@ -1,7 +1,7 @@
 """The panel and the overlay as a retained layer over the views.
 
-ImGui (its Python widgets and its PyOpenGL renderer) costs 2-3 ms a frame on
-llvmpipe, a tenth of a 512^2 frame. So ImGui draws into an offscreen RGBA8
+ImGui (its Python widgets and its PyOpenGL renderer) is a noticeable share of
+a frame on llvmpipe (docs/performance.md). So ImGui draws into an offscreen RGBA8
 target the size of the window, and every frame only composites that target
 over the views. ImGui itself runs for a few frames after any input or change
 of the viewer's state, and otherwise every ``REFRESH_S`` seconds, which keeps
