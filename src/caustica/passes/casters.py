@@ -43,7 +43,7 @@ def caster_code(obj) -> int:
     """What the caustic passes do with an object's light: a glass mesh is a solid (front faces in, back
     faces out) unless it is open beyond small holes (:func:`nearly_closed`), then a single surface (water).
     The Stanford bunny's scan holes made it a single surface: photons refracted once and ran on inside
-    the "glass" to the floor, those entering near its silhouette streaking far across it (issue 19)."""
+    the "glass" to the floor, those entering near its silhouette streaking far across it."""
     kind = obj.material.kind
     if kind == "mirror":
         return CASTER_MIRROR

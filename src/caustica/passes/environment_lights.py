@@ -1,4 +1,4 @@
-"""The environment's light in the raster techniques (issue 23): its sun as a directional light, the rest as SH.
+"""The environment's light in the raster techniques: its sun as a directional light, the rest as SH.
 
 A small, very bright region of the environment (a sun) lights diffuse surfaces through a sharp shadow and
 focuses through glass into a caustic; the unoccluded SH irradiance (Ramamoorthi and Hanrahan 2001) the

@@ -318,7 +318,7 @@ class SplatPhotons(Pass):
     of covariance sigma0^2 I + FOOTPRINT_SCALE^2 J J^T, sigma0 = ``radius`` / 2 and
     J the ray differential of the landing point over the grid (from the grid
     neighbours' landing points), cut at 3 sigma. A regular photon grid splatted
-    with a fixed kernel beats against the map's texels (moire rings, issue 19)
+    with a fixed kernel beats against the map's texels (moire rings)
     wherever the photons land about a texel apart or more; footprint splats
     cover each photon's landed cell and sum flat there. Degenerate footprints
     (grazing photons landing far apart) are clamped to FOOTPRINT_CAP texels a
