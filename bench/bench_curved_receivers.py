@@ -29,7 +29,8 @@ from bench_exact_caustics import MODELS, print_table, standing  # noqa: E402
 from bench_exact_environment import reference_parser, region_cells, seeded_reference  # noqa: E402
 
 from caustica.bench.timing import fastest_in_blocks  # noqa: E402
-from caustica.passes.environment_lights import environment_sun, light_maps  # noqa: E402
+from caustica.lighting.bake import light_maps  # noqa: E402
+from caustica.lighting.environment import environment_sun  # noqa: E402
 from caustica.raytrace.environment_bake import BAKE_SIZE  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
 from caustica.scene import Camera, Diffuse, Glass, Scene, SceneObject, Transform, procedural_environment  # noqa: E402

@@ -37,8 +37,10 @@ from bench_exact_environment import mixed_scene, region_cells, seeded_reference 
 
 from caustica.bench.timing import fastest_in_blocks, timed_render  # noqa: E402
 from caustica.metrics.images import psnr_linear  # noqa: E402
-from caustica.passes import environment_lights, lights  # noqa: E402
-from caustica.passes.environment_lights import environment_sun  # noqa: E402
+from caustica.lighting import bake as light_bake  # noqa: E402
+from caustica.lighting import environment as environment_light, samples as light_samples  # noqa: E402
+from caustica.passes import lights  # noqa: E402
+from caustica.lighting.environment import environment_sun  # noqa: E402
 from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
 from caustica.scene import Camera, Diffuse, Glass, PointLight, SceneObject, Transform  # noqa: E402
@@ -136,8 +138,8 @@ def tinted_scenes(size):
 
 def states(lobes: int):
     """(label, context manager, auto parameters) of each state measured."""
-    no_sun = mock.patch.object(lights, "environment_sun",
-                               lambda env: environment_lights.EnvironmentSun(None, env.irradiance_sh()))
+    no_sun = mock.patch.object(light_samples, "environment_sun",
+                               lambda env: environment_light.EnvironmentSun(None, env.irradiance_sh()))
     def without(**fields):  # the lobes' EnvironmentShadows with ``fields`` taken out (set to None)
         draw = lights.ShadowMaps._environment_shadows
         return mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda *args: (
@@ -158,7 +160,7 @@ def main(argv=None) -> None:
     parser.add_argument("--size", default="128x96")
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--seeds", type=int, default=2)
-    parser.add_argument("--lobes", type=int, default=environment_lights.LOBES)
+    parser.add_argument("--lobes", type=int, default=environment_light.LOBES)
     parser.add_argument("--frames", type=int, default=5)
     parser.add_argument("--no-tinted", action="store_true", help="only the four mixed scenes")
     parser.add_argument("--spp", type=int, default=1, help="auto's and plain's samples a pixel")
@@ -193,7 +195,7 @@ def main(argv=None) -> None:
             print(rows[-1], file=sys.stderr, flush=True)
             continue
         start = time.perf_counter()
-        maps = environment_lights.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
+        maps = light_bake.light_maps(scene, environment_sun(scene.environment).light is not None, BAKE_SIZE)
         print(f"{scene.name}: light maps baked in {time.perf_counter() - start:.1f} s (the floor's {BAKE_SIZE}x"
               f"{BAKE_SIZE} texels and {len(maps) - 1} box faces', {BAKE_SAMPLES} rays a texel)", file=sys.stderr,
               flush=True)

@@ -385,7 +385,7 @@ def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
     sliver of the chart's sky by its 8 % Fresnel loss: 0.3 % of the sky's light, under LOBE_SHARE): the plan has
     neither, says why, and its image is the one rendered with the caustic map, and within 0.1 % on average of
     the one with the lobes."""
-    from caustica.passes.environment_lights import lobe_occlusion
+    from caustica.lighting.environment import lobe_occlusion
     from caustica.techniques.auto import LOBE_SHARE
 
     scene = lens_before_a_chart()
@@ -405,7 +405,7 @@ def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
 def test_lobes_are_kept_where_an_opaque_object_hides_sky():
     """A box on the table hides part of the sky from it: the share (8 %) is well above LOBE_SHARE and the plan keeps
     the lobes (the environment is the only light); the glass ball alone dims the table's sky by 0.7 %."""
-    from caustica.passes.environment_lights import lobe_occlusion
+    from caustica.lighting.environment import lobe_occlusion
     from caustica.techniques.auto import LOBE_SHARE, _occluded_ambient
 
     block = SceneObject("block", box((0.5, 0.5, 0.5)), Diffuse(color=[0.5, 0.5, 0.5]),
@@ -490,7 +490,7 @@ def test_a_water_sheet_takes_no_internal_bounce():
 def test_glass_takes_its_fresnel_loss_and_absorption_from_a_lobe():
     """A ray through a glass slab 0.2 thick at normal incidence keeps (1 - F0)^2 exp(-sigma 0.2), F0 = ((n - 1) /
     (n + 1))^2 at each interface and sigma the absorption coefficient's mean; a ray beside it loses nothing."""
-    from caustica.passes.environment_lights import _glass_loss
+    from caustica.lighting.environment import _glass_loss
 
     glass = Glass(ior=1.5, absorption_color=[0.5, 0.6, 0.7], absorption_distance=1.0)
     slab = SceneObject("slab", box((2.0, 0.2, 2.0)), glass, Transform(position=[0.0, 1.0, 0.0]))

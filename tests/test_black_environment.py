@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import caustica
-import caustica.passes.environment_lights as environment_lights
+import caustica.lighting.bake as light_bake
 from caustica.cli import main
 from caustica.scene.environment import environment_option
 from caustica.scene.materials import Diffuse
@@ -34,8 +34,8 @@ def diffuse_ball(environment: str):
 
 def test_a_black_environment_runs_no_bake_and_the_image_is_unchanged(monkeypatch):
     bakes = []
-    real = environment_lights._scene_bake
-    monkeypatch.setattr(environment_lights, "_scene_bake", lambda *a, **k: bakes.append(a) or real(*a, **k))
+    real = light_bake._scene_bake
+    monkeypatch.setattr(light_bake, "_scene_bake", lambda *a, **k: bakes.append(a) or real(*a, **k))
     with caustica.Renderer((32, 24)) as renderer:
         renderer.render(diffuse_ball("sky-checker"))
         assert len(bakes) == 1  # the counter counts: under a sky the floor and the ball are baked

@@ -111,8 +111,8 @@ def test_two_processes_render_the_same_bytes(two_processes, case):
 
 def splat(renderer, view, positions: np.ndarray, flux: np.ndarray) -> np.ndarray:
     """SplatPhotons' compute splat of photons at world ``positions`` with ``flux`` (W, RGB): (3, h, w) flux."""
-    from caustica.render.frame import Frame
     from caustica.passes.light_space import Photons, SplatPhotons
+    from caustica.render.frame import Frame
 
     gpu = renderer.device
     data = np.zeros((len(positions), 8), "f4")
@@ -135,8 +135,9 @@ def splat(renderer, view, positions: np.ndarray, flux: np.ndarray) -> np.ndarray
 def floor_view():
     """A 64 x 64 orthographic view straight down onto [-1, 1]^2 of a floor at y = 0."""
     from caustica import scene as sc
+    from caustica.lighting.samples import LightSample
     from caustica.passes.light_space import fit_view
-    from caustica.passes.lights import LIGHT_DIRECTIONAL, LightSample
+    from caustica.passes.lights import LIGHT_DIRECTIONAL
     from caustica.scene.shapes import plane
 
     floor = sc.SceneObject("floor", plane((2.0, 2.0)), sc.Diffuse([0.5, 0.5, 0.5]))

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import caustica
-from caustica.passes.surfaces import culls_back_faces
-from caustica.scene.mesh import Mesh
+from caustica.render.draw import culls_back_faces
 from caustica.scene import Camera, Glass, Mirror, Scene, SceneObject, Transform, procedural_environment
+from caustica.scene.mesh import Mesh
 from caustica.scene.shapes import sphere
 
 

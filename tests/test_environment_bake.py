@@ -172,7 +172,7 @@ def test_the_map_is_kept_per_scene_state_not_per_camera():
     maps back (no bake), a new environment or material bakes again."""
     import dataclasses
 
-    from caustica.passes.environment_lights import light_maps
+    from caustica.lighting.bake import light_maps
 
     def floor_bake(scene, sun_taken, size, samples):
         return light_maps(scene, sun_taken, size, samples)[0]
@@ -224,7 +224,7 @@ def test_auto_shades_a_box_face_from_its_light_map(renderer):
     """A box beside the black wall, its face towards the wall 1.5 away: auto's pixels of that face are albedo /
     pi times its light map's bilinear value at the pixel's point (the shading finds the face's map and its
     texel: within 1 %), where the unoccluded SH (with the floor's bounce) is more than 5 % off."""
-    from caustica.passes.environment_lights import light_maps
+    from caustica.lighting.bake import light_maps
     from caustica.raytrace.embree_scene import ray_scene_for
     from caustica.raytrace.environment_bake import BAKE_SIZE
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from caustica.lighting.environment import environment_sun
 from caustica.metrics.images import psnr_linear
-from caustica.passes.environment_lights import environment_sun
-from caustica.scene import (Camera, Diffuse, DirectionalLight, Environment, Glass, Scene, SceneObject, Transform)
+from caustica.scene import Camera, Diffuse, DirectionalLight, Environment, Glass, Scene, SceneObject, Transform
 from caustica.scene.environment import uv_to_direction
 from caustica.scene.shapes import box, plane, sphere
 
@@ -271,7 +271,7 @@ def test_floor_bounce_lights_the_box_sides_from_below(renderer):
 
 
 def test_scene_floor_is_the_flat_diffuse_object_under_the_rest():
-    from caustica.passes.environment_lights import scene_floor
+    from caustica.lighting.environment import scene_floor
 
     scene = floor_scene([red_box()])
     assert scene_floor(scene) is scene.objects[0]

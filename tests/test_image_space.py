@@ -249,3 +249,26 @@ def test_one_ior_variant_equals_the_per_channel_paths(renderer, monkeypatch):
     np.testing.assert_allclose(one_path, per_channel, atol=1e-6)
     np.testing.assert_array_equal(one_dirs[1], per_channel_dirs[1])
     np.testing.assert_allclose(one_dirs[0], per_channel_dirs[0], atol=1e-6)
+
+
+def test_a_white_plane_texture_seen_through_glass_changes_nothing_under_the_environment_bake(renderer, tmp_path):
+    """Wyman's nearby planes look a textured plane's texture up on a unit of their own: a white texture
+    (albedo x 1) renders exactly what the untextured plane does, with the environment's light maps bound
+    beside it (the planes' textures once took the light maps' unit and hid the bake from the glass)."""
+    from PIL import Image
+
+    Image.fromarray(np.full((8, 8, 3), 255, np.uint8)).save(tmp_path / "white.png")
+
+    def scene(texture):
+        floor = {"color": [1, 1, 1], **({"texture": "white.png"} if texture else {})}
+        return caustica.scene_from_dict({
+            "camera": {"position": [1.2, 1.4, -2.6], "look_at": [0, 0.3, 0], "fov_y": 45, "size": [96, 72]},
+            "environment": {"procedural": "sky-checker"},
+            "objects": [{"shape": "sphere", "radius": 0.5, "position": [0, 0.55, 0], "material": "glass"},
+                        {"shape": "plane", "size": [4, 4], "material": {"type": "diffuse", **floor}}]},
+            base_dir=tmp_path)
+
+    params = {"nearby": "planes", "environment_bake": 64}
+    textured = renderer.render(scene(True), "image-space", **params)
+    untextured = renderer.render(scene(False), "image-space", **params)
+    assert np.abs(textured - untextured).max() < 1e-6

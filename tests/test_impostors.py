@@ -6,9 +6,10 @@ import pytest
 
 import caustica.metrics
 from caustica.errors import SceneError, TechniqueError
+from caustica.passes.impostors import atlas_cell, atlas_grid, impostor_defines
 from caustica.raytrace.embree_scene import ray_scene_for
-from caustica.passes.impostors import MAX_IMPOSTORS, atlas_cell, atlas_grid, impostor_defines
 from caustica.raytrace.paths import follow_refraction
+from caustica.render.bindings import MAX_IMPOSTORS
 from caustica.scene import Camera, Glass, Scene, SceneObject, procedural_environment
 from caustica.scene.lights import PointLight
 from caustica.scene.materials import Diffuse, Mirror
@@ -317,8 +318,8 @@ def test_nearby_options_see_the_wall_through_the_glass(renderer, technique):
 
 def test_morphing_mesh_needs_no_preprocessing(renderer):
     """Fig. 29: the blob's caustic follows its shape from frame to frame; nothing is precomputed."""
-    from caustica.scene.presets_impostors import tvcg_fig29
     from caustica.renderer import Renderer
+    from caustica.scene.presets_impostors import tvcg_fig29
 
     small = Renderer((64, 64))
     frames = [small.render(tvcg_fig29(t), "impostors+impostor-caustics", photon_buffer=64, impostor_size=64,
@@ -393,26 +394,6 @@ def test_impostor_caustics_refuses_internal_bounces(renderer):
     image = renderer.render(_scene([_ball(), _floor()], size=32), "impostors+impostor-caustics",
                             **{"impostors.internal_bounces": 2})
     assert np.isfinite(image).all()
-
-
-def test_texture_units_of_the_shading_do_not_overlap():
-    """ShadeSurfaces binds its units once per program (global GL state): the impostor atlas, the albedo
-    texture, the environment lobes' four maps and the nearby planes' textures each need units of their own
-    (the planes once took 26..29, the lobes' units), all below the 80 combined units every GL 4 context has
-    (llvmpipe has 192)."""
-    from caustica.passes import impostors, surfaces
-    from caustica.passes.surfaces import ShadeSurfaces
-
-    ranges = {
-        "lights": range(ShadeSurfaces.FIRST_SHADOW_UNIT, ShadeSurfaces.FIRST_CAUSTIC_UNIT + surfaces.MAX_LIGHTS),
-        "atlas": range(impostors.IMPOSTOR_UNIT, impostors.IMPOSTOR_UNIT + 1),
-        "albedo": range(surfaces.ALBEDO_UNIT, surfaces.ALBEDO_UNIT + 1),
-        "lobes": range(surfaces.ENVIRONMENT_SHADOW_UNIT, surfaces.ENVIRONMENT_SHADOW_UNIT + 4),
-        "planes": range(impostors.FIRST_PLANE_TEXTURE_UNIT, impostors.FIRST_PLANE_TEXTURE_UNIT + impostors.MAX_PLANE_TEXTURES),
-    }
-    used = [unit for units in ranges.values() for unit in units]
-    assert len(used) == len(set(used)), ranges
-    assert max(used) < 80
 
 
 def test_flat_patches_are_looked_up_at_prect_with_the_full_search_s_hits(renderer, monkeypatch):

@@ -8,15 +8,15 @@ import pytest
 
 from caustica.errors import TechniqueError
 from caustica.metrics import psnr_linear
-from caustica.render.frame import Frame
-from caustica.render.graph import run_passes
 from caustica.passes.lights import ShadowMaps
 from caustica.per_vertex import closest_point_to_lines, double_refraction, principal_directions, split_patches
 from caustica.per_vertex.viewpoint import Lines, fit_view_volume
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.raytrace.optics import normalize
 from caustica.raytrace.paths import follow_refraction, trace
-from caustica.scene import Camera, Diffuse, Scene, SceneObject, procedural_environment
+from caustica.render.frame import Frame
+from caustica.render.graph import run_passes
+from caustica.scene import Camera, Diffuse, Scene, SceneObject
 from caustica.scene import presets_per_vertex as presets
 from caustica.scene.shapes import box
 from caustica.scene.transform import Transform
@@ -309,9 +309,8 @@ def test_a_mirror_shows_the_caustic_on_the_floor_it_reflects(renderer):
     per-vertex's reflection maps (Kakimoto et al. 3.2: the scene less the mirror, from the virtual viewpoint) shade
     that floor with the frame's caustic maps, so its mirror pixels there match exact's (photons traced) to 6 % on
     average; before, the maps left the caustic out and read exact's floor without its photons (ratio 0.84)."""
-    from caustica.reference.render import diffuse_coverage
-
     from caustica import load_scene
+    from caustica.reference.render import diffuse_coverage
 
     scene = load_scene("mirror-in-mirror")
     scene.camera = scene.camera.with_size(96, 72)
@@ -328,8 +327,8 @@ def test_a_mirror_shows_the_caustic_on_the_floor_it_reflects(renderer):
 def _straight_down_map(renderer, lit_texels):
     """A 64 x 64 caustic map of a directional light shining straight down (-y) from (0, 10, 0) over a floor at
     y = 0, 4 x 4 world units wide (ortho), with ``lit_texels`` (rows, cols slices) lit; and its light sample."""
+    from caustica.lighting.samples import LightSample
     from caustica.passes.caustics import CAUSTIC_PROJECTIVE, CausticMap
-    from caustica.passes.lights import LightSample
     from caustica.scene.codes import LIGHT_DIRECTIONAL
     from caustica.scene.transform import orthographic_clip_from_view
 

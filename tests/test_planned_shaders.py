@@ -18,18 +18,18 @@ import pytest
 import trimesh
 
 from caustica.gpu.shaders import ShaderError
+from caustica.lighting.samples import MAX_LIGHTS
 from caustica.passes import deferred
-from caustica.passes.caustics import MAX_CAUSTIC_TILES
 from caustica.passes.convex_exits import CONVEX_EXITS_MODES, convex_shape
 from caustica.passes.glass_contact import contact_plane
-from caustica.passes.lights import MAX_LIGHTS
 from caustica.passes.surfaces import ShadeSurfaces
+from caustica.render.bindings import MAX_CAUSTIC_TILES
 from caustica.scene import Camera, Diffuse, Environment, Glass, Mirror, PointLight, Scene, SceneObject, Transform
 from caustica.scene.codes import MATERIAL_CODES
 from caustica.scene.mesh import Mesh, vertex_normals
 from caustica.scene.shapes import plane, sphere, torus_knot
-from caustica.techniques.auto import QUALITY, plan
 from caustica.techniques import get_technique
+from caustica.techniques.auto import QUALITY, plan
 
 SKY = Environment(np.full((16, 32, 3), 0.5, np.float32))
 ABSENT = None  # a free define's value: not defined at all

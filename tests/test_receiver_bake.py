@@ -4,9 +4,8 @@ constant sky by view factors, and auto's plan and image where the scene has no f
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
-from caustica.passes.environment_lights import bake_plan, scene_bake
+from caustica.lighting.bake import bake_plan, scene_bake
 from caustica.raytrace.environment_bake import VERTEX_CAP, bake_rectangles, bake_vertices, plane_of, plane_rectangle
 from caustica.scene import Camera, Diffuse, Environment, Glass, Scene, SceneObject, Transform
 from caustica.scene.shapes import box, plane, sphere

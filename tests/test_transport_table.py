@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from caustica import scene as sc
+from caustica.raytrace.embree_scene import RayScene
 from caustica.raytrace.optics import fresnel_dielectric, normalize
 from caustica.raytrace.paths import follow_refraction
-from caustica.raytrace.embree_scene import RayScene
 from caustica.scene.shapes import plane, sphere, torus
 from caustica.scene.transform import Transform
 from caustica.transport.compress import TransportTableError, load_table, quantization_errors, quantize, save_table
@@ -176,7 +176,7 @@ def ball_scene(light=None, rotation=(0.0, 0.0, 0.0), mesh=None) -> sc.Scene:
 
 
 def photons(scene, **params):
-    from caustica.passes.lights import light_samples
+    from caustica.lighting.samples import light_samples
     from caustica.techniques.transport_table import TransportTableParams, scene_photons
 
     params.setdefault("directions", 129)
@@ -345,7 +345,7 @@ def test_table_mesh_splits_large_flat_faces_only():
 def test_dispersive_glass_has_a_table_per_channel():
     """Dispersive glass: one exit-ray set per channel's IOR, each carrying its channel alone; the red rays
     (lowest IOR) bend less than the blue."""
-    from caustica.passes.lights import light_samples
+    from caustica.lighting.samples import light_samples
     from caustica.transport.runtime import object_exit_rays
 
     glass = sc.SceneObject("ball", sphere(0.5, 3), sc.Glass(ior=1.6, abbe=20.0), Transform(position=[0.0, 1.0, 0.0]))

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from ..gpu.readback import read_rgba
+from ..render.draw import fullscreen_pass
 from ..render.frame import Channel, Frame, Pass
-from .resolve import fullscreen_pass
 
 THRESHOLD = 0.01  # a pixel is flagged when a neighbour's compressed channel c / (1 + c) differs by more
 FLAGS = Channel("adaptive_flags", "r32f", "1 where a pixel's compressed colour c / (1 + c) differs from an "

@@ -19,9 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..gpu.meshes import set_uniform, write_uniform_array
-from .deferred import clip_corners
-from .lights import LIGHT_DIRECTIONAL, MAX_LIGHTS
+from ..render.draw import clip_corners
+from .lights import LIGHT_DIRECTIONAL
 
 CAUSTIC_NONE, CAUSTIC_PROJECTIVE, CAUSTIC_CUBE = 0, 1, 2
 
@@ -113,28 +112,6 @@ def maps_reaching(maps: list | None, samples: list, clip_from_world: np.ndarray)
     return False
 
 
-def bind_caustic_maps(program, maps: list, first_unit: int, distance_tolerance: float = 5e-3) -> None:
-    """Set the caustics.glsl uniforms and bind the maps from texture unit ``first_unit``."""
-    kinds = np.zeros(MAX_LIGHTS, dtype="i4")
-    clips = np.tile(np.eye(4, dtype="f4"), (MAX_LIGHTS, 1, 1))
-    units = np.full(MAX_LIGHTS, first_unit, dtype="i4")
-    for i, caustic in enumerate(maps[:MAX_LIGHTS]):
-        if caustic is None:
-            continue
-        kinds[i] = caustic.kind
-        if caustic.clip_from_world is not None:
-            clips[i] = caustic.clip_from_world
-        caustic.texture.use(first_unit + i)
-        units[i] = first_unit + i
-    set_uniform(program, "caustic_kind", kinds)
-    if "caustic_clip_from_world" in program:
-        program["caustic_clip_from_world"].write(np.ascontiguousarray(clips.transpose(0, 2, 1)).tobytes())
-    if "caustic_map" in program:
-        program["caustic_map"].write(units.tobytes())
-    set_uniform(program, "caustic_distance_tolerance", float(distance_tolerance))
-
-
-MAX_CAUSTIC_TILES = 16  # rectangles whose caustic textures one frame can carry (impostor_caustic_filter.comp's texel_area[16])
 
 
 @dataclass
@@ -153,25 +130,4 @@ class CausticTiles:
         """The tiles lying on ``obj``."""
         return [k for k, receiver in enumerate(self.receivers) if receiver is obj]
 
-
-def bind_caustic_tiles(program, tiles: CausticTiles, unit: int) -> None:
-    """Set caustics.glsl's tile uniforms shared by every receiver and bind the atlas to ``unit``."""
-    count = min(len(tiles.receivers), MAX_CAUSTIC_TILES)
-    clips = np.tile(np.eye(4, dtype="f4"), (MAX_CAUSTIC_TILES, 1, 1))
-    axes = np.zeros((MAX_CAUSTIC_TILES, 3), "f4")
-    clips[:count], axes[:count] = tiles.clip_from_world[:count], tiles.axes[:count]
-    tiles.texture.use(unit)
-    set_uniform(program, "caustic_tiles", unit)
-    set_uniform(program, "caustic_tile_size", int(tiles.tile_size))
-    write_uniform_array(program, "caustic_tile_clip_from_world", np.ascontiguousarray(clips.transpose(0, 2, 1)))
-    write_uniform_array(program, "caustic_tile_axis", axes)
-
-
-def bind_receiver_tiles(program, tiles: CausticTiles, obj) -> None:
-    """Which tiles the receiver ``obj`` (about to be drawn) looks up."""
-    mine = [k for k in tiles.tiles_of(obj) if k < MAX_CAUSTIC_TILES]
-    order = np.zeros(MAX_CAUSTIC_TILES, "i4")
-    order[: len(mine)] = mine
-    write_uniform_array(program, "receiver_tile", order)
-    set_uniform(program, "receiver_tile_count", len(mine))
 

@@ -18,6 +18,7 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..render.draw import screen_rect
 from ..render.frame import Frame
 
 DEFER_SHADE_NOW, DEFER_GBUFFER, DEFER_RESOLVE = 1, 2, 3  # DEFERRED_SHADING (common/surface_inputs.glsl)
@@ -129,23 +130,3 @@ def set_ray_uniforms(program, camera) -> None:
     set_uniform(program, "deferred_viewport", np.array(camera.size, "f4"))
 
 
-_CORNER_SIDES = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])  # min (0) or max (1) per axis
-
-
-def clip_corners(bounds: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
-    """The eight corners of the box ``bounds`` (2, 3) in clip coordinates, (8, 4); of each box of a stack
-    (..., 2, 3), (..., 8, 4)."""
-    corners = np.asarray(bounds, np.float64)[..., _CORNER_SIDES, np.arange(3)]  # (..., 8, 3)
-    return np.concatenate([corners, np.ones(corners.shape[:-1] + (1,))], axis=-1) @ np.asarray(clip_from_world,
-                                                                                                np.float64).T
-
-
-def screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
-    """The NDC rectangle (x0, y0, x1, y1) covering the box ``bounds`` (2, 3) with a pixel to spare,
-    clamped to the viewport (all of it when the box reaches behind the eye)."""
-    clip = clip_corners(bounds, camera.clip_from_world())
-    if np.any(clip[:, 3] <= 1e-9):
-        return np.array([-1.0, -1.0, 1.0, 1.0], "f4")
-    ndc = clip[:, :2] / clip[:, 3:]
-    pixel = 2.0 / np.asarray(camera.size, np.float64)
-    return np.clip(np.concatenate([ndc.min(axis=0) - pixel, ndc.max(axis=0) + pixel]), -1.0, 1.0).astype("f4")

@@ -32,22 +32,17 @@ import numpy as np
 
 from ..cache import state_key
 from ..errors import SceneError
-from ..gpu.meshes import set_uniform, write_uniform_array
+from ..gpu.meshes import set_uniform
 from ..parameters import Params, param
-from ..scene import rules
-from ..scene.textures import texture_of
+from ..raytrace.environment_bake import same_plane
+from ..render.bindings import MAX_IMPOSTORS, MAX_PLANE_TEXTURES, MAX_PLANES, bind_planes
 from ..render.frame import Channel, Frame, Pass
 from ..render.offscreen import aimed_camera, offscreen_channels, scene_subset
+from ..scene import rules
+from ..scene.textures import texture_of
 from .surfaces import ShadeSurfaces
 
-MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
-MAX_PLANES = 8
 SLAB_RATIO = 0.1  # a diffuse object at most this thick for its width is its own rectangle (its near face)
-MAX_PLANE_TEXTURES = 4  # textured planes with their own texture (units 30..33); more take the mean colour
-# After the environment lobes' maps (passes/surfaces.py ENVIRONMENT_SHADOW_UNIT, 26..29), which a frame's shading
-# binds beside the planes (units are global state: the planes bound after the lobes would replace them).
-FIRST_PLANE_TEXTURE_UNIT = 30
-IMPOSTOR_UNIT = 24  # the atlas: after ShadeSurfaces' environment, inputs, shadow and caustic maps
 NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
 
 
@@ -303,13 +298,6 @@ class BuildImpostors(Pass):
                          into=(impostor.texture, impostor.cell))
 
 
-def same_plane(plane, known, offset_tolerance: float, normal_tolerance: float = 1e-6) -> bool:
-    """Whether ``plane`` and ``known`` ((a point, a unit normal) each; either side) are one plane: their normals
-    parallel within ``normal_tolerance`` and the point of ``plane`` within ``offset_tolerance`` of ``known``'s."""
-    return (abs(abs(float(np.dot(plane[1], known[1]))) - 1.0) < normal_tolerance
-            and abs(float(np.dot(plane[0] - known[0], known[1]))) < offset_tolerance)
-
-
 def coplanar_groups(world, indices: list[int], tolerance: float = 1e-6) -> list[list[int]]:
     """``indices`` (nearest first) in groups that share one rectangle: flat diffuse patches that lie in one plane
     (normals parallel, offsets equal within ``tolerance`` of the scene's size) together, in the order of their
@@ -347,41 +335,11 @@ def _impostor_state_key(scene) -> tuple:
     """What impostor textures depend on: geometry, placement, materials, lights, environment, and
     the objects themselves (an ImpostorSet names its scene's objects, which later passes match by
     identity; the cached set holds them, so their ids stay theirs)."""
+    from ..cache import scene_state_key
     from ..gpu.device import array_digest
-    from .lights import scene_state_key
 
     return (scene_state_key(scene), tuple(state_key(o.material) for o in scene.objects), array_digest(scene.environment.image),
             scene.intensity_scale, tuple(id(o) for o in scene.objects))
-
-
-def bind_impostors(program, impostors: ImpostorSet | None, reflector: int | None, params) -> None:
-    """Set impostors.glsl's uniforms for one reflector (world index) and bind its atlas to unit 24."""
-    group = [] if impostors is None or reflector is None else impostors.by_reflector.get(reflector, [])
-    set_uniform(program, "impostor_count", len(group))
-    set_uniform(program, "impostor_base", 0 if not group else int(impostors.base[reflector]))
-    set_uniform(program, "impostor_tolerance", float(params.impostor_tolerance))
-    set_uniform(program, "impostor_hit_tolerance", float(params.hit_tolerance))
-    if not group:
-        return
-    n = MAX_IMPOSTORS
-    clips = np.tile(np.eye(4, dtype="f4"), (n, 1, 1))
-    vec = {name: np.zeros((n, 3), "f4") for name in ("origin", "axis", "center")}
-    slab, radius = np.zeros((n, 2), "f4"), np.ones(n, "f4")
-    cells, flat = np.zeros((n, 2), "i4"), np.zeros(n, "i4")
-    for k, imp in enumerate(group):
-        clips[k] = imp.camera.clip_from_world().T
-        vec["origin"][k], vec["axis"][k], vec["center"][k] = imp.origin, imp.axis, imp.center
-        slab[k], radius[k], cells[k], flat[k] = imp.slab, imp.radius, imp.cell, imp.flat
-    group[0].texture.use(IMPOSTOR_UNIT)
-    set_uniform(program, "impostor_atlas", IMPOSTOR_UNIT)
-    set_uniform(program, "impostor_size", int(group[0].camera.size[0]))
-    write_uniform_array(program, "impostor_cell", cells)
-    write_uniform_array(program, "impostor_clip_from_world", clips)
-    for name, values in vec.items():
-        write_uniform_array(program, f"impostor_{name}", values)
-    write_uniform_array(program, "impostor_slab", slab)
-    write_uniform_array(program, "impostor_radius", radius)
-    write_uniform_array(program, "impostor_flat", flat)
 
 
 def impostor_defines(frame: Frame) -> dict:
@@ -450,31 +408,6 @@ def affine_uvs(obj, plane: NearbyPlane, tolerance: float = 1e-4):
     return fit[0], fit[1:]
 
 
-def bind_planes(program, frame: Frame) -> None:
-    """Set impostors.glsl's plane uniforms and bind the planes' textures (units from FIRST_PLANE_TEXTURE_UNIT)."""
-    planes = nearby_planes(frame.scene)
-    set_uniform(program, "plane_count", len(planes))
-    if not planes:
-        return
-    for name in ("center", "normal", "half_u", "half_v", "color"):
-        values = np.zeros((MAX_PLANES, 3), "f4")
-        values[: len(planes)] = [getattr(p, name) for p in planes]
-        write_uniform_array(program, f"plane_{name.removeprefix('half_')}", values)
-    textured = [k for k, p in enumerate(planes) if p.texture is not None]
-    if not textured or "plane_texture" not in program:
-        return
-    index, origins, axes = np.full(MAX_PLANES, -1, "i4"), np.zeros((MAX_PLANES, 2), "f4"), np.zeros((MAX_PLANES, 4), "f4")
-    for j, k in enumerate(textured):
-        index[k], origins[k], axes[k] = j, planes[k].uv_origin, planes[k].uv_axes.reshape(-1)
-    write_uniform_array(program, "plane_texture_index", index)
-    write_uniform_array(program, "plane_uv_origin", origins)
-    write_uniform_array(program, "plane_uv_axes", axes)
-    units = [FIRST_PLANE_TEXTURE_UNIT + j for j in range(len(textured))]
-    for unit, k in zip(units, textured):
-        frame.gpu.albedo_texture(planes[k].texture).use(unit)
-    program["plane_texture"].write(np.array(units, "i4").tobytes())
-
-
 def plane_defines(frame: Frame) -> dict:
     """PLANE_TEXTURES for this frame's shaders: how many of its planes are textured (no define for none)."""
     count = sum(p.texture is not None for p in nearby_planes(frame.scene))
@@ -539,7 +472,7 @@ def nearby_option(nearby: str, params) -> NearbyOption:
     if nearby == "none":
         return NearbyOption([], (), {}, None)
     if nearby == "planes":
-        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, frame),
+        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, nearby_planes(frame.scene), frame.gpu),
                             plane_defines)
 
     def set_search(program, frame, obj):

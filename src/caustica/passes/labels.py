@@ -15,10 +15,11 @@ import moderngl
 
 from ..gpu.meshes import set_uniform
 from ..gpu.readback import read_rgba
+from ..lighting.samples import MAX_LIGHTS
+from ..render.bindings import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_lights, bind_receiver_tiles
+from ..render.draw import culled_back_faces  # ShadeSurfaces' back-face culling of solids
+from ..render.draw import draw_objects
 from ..render.frame import Channel, Frame, Pass
-from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
-from .lights import MAX_LIGHTS, bind_lights, draw_objects
-from .surfaces import _culled_back_faces  # ShadeSurfaces' back-face culling of solids
 
 SURFACE = Channel("label_surface", "rgba32f", "first surface at pixel centres (output size): world normal "
                   "facing the eye xyz, view-space depth w (0: background)")
@@ -26,7 +27,6 @@ IDS = Channel("label_ids", "rgba32f", "object index + 1, material index + 1, gla
 CAUSTIC = Channel("label_caustic", "rgba32f", "caustic irradiance times intensity_scale on diffuse receivers "
                   "(None: no caustic technique ran)")
 COVERAGE = Channel("label_coverage", "r32f", "1 where an object covers a sample (frame size; None at 1 spp)")
-FIRST_LIGHT_UNIT = 1  # shadow maps (bound by bind_lights, unread), then the caustic maps
 
 
 class LabelSurfaces(Pass):
@@ -75,12 +75,11 @@ class LabelSurfaces(Pass):
         if receiver:
             caustic_maps = frame.optional("caustic_maps")
             set_uniform(program, "intensity_scale", float(frame.scene.intensity_scale))
-            bind_lights(program, frame.optional("light_samples") or [], frame.optional("shadow_maps") or [],
-                        first_unit=FIRST_LIGHT_UNIT)
+            bind_lights(program, frame.optional("light_samples") or [], frame.optional("shadow_maps") or [])
             if caustic_maps is not None:
-                bind_caustic_maps(program, caustic_maps, first_unit=FIRST_LIGHT_UNIT + MAX_LIGHTS)
+                bind_caustic_maps(program, caustic_maps)
             else:
-                bind_caustic_tiles(program, frame.optional("caustic_tiles"), unit=FIRST_LIGHT_UNIT + MAX_LIGHTS)
+                bind_caustic_tiles(program, frame.optional("caustic_tiles"))
         return program
 
     def _coverage(self, frame: Frame):
@@ -90,7 +89,7 @@ class LabelSurfaces(Pass):
         with _drawing(frame, frame.camera.size, [target]):
             clip_from_world = frame.camera.clip_from_world()
             for obj in frame.scene.objects if self.objects is None else self.objects:
-                with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):
+                with culled_back_faces(frame.gpu.ctx, obj, clip_from_world):
                     draw_objects(frame, program, [obj], clip_from_world)
         return target
 
@@ -119,7 +118,7 @@ def draw_first_surfaces(frame: Frame, camera, targets, programs: dict, materials
             set_uniform(program, "glass", float(obj.material.kind == "glass"))
             if receiver and tiles is not None:
                 bind_receiver_tiles(program, tiles, obj)
-            with _culled_back_faces(frame.gpu.ctx, obj, clip_from_world):  # the same nearest surface
+            with culled_back_faces(frame.gpu.ctx, obj, clip_from_world):  # the same nearest surface
                 draw_objects(frame, program, [obj], clip_from_world)
 
 

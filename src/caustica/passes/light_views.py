@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform
+from ..lighting.samples import CUBE_FORWARD, CUBE_UP, LightSample
 from ..scene.transform import look_at_view_from_world, perspective_clip_from_view, up_hint
 from .caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE, CausticMap
-from .lights import CUBE_FORWARD, CUBE_UP, LIGHT_DIRECTIONAL, LightSample
+from .lights import LIGHT_DIRECTIONAL
 
 VIEW_PROJECTIVE, VIEW_CUBE = 0, 1
 MAX_PROJECTIVE_HALF_ANGLE = 60.0  # degrees: wider footprints of a point light go to the cube atlas

@@ -11,91 +11,22 @@ angles, and the shadow of an occluder resting on the receiver stays attached.
 """
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass
-
 import moderngl
 import numpy as np
 
-from ..cache import material_state_key, scene_state_key, state_key  # noqa: F401 (scene_state_key re-exported)
-from ..errors import TechniqueError
-from ..gpu.meshes import set_object_transform, set_uniform
+from ..cache import material_state_key, scene_state_key
+from ..gpu.meshes import set_uniform
 from ..gpu.shaders import run_compute
-from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT
-from ..scene.lights import DirectionalLight, SpotLight
-from ..scene.transform import (
-    look_at_view_from_world,
-    orthographic_clip_from_view,
-    perspective_clip_from_view,
-    up_hint,
-)
+from ..lighting.bake import bake_atlas, scene_bake
+from ..lighting.environment import environment_lobes, floor_bounce_sh, mean_albedo, scene_floor
+from ..lighting.samples import CUBE_FORWARD, CUBE_UP, MAX_LIGHTS, LightSample, directional_sample, light_samples
+from ..render.bindings import bind_lights
+from ..render.draw import draw_objects
 from ..render.frame import Channel, Frame, Pass
-from .environment_lights import (EnvironmentBake, EnvironmentShadows, bake_atlas, bake_settings, environment_lobes,
-                                 environment_sun, floor_bounce_sh, lobe_settings, mean_albedo, scene_bake,
-                                 scene_floor)
-
-SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
-MAX_LIGHTS = 8  # shadow maps take texture units 8..15, caustic maps 16..23 (NVIDIA and llvmpipe have 32)
-CUBE_FORWARD = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
-CUBE_UP = np.array([[0, 1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1], [0, 1, 0], [0, 1, 0]], dtype=np.float64)
-
-
-@dataclass
-class LightSample:
-    """One shadowed emitter as the shaders see it (a line light gives several)."""
-
-    type: int
-    position: np.ndarray
-    direction: np.ndarray
-    intensity: np.ndarray
-    cone_cos: tuple[float, float] = (1.0, 1.0)
-    clip_from_world: np.ndarray | None = None  # directional and spot maps
-    environment: bool = False  # the environment's sun (passes/environment_lights.py), not one of scene.lights
-
-
-def light_samples(scene) -> list[LightSample]:
-    """Expand the scene's lights into point/directional/spot samples, then the environment's sun as a
-    directional sample (passes/environment_lights.py) where it has one and a sample is free."""
-    center = scene.bounds().mean(axis=0)
-    radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
-    samples: list[LightSample] = []
-    for light in scene.lights:
-        if isinstance(light, DirectionalLight):
-            samples.append(_directional_sample(light, center, radius))
-        elif isinstance(light, SpotLight):
-            view = look_at_view_from_world(light.position, light.position + light.direction, up_hint(light.direction))
-            far = np.linalg.norm(light.position - center) + 2 * radius
-            clip = perspective_clip_from_view(2 * light.outer_angle + 2.0, 1.0, 0.01 * radius, far) @ view
-            cones = (float(np.cos(np.radians(light.inner_angle))), float(np.cos(np.radians(light.outer_angle))))
-            samples.append(LightSample(LIGHT_SPOT, light.position, light.direction, light.intensity, cones, clip))
-        else:
-            for position, intensity in light.point_samples():
-                samples.append(LightSample(LIGHT_POINT, position, np.array([0.0, -1.0, 0.0]), intensity))
-    if len(samples) > MAX_LIGHTS:
-        raise TechniqueError(
-            f"the scene has {len(samples)} light samples but at most {MAX_LIGHTS} are supported; "
-            "use fewer lights or fewer line-light samples"
-        )
-    sun = environment_sun(scene.environment).light
-    if sun is not None and len(samples) < MAX_LIGHTS:
-        samples.append(dataclasses.replace(_directional_sample(sun, center, radius), environment=True))
-    return samples
-
-
-def _directional_sample(light: DirectionalLight, center: np.ndarray, radius: float) -> LightSample:
-    """A directional light's sample: an orthographic map over the sphere (center, radius) around the scene."""
-    origin = center - light.direction * 2.0 * radius
-    view = look_at_view_from_world(origin, center, up_hint(light.direction))
-    clip = orthographic_clip_from_view(radius, radius, 0.01 * radius, 4.0 * radius) @ view
-    return LightSample(LIGHT_DIRECTIONAL, origin, light.direction, light.intensity, clip_from_world=clip)
-
-
-def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) -> None:
-    """Draw objects with the shared mesh vertex stage."""
-    set_uniform(program, "clip_from_world", clip_from_world)
-    for obj in objects:
-        set_object_transform(program, obj.world_from_object())
-        frame.gpu.meshes.get(obj.mesh).render(program)
+from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT
+from ..scene.lights import DirectionalLight
+from ..scene.transform import look_at_view_from_world, perspective_clip_from_view
+from .environment_lights import EnvironmentBake, EnvironmentShadows, bake_settings, lobe_settings
 
 
 class ShadowMaps(Pass):
@@ -159,7 +90,7 @@ class ShadowMaps(Pass):
         ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
         center = scene.bounds().mean(axis=0)
         radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
-        tiles = [_directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
+        tiles = [directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
         # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
         # nearest distance and its optical depth along each lobe, in one more atlas.
         opaque = [o for o in scene.objects if o.material.kind != "glass"]
@@ -191,14 +122,13 @@ class ShadowMaps(Pass):
     def _bounce(self, frame: Frame, tiles: list[LightSample], opaque, size: int, samples, maps, sky_sh):
         """Per lobe texel (rgba32f atlas), the radiance of the nearest opaque surface facing along the lobe
         (lobe_bounce.frag), lit by ``samples`` through their shadow ``maps`` and by ``sky_sh``; 0 where none."""
-        from .surfaces import FIRST_SHADOW_UNIT
 
         ctx = frame.gpu.ctx
         target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
         fbo = frame.own(ctx.framebuffer([target], frame.own(ctx.depth_renderbuffer((size * len(tiles), size)))))
         program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/lobe_bounce.frag",
                                             {"MAX_LIGHTS": MAX_LIGHTS})
-        bind_lights(program, samples, maps, first_unit=FIRST_SHADOW_UNIT)
+        bind_lights(program, samples, maps)
         set_uniform(program, "irradiance_sh", sky_sh.astype("f4"))
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
@@ -276,42 +206,5 @@ class ShadowMaps(Pass):
             draw_objects(frame, program, objects, clip)
         color.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return color
-
-
-def bind_lights(program, samples: list[LightSample], maps: list, first_unit: int,
-                shadow_bias: float = SHADOW_NORMAL_OFFSET) -> None:
-    """Set the lighting.glsl uniforms and bind shadow maps from texture unit ``first_unit``; ``shadow_bias``
-    is the receiver's normal offset in texel widths of its map."""
-    count = len(samples)
-    set_uniform(program, "light_count", count)
-    set_uniform(program, "shadow_bias", shadow_bias)  # the environment lobes' maps take it too
-    if count == 0:
-        return
-
-    def pad(rows, width):
-        out = np.zeros((MAX_LIGHTS, width), dtype="f4")
-        out[:count] = rows
-        return out
-
-    set_uniform(program, "light_type", np.array([s.type for s in samples] + [0] * (MAX_LIGHTS - count), dtype="i4"))
-    set_uniform(program, "light_position", pad([s.position for s in samples], 3))
-    set_uniform(program, "light_direction", pad([s.direction for s in samples], 3))
-    set_uniform(program, "light_intensity", pad([s.intensity for s in samples], 3))
-    set_uniform(program, "light_cone_cos", pad([s.cone_cos for s in samples], 2))
-    clips = np.zeros((MAX_LIGHTS, 4, 4), dtype="f4")
-    for i, s in enumerate(samples):
-        clips[i] = s.clip_from_world if s.clip_from_world is not None else np.eye(4)
-    if "light_clip_from_world" in program:
-        program["light_clip_from_world"].write(np.ascontiguousarray(clips.transpose(0, 2, 1)).tobytes())
-    set_uniform(program, "cube_forward", CUBE_FORWARD.astype("f4"))
-    set_uniform(program, "cube_up", CUBE_UP.astype("f4"))
-    units = []
-    for i in range(MAX_LIGHTS):
-        unit = first_unit + min(i, count - 1)
-        units.append(unit)
-    for i, tex in enumerate(maps):
-        tex.use(first_unit + i)
-    if "shadow_map" in program:
-        program["shadow_map"].write(np.array(units, dtype="i4").tobytes())
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ..errors import RenderOptionError, short
+from ..render.draw import fullscreen_pass
 
 if TYPE_CHECKING:  # the CLI imports ANTIALIAS_MODES without the GL layers
     from ..render.frame import Frame
@@ -40,22 +41,3 @@ def resolved(frame: Frame, texture, k: int, antialias: str = "none"):
     return texture
 
 
-def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, fmt: str = "rgba32f",
-                    inputs: dict | None = None):
-    """A fullscreen pass of ``shader`` reading ``texture`` (as ``source``) and ``inputs`` ({sampler name:
-    texture}) into a new ``fmt`` texture k times smaller, lent to ``frame``."""
-    import moderngl
-
-    from ..gpu.meshes import set_uniform
-
-    gpu = frame.gpu
-    width, height = texture.size
-    out = frame.texture((width // k, height // k), fmt)
-    gpu.targets.framebuffer([out]).use()
-    gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-    program = gpu.shaders.program("passes/fullscreen.vert", shader, defines)
-    for unit, (name, source) in enumerate({"source": texture, **(inputs or {})}.items()):
-        source.use(unit)
-        set_uniform(program, name, unit)
-    gpu.draw_fullscreen(program)
-    return out

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import dataclasses
-from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -10,21 +9,19 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform
+from ..lighting.environment import ambient_sh
+from ..lighting.samples import MAX_LIGHTS
+from ..render.bindings import (MAX_CAUSTIC_TILES, MAX_INPUTS, bind_baked_object, bind_caustic_maps, bind_caustic_tiles,
+                               bind_environment_bake, bind_environment_shadows, bind_lights, bind_receiver_tiles,
+                               first_unit)
+from ..render.draw import culled_back_faces, culls_back_faces, draw_objects
+from ..render.frame import Channel, Frame, Pass
 from ..scene.codes import MATERIAL_CODES
 from ..scene.textures import texture_of
 from . import deferred
 from .adaptive import FLAGS, preset_depth
-from ..render.frame import Channel, Frame, Pass
-from .caustics import MAX_CAUSTIC_TILES, bind_caustic_maps, bind_caustic_tiles, bind_receiver_tiles
-from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW, clip_corners
-from .environment_lights import ambient_sh, bind_baked_object, bind_environment_bake, bind_environment_shadows
-from .lights import MAX_LIGHTS, bind_lights, draw_objects
+from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW
 
-FIRST_INPUT_UNIT = 1  # unit 0 holds the environment
-FIRST_SHADOW_UNIT = 8  # after at most 7 input channels
-ALBEDO_UNIT = 25  # a textured receiver's texture: after the impostor atlas (passes/impostors.py, 24)
-ENVIRONMENT_SHADOW_UNIT = 26  # the environment lobes' shadow atlas, 27-29 their glass's, bounce's, nearest distances' (passes/environment_lights.py)
-ENVIRONMENT_BAKE_UNIT = 30  # the light maps' atlas of the environment's light (passes/environment_lights.py)
 BAKED_VERTEX_STAGES = ("common/mesh_vertex.glsl", "passes/transport_view.vert")  # they pass baked_vertex_irradiance
 
 
@@ -110,9 +107,9 @@ class ShadeOptions:
     staged: tuple[str, ...] = ()  # deferred kinds resolved in two stages (passes/deferred.py)
 
     def __post_init__(self):
-        max_inputs = FIRST_SHADOW_UNIT - FIRST_INPUT_UNIT
+        max_inputs = MAX_INPUTS
         if len(self.inputs) > max_inputs:
-            raise ValueError(f"ShadeSurfaces binds at most {FIRST_SHADOW_UNIT - 1} input channels")
+            raise ValueError(f"ShadeSurfaces binds at most {MAX_INPUTS} input channels")
         self.defines = self.defines or {}
         self.inputs = tuple(self.inputs)
         self.objects = self.objects if self.objects is None or callable(self.objects) else frozenset(self.objects)
@@ -138,8 +135,6 @@ class ShadeSurfaces(Pass):
         Channel("depth", "depth", "camera depth buffer"),
     )
 
-    FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT = FIRST_INPUT_UNIT, FIRST_SHADOW_UNIT  # the module's (ShadeOptions checks)
-    FIRST_CAUSTIC_UNIT = FIRST_SHADOW_UNIT + MAX_LIGHTS
     # Caustic irradiance added to diffuse receivers when a caustic technique wrote it (passes/caustics.py);
     # adaptive anti-aliasing's flags (passes/adaptive.py), given by the renderer: only flagged pixels shade.
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES",
@@ -169,7 +164,7 @@ class ShadeSurfaces(Pass):
     @property
     def deferred_unit(self) -> int:
         """The texture unit of the G-buffer (and the next, of the second stage's flags): after the inputs."""
-        return self.FIRST_INPUT_UNIT + len(self.inputs)
+        return first_unit("inputs") + len(self.inputs)
 
     def draws(self, obj) -> bool:
         """Whether this run shades ``obj``."""
@@ -299,7 +294,7 @@ class ShadeSurfaces(Pass):
                     set_uniform(program, "deferred_id", float(len(later)))
                 else:
                     self.set_object_uniforms(frame, program, obj, material)
-                with _culled_back_faces(ctx, obj, clip_from_world):
+                with culled_back_faces(ctx, obj, clip_from_world):
                     draw_objects(frame, program, [obj], clip_from_world)
         return later
 
@@ -312,8 +307,8 @@ class ShadeSurfaces(Pass):
             set_uniform(program, "absorption_coefficient", material.absorption_coefficient.astype("f4"))
         texture = self.albedo_texture(obj, material)
         if texture is not None:
-            frame.gpu.albedo_texture(texture).use(ALBEDO_UNIT)
-            set_uniform(program, "albedo_texture", ALBEDO_UNIT)
+            frame.gpu.albedo_texture(texture).use(first_unit("albedo"))
+            set_uniform(program, "albedo_texture", first_unit("albedo"))
         tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
@@ -340,7 +335,7 @@ class ShadeSurfaces(Pass):
         camera, scene = frame.camera, frame.scene
         set_uniform(program, "environment", 0)
         set_uniform(program, "environment_pixel_angle", camera.pixel_angle())
-        bind_samplers(program, self.inputs, [frame.read(name) for name in self.inputs], self.FIRST_INPUT_UNIT)
+        bind_samplers(program, self.inputs, [frame.read(name) for name in self.inputs], first_unit("inputs"))
         set_uniform(program, "camera_position", camera.position.astype("f4"))
         set_uniform(program, "camera_clip_from_world", camera.clip_from_world())
         set_uniform(program, "intensity_scale", float(scene.intensity_scale))
@@ -348,47 +343,17 @@ class ShadeSurfaces(Pass):
         shadows = frame.optional("environment_shadows")
         bake = frame.optional("environment_bake")
         set_uniform(program, "irradiance_sh", ambient_sh(scene.environment, samples, shadows, bake).astype("f4"))
-        bind_lights(program, samples, frame.read("shadow_maps"), first_unit=self.FIRST_SHADOW_UNIT)
+        bind_lights(program, samples, frame.read("shadow_maps"))
         if shadows is not None:
-            bind_environment_shadows(program, shadows, ENVIRONMENT_SHADOW_UNIT)
+            bind_environment_shadows(program, shadows)
         if bake is not None:
-            bind_environment_bake(program, bake, ENVIRONMENT_BAKE_UNIT)
+            bind_environment_bake(program, bake)
         if caustic_maps is not None:
-            bind_caustic_maps(program, caustic_maps, first_unit=self.FIRST_CAUSTIC_UNIT)
+            bind_caustic_maps(program, caustic_maps)
         elif frame.optional("caustic_tiles") is not None:
-            bind_caustic_tiles(program, frame.optional("caustic_tiles"), unit=self.FIRST_CAUSTIC_UNIT)
+            bind_caustic_tiles(program, frame.optional("caustic_tiles"))
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
-
-
-@contextmanager
-def _culled_back_faces(ctx, obj, clip_from_world: np.ndarray):
-    """Cull back faces while drawing a solid (Mesh.is_solid) wholly in front of the near plane:
-    each back face then lies behind a front face of the same solid, but a rasterizer still shades
-    those it draws before the front face covering them. Same image, about half the fragments of a
-    closed refractor (a CPU rasterizer pays for each). Skipped for mirroring transforms."""
-    cull = culls_back_faces(obj, clip_from_world)
-    if cull:
-        ctx.front_face = "ccw"
-        ctx.cull_face = "back"
-        ctx.enable(moderngl.CULL_FACE)
-    try:
-        yield
-    finally:
-        if cull:
-            ctx.disable(moderngl.CULL_FACE)
-
-
-def culls_back_faces(obj, clip_from_world: np.ndarray) -> bool:
-    """Whether ShadeSurfaces culls ``obj``'s back faces seen through ``clip_from_world``."""
-    return (obj.mesh.is_solid() and _in_front_of_near_plane(obj.world_mesh().bounds, clip_from_world)
-            and np.linalg.det(clip_from_world @ obj.world_from_object()) < 0.0)  # GL's perspective/ortho sign
-
-
-def _in_front_of_near_plane(bounds: np.ndarray, clip_from_world: np.ndarray) -> bool:
-    """Whether the box ``bounds`` (2, 3) lies wholly beyond the near plane (the eye then lies outside it)."""
-    clip = clip_corners(bounds, clip_from_world)
-    return bool(np.all(clip[:, 3] > 0.0) and np.all(clip[:, 2] > -clip[:, 3]))
 
 
 def _distance_to_bounds(point, bounds: np.ndarray) -> float:

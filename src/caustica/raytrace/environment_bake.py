@@ -362,3 +362,10 @@ def _spread_to(points: np.ndarray, normals: np.ndarray, chosen: np.ndarray, valu
     out = np.einsum("ik,ikc->ic", weight, values[nearest]) / weight.sum(axis=1, keepdims=True)
     out[chosen] = values
     return out
+
+
+def same_plane(plane, known, offset_tolerance: float, normal_tolerance: float = 1e-6) -> bool:
+    """Whether ``plane`` and ``known`` ((a point, a unit normal) each; either side) are one plane: their normals
+    parallel within ``normal_tolerance`` and the point of ``plane`` within ``offset_tolerance`` of ``known``'s."""
+    return (abs(abs(float(np.dot(plane[1], known[1]))) - 1.0) < normal_tolerance
+            and abs(float(np.dot(plane[0] - known[0], known[1]))) < offset_tolerance)

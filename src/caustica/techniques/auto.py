@@ -35,9 +35,9 @@ import numpy as np
 
 from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
+from ..lighting.bake import MAX_BAKE_SIZE, bake_plan
+from ..lighting.environment import LOBES, MAX_LOBES, environment_sun, lobe_occlusion, scene_floor
 from ..passes.convex_exits import convex_shape
-from ..passes.environment_lights import (LOBES, MAX_BAKE_SIZE, MAX_LOBES, bake_plan, environment_sun,
-                                        lobe_occlusion, scene_floor)
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from ..scene.gltf.origin import thin_walled_glass, thin_walled_note
 from ..scene.scene import invisible_objects, without_invisible_glass

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.environment_lights import MAX_BAKE_SIZE, MAX_LOBES
+from ..lighting.bake import MAX_BAKE_SIZE
+from ..lighting.environment import MAX_LOBES
 from ..passes.lights import ShadowMaps
 from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse

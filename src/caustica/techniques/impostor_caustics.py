@@ -60,12 +60,13 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
-from ..render.frame import Channel, Frame, Pass
-from ..passes.impostors import BuildImpostors
-from ..passes.caustics import MAX_CAUSTIC_TILES, CausticTiles
+from ..passes.caustics import CausticTiles
 from ..passes.fixed_flux import splat_fixed_point
-from ..passes.lights import LIGHT_DIRECTIONAL, LIGHT_SPOT
+from ..passes.impostors import BuildImpostors
+from ..render.bindings import MAX_CAUSTIC_TILES
+from ..render.frame import Channel, Frame, Pass
 from ..render.offscreen import aimed_camera, render_offscreen
+from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from .base import param
 from .composite import CausticTechnique
 from .impostors import ImpostorParams, impostor_view_passes, texture_passes

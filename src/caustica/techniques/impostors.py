@@ -46,16 +46,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..gpu.meshes import set_uniform
-from ..passes.impostors import (
-    MAX_IMPOSTORS,
-    BuildImpostors,
-    bind_impostors,
-    chain_defines,
-    chain_uniforms,
-    impostor_defines,
-    world_index,
-)
+from ..passes.impostors import BuildImpostors, chain_defines, chain_uniforms, impostor_defines, world_index
+from ..render.bindings import MAX_IMPOSTORS, bind_impostors
 from ..scene.rules import MAX_COORDINATE
 from .base import param
 from .depth_search import DepthSearch, DepthSearchParams

@@ -135,7 +135,7 @@ def illumination_map(scene, plane, thickness: float) -> np.ndarray:
 
 
 def _light_samples(scene, light_index: int):
-    from ..passes.lights import light_samples
+    from ..lighting.samples import light_samples
 
     if not 0 <= light_index < len(scene.lights):
         raise ValueError(f"light_index {light_index} is not one of the scene's {len(scene.lights)} lights")
