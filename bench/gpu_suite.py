@@ -168,7 +168,7 @@ def run_suite(out: Path, techniques, presets, sizes, warmup: int, frames: int, b
               device: dict, log=print) -> dict:
     """Measure every (technique, preset, size) until done or the budget is spent; the data written."""
     from caustica import Renderer
-    from caustica.scene.presets import shared_data_dir
+    from caustica.scene.preset_parts import shared_data_dir
 
     start = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)

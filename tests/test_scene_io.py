@@ -227,7 +227,7 @@ def test_shared_model_loads(tmp_path):
 
 @pytest.mark.parametrize("name", preset_names())
 def test_presets_load(name):
-    from caustica.scene.presets import shared_data_dir
+    from caustica.scene.preset_parts import shared_data_dir
 
     try:
         scene = load_scene(name)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from caustica.docs_techniques import WHICH_PATH, plan_rules, technique_limits, which_technique_markdown
-from caustica.scene.presets import shared_data_dir
+from caustica.scene.preset_parts import shared_data_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 GALLERY = ROOT / "docs" / "images" / "gallery"

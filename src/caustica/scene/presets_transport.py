@@ -10,29 +10,12 @@ from collections.abc import Callable
 
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
 from .materials import Glass
+from .preset_parts import caustic_scene as _caustic_scene
+from .preset_parts import floor_object as _floor
+from .preset_parts import glass_model as _glass_model
 from .scene import Scene, SceneObject
 from .shapes import sphere, torus, torus_knot
 from .transform import Transform
-
-
-
-def _caustic_scene(*args, **kwargs) -> Scene:
-    from .presets import caustic_scene as make  # presets.py imports this module: import its helpers late
-
-    return make(*args, **kwargs)
-
-
-def _floor(**kwargs) -> SceneObject:
-    from .presets import floor_object as make
-
-    return make(**kwargs)
-
-
-def _glass_model(*args) -> SceneObject:
-    from .presets import glass_model as make
-
-    return make(*args)
-
 
 _CAMERA = {"position": [0.0, 2.8, 3.6], "look_at": [0.0, 0.3, 0.0], "fov_y": 40.0}
 _LIGHT = [0.8, 3.6, -1.2]
