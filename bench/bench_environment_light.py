@@ -39,7 +39,7 @@ from caustica.bench.timing import fastest_in_blocks, timed_render  # noqa: E402
 from caustica.metrics.images import psnr_linear  # noqa: E402
 from caustica.lighting import bake as light_bake  # noqa: E402
 from caustica.lighting import environment as environment_light, samples as light_samples  # noqa: E402
-from caustica.passes import lights  # noqa: E402
+from caustica.passes.shading import shadows as lights  # noqa: E402
 from caustica.lighting.environment import environment_sun  # noqa: E402
 from caustica.raytrace.environment_bake import BAKE_SAMPLES, BAKE_SIZE  # noqa: E402
 from caustica.renderer import Renderer  # noqa: E402
@@ -79,7 +79,7 @@ def resting_scenes(size):
 
 def convex_scenes(size):
     """Two more convex glass shapes, held out (tuned on nothing) for depth-search's exact exits of any convex mesh
-    (passes/convex_exits.py): env-prism-light, an 8-sided smooth-shaded column (shapes.cylinder r 0.45, h 1.1)
+    (passes/shading/convex_exits.py): env-prism-light, an 8-sided smooth-shaded column (shapes.cylinder r 0.45, h 1.1)
     standing on the floor turned 10 degrees, from the right, under a cooler point light; env-log, a 32-sided
     cylinder (r 0.35, length 1.4) lying on the floor along x, touching it along an edge, under the sky alone."""
     base = mixed_scene(size, True)

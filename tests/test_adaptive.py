@@ -1,4 +1,4 @@
-"""Adaptive anti-aliasing (``antialias="adaptive"``, passes/adaptive.py): the pixels it flags are the edges of
+"""Adaptive anti-aliasing (``antialias="adaptive"``, passes/post/adaptive.py): the pixels it flags are the edges of
 the 1-spp image, its image is the 4-spp image there and the 1-spp image elsewhere, its error against 16 spp
 is 4 spp's on scenes with edges, a flat image flags nothing, and bad requests are refused in one line."""
 from __future__ import annotations

@@ -11,18 +11,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_caustic_radiometry import (POINT, ball_flux, caustic_on_floor, flux_scene, point_irradiance, point_scene,
+                                     shadow_points)
+from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_flux, floor_grid, map_data, relmse
 
 from caustica.errors import TechniqueError
+from caustica.passes.caustics.maps import CAUSTIC_CUBE
 from caustica.raytrace.photons import irradiance_histogram, trace_photons
 from caustica.renderer import Renderer
-from caustica.passes.caustics import CAUSTIC_CUBE
-from caustica.scene import Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform
-from caustica.scene import procedural_environment
+from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
+                            procedural_environment)
 from caustica.scene.shapes import plane, sphere, torus
 from caustica.techniques import get_technique
-from test_caustic_radiometry import POINT, ball_flux, caustic_on_floor, flux_scene, point_irradiance, point_scene
-from test_caustic_radiometry import shadow_points
-from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_flux, floor_grid, map_data, relmse
 
 TECHNIQUE = "caustic-mapping"
 

@@ -1,4 +1,4 @@
-"""Post-process edge anti-aliasing (passes/resolve.py, shaders/passes/edge_antialias.frag): coverage of
+"""Post-process edge anti-aliasing (passes/post/resolve.py, shaders/passes/edge_antialias.frag): coverage of
 straight edges against their exact area, flat and axis-aligned images untouched, a rendered scene moved
 towards its supersampled image, and bad modes refused."""
 from __future__ import annotations
@@ -9,9 +9,9 @@ import pytest
 import caustica
 from caustica.errors import RenderOptionError
 from caustica.gpu.readback import read_rgb
-from caustica.render.frame import Frame
-from caustica.passes.resolve import resolved
 from caustica.metrics.images import psnr_linear
+from caustica.passes.post.resolve import resolved
+from caustica.render.frame import Frame
 
 SIZE = (96, 64)
 

@@ -440,10 +440,10 @@ def test_exit_shares_of_a_ball_have_the_closed_form():
 
 
 def test_glass_exits_are_exact_for_spheres_convex_polyhedra_and_lenses():
-    """auto sets depth-search's convex_exits (passes/convex_exits.py) wherever it plans glass: alone or with
+    """auto sets depth-search's convex_exits (passes/shading/convex_exits.py) wherever it plans glass: alone or with
     impostors; a ball, a block and a lens (two spherical faces and a round rim) get exact shapes, a torus keeps
     the search."""
-    from caustica.passes.convex_exits import convex_shape
+    from caustica.passes.shading.convex_exits import convex_shape
     from caustica.scene.shapes import box, torus
 
     assert plan(scene_of([marble()])).params["convex_exits"] is True

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from caustica import scene as sc
+from caustica.errors import TechniqueError
 from caustica.raytrace.optics import fresnel_dielectric
 from caustica.renderer import Renderer
 from caustica.scene.shapes import plane, sphere
 from caustica.scene.transform import Transform
-from caustica.errors import TechniqueError
 from caustica.techniques.caustic_mapping import CausticMappingParams
 from caustica.techniques.raster import read_rgba
 
@@ -196,7 +196,7 @@ def test_point_light_gets_a_fitted_frustum_or_the_cube_atlas():
     frustum = renderer.channels["caustic_maps"][0]
     renderer.render(scene, TECHNIQUE, map_size=128, point_map="cube")
     cube = renderer.channels["caustic_maps"][0]
-    from caustica.passes.caustics import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE
+    from caustica.passes.caustics.maps import CAUSTIC_CUBE, CAUSTIC_PROJECTIVE
 
     assert frustum.kind == CAUSTIC_PROJECTIVE and cube.kind == CAUSTIC_CUBE
     assert cube.texture.size == (6 * 128, 128)
@@ -243,7 +243,7 @@ def test_light_leaves_a_solid_through_its_opening(keeper):
     # Straight down through the slab: one interface where the light leaves through the opening, E (1 - F0),
     # two under the glass bottom, E (1 - F0)^2 (F0 = 0.04 at IOR 1.5). The photons over the opening used
     # to be dropped (no back face behind them): a dark square in the caustic.
-    from caustica.passes.casters import CASTER_SOLID, caster_code
+    from caustica.passes.caustics.casters import CASTER_SOLID, caster_code
 
     scene = ball_scene()
     scene.objects[0] = slab_with_an_opening()

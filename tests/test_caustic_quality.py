@@ -13,17 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.ndimage import gaussian_filter
-from scipy.ndimage import distance_transform_edt
+from scipy.ndimage import distance_transform_edt, gaussian_filter
 from test_caustic_presets import load
 from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_flux, floor_grid, map_data
 
 from caustica import scene as sc
-from caustica.passes.casters import CASTER_SOLID, CASTER_SURFACE
-from caustica.passes.casters import caster_code
+from caustica.passes.caustics.casters import CASTER_SOLID, CASTER_SURFACE, caster_code
 from caustica.raytrace.photons import irradiance_histogram, trace_photons
-from caustica.scene.presets import pool_scene
 from caustica.renderer import Renderer
+from caustica.scene.presets import pool_scene
 from caustica.scene.shapes import plane, sphere
 from caustica.scene.transform import Transform
 from caustica.techniques.raster import read_rgba

@@ -17,17 +17,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_flux
 
-from caustica.passes.caustics import CAUSTIC_PROJECTIVE
+from caustica.passes.caustics.maps import CAUSTIC_PROJECTIVE
 from caustica.raytrace.optics import fresnel_dielectric
 from caustica.raytrace.photons import irradiance_histogram, trace_photons
 from caustica.renderer import Renderer
-from caustica.scene import Camera, Diffuse, DirectionalLight, Glass, PointLight, Scene, SceneObject, SpotLight
-from caustica.scene import Transform, procedural_environment
+from caustica.scene import (Camera, Diffuse, DirectionalLight, Glass, PointLight, Scene, SceneObject, SpotLight,
+                            Transform, procedural_environment)
 from caustica.scene.presets import PRESETS
 from caustica.scene.shapes import biconvex_lens, box, plane, sphere
 from caustica.techniques.raster import read_rgba
-from test_caustics_oracle import FLOOR_U, FLOOR_V, contract_irradiance, floor_flux
 
 TECHNIQUES = ("caustic-mapping", "photon-splats", "transport-table", "impostor-caustics")
 UP = np.array([0.0, 1.0, 0.0])
@@ -129,7 +129,7 @@ def point_scene() -> Scene:
 # nearest; the interpolated exit points bias the shadow's irradiance up (mean +11 percent, worst point +36),
 # 513 directions bring it to +2 and +12 (test_transport_table_converges_with_its_directions).
 # caustic-mapping's spot falloff: the caustic view fitted around the landed photons lets 1e-3 of the flux
-# go at each side (passes/light_space.py FitCausticViews), here the spot's rim from 28 degrees out, where
+# go at each side (passes/caustics/light_space.py FitCausticViews), here the spot's rim from 28 degrees out, where
 # the falloff is 8 percent of the peak: 0 there (letting the rim stay spreads a ball's focus:
 # test_caustics_oracle and test_photon_splats' focus tests fail). impostor-caustics: at its default
 # photon_buffer (256) the photons through a ball filling 96 degrees of the spot's view are sparser than

@@ -1,6 +1,6 @@
 """Both caustic techniques against the exact Embree photon trace (``caustica.raytrace.photons``).
 
-The caustic map is read back through the contract (``passes/caustics.py``,
+The caustic map is read back through the contract (``passes/caustics/maps.py``,
 ``shaders/common/caustics.glsl``): world points of a grid on the floor are
 projected with the map's ``clip_from_world`` and the irradiance is read
 bilinearly from the texels that see that receiver (alpha = its distance to the
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from caustica.passes.caustics import CAUSTIC_PROJECTIVE
+from caustica.passes.caustics.maps import CAUSTIC_PROJECTIVE
 from caustica.raytrace.photons import irradiance_histogram, trace_photons
 from caustica.renderer import Renderer
 from caustica.scene.presets import PRESETS, pool_scene

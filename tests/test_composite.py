@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from caustica.errors import TechniqueError
+from caustica.passes.caustics.maps import CAUSTIC_PROJECTIVE, CausticMap
 from caustica.render.frame import Channel, Pass
-from caustica.passes.caustics import CAUSTIC_PROJECTIVE, CausticMap
 from caustica.scene import Camera, Diffuse, DirectionalLight, Scene, SceneObject, procedural_environment
 from caustica.scene.shapes import plane
 from caustica.scene.transform import look_at_view_from_world, orthographic_clip_from_view

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from caustica.passes import deferred, surfaces
+from caustica.passes.shading import deferred, surfaces
 from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
                             procedural_environment)
 from caustica.scene.shapes import box, sphere, torus
@@ -102,21 +102,21 @@ def test_background_after_a_deferred_frame_is_whole(renderer):
 
 
 def test_deferred_runs_only_where_it_is_asked_for():
-    assert surfaces.ShadeSurfaces("passes/depth_search.frag", deferred=("glass",)).deferred == ("glass",)
+    assert surfaces.ShadeSurfaces("passes/shading/depth_search.frag", deferred=("glass",)).deferred == ("glass",)
     assert surfaces.ShadeSurfaces().deferred == ()
     with pytest.raises(ValueError, match="shared vertex stage"):
-        surfaces.ShadeSurfaces("passes/depth_search.frag", vertex="passes/image_space.vert", deferred=("glass",))
+        surfaces.ShadeSurfaces("passes/shading/depth_search.frag", vertex="passes/shading/image_space.vert", deferred=("glass",))
 
 
 def test_shade_options_declare_and_check_the_options():
     """ShadeSurfaces' arguments are ShadeOptions' fields (positional in order, or by name, or over an
     options object), checked alike; each is an attribute read and written through."""
-    positional = surfaces.ShadeSurfaces("passes/depth_search.frag", {"A": 1}, None, ("back_surface",), None,
+    positional = surfaces.ShadeSurfaces("passes/shading/depth_search.frag", {"A": 1}, None, ("back_surface",), None,
                                         deferred=("glass",))
-    named = surfaces.ShadeSurfaces(options=surfaces.ShadeOptions("passes/depth_search.frag", {"A": 1}),
+    named = surfaces.ShadeSurfaces(options=surfaces.ShadeOptions("passes/shading/depth_search.frag", {"A": 1}),
                                    deferred=("glass",))
     assert positional.options == named.options
-    assert named.fragment == "passes/depth_search.frag" and named.inputs == ("back_surface",)
+    assert named.fragment == "passes/shading/depth_search.frag" and named.inputs == ("back_surface",)
     named.deferred = ("glass", "mirror")  # techniques set some after construction (impostors)
     assert named.options.deferred == ("glass", "mirror") and positional.deferred == ("glass",)
     assert surfaces.ShadeSurfaces(objects=["ball"]).objects == frozenset({"ball"})
@@ -125,7 +125,7 @@ def test_shade_options_declare_and_check_the_options():
     with pytest.raises(ValueError, match="a free input unit"):
         surfaces.ShadeSurfaces(inputs=tuple(f"c{i}" for i in range(7)), deferred=("glass",))
     with pytest.raises(ValueError, match="captures_front_surface needs"):
-        surfaces.ShadeSurfaces("passes/depth_search.frag", captures_front_surface=True, deferred=("glass",))
+        surfaces.ShadeSurfaces("passes/shading/depth_search.frag", captures_front_surface=True, deferred=("glass",))
     shade = surfaces.ShadeSurfaces(inputs=("front_surface", "back_surface"), deferred=("glass",),
                                    captures_front_surface=True, background=False)
     assert shade.reads == ("light_samples", "shadow_maps", "back_surface", "color", "exit_direction", "depth")

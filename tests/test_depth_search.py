@@ -280,7 +280,7 @@ def block_end_scene(size=48):
 
 
 def test_convex_exits_follow_total_internal_reflection_through_a_block(renderer):
-    """Ours (passes/convex_exits.py): light entering a block's end face at 30 degrees refracts to
+    """Ours (passes/shading/convex_exits.py): light entering a block's end face at 30 degrees refracts to
     theta_t = asin(sin 30 / 1.5), reflects totally off the side faces (incidence 70.5 > 41.8 degrees)
     and leaves through the far end at 30 degrees again, its vertical direction flipped once per side face
     met: by unfolding, once for entry heights y0 above 2 tan(theta_t) - 0.75 = -0.043 (it leaves upwards,
@@ -445,7 +445,7 @@ def test_face_solid_finds_a_lens_spheres_and_rim():
 def test_a_lens_read_back_from_gltf_keeps_its_exact_exits(tmp_path):
     """A user's lens arrives as a glTF mesh: spectacle-concave written to .glb and read back is still two concave
     balls and a cylinder, at the same place (convex_shape)."""
-    from caustica.passes.convex_exits import convex_shape
+    from caustica.passes.shading.convex_exits import convex_shape
     from caustica.scene.io import export_scene, load_scene
 
     scene = caustica.load_scene("spectacle-concave")
@@ -526,7 +526,7 @@ def test_convex_exits_of_lenses_not_tuned_on(renderer, meniscus):
     exits on two-interface paths against exact (mean degrees) 0.00001 / 0.0018, searched 0.14 / 0.41; with 2
     internal bounces 49.4 / 38.3 dB of exact, searched 40.5 / 33.3 (96x96, measured)."""
     from caustica.metrics import psnr_linear
-    from caustica.passes.convex_exits import convex_shape
+    from caustica.passes.shading.convex_exits import convex_shape
     from caustica.scene import Transform
     from caustica.scene.shapes import lens as spherical_lens
 

@@ -4,7 +4,7 @@ Two fresh interpreters render every caustic preset with every technique that
 splats photons (caustic-mapping, photon-splats, transport-table,
 impostor-caustics; the point-sprite and cube-atlas splats; composites with
 depth-search and impostors) and the images must match bit for bit. Before
-the compute splats summed in fixed point (``passes/fixed_flux.py``), float
+the compute splats summed in fixed point (``passes/caustics/fixed_flux.py``), float
 atomics made them differ by a few ulps from one process to the next on
 llvmpipe. In process: the splat's sums do not depend on the photons' order
 and keep their flux.
@@ -111,7 +111,7 @@ def test_two_processes_render_the_same_bytes(two_processes, case):
 
 def splat(renderer, view, positions: np.ndarray, flux: np.ndarray) -> np.ndarray:
     """SplatPhotons' compute splat of photons at world ``positions`` with ``flux`` (W, RGB): (3, h, w) flux."""
-    from caustica.passes.light_space import Photons, SplatPhotons
+    from caustica.passes.caustics.light_space import Photons, SplatPhotons
     from caustica.render.frame import Frame
 
     gpu = renderer.device
@@ -136,8 +136,8 @@ def floor_view():
     """A 64 x 64 orthographic view straight down onto [-1, 1]^2 of a floor at y = 0."""
     from caustica import scene as sc
     from caustica.lighting.samples import LightSample
-    from caustica.passes.light_space import fit_view
-    from caustica.passes.lights import LIGHT_DIRECTIONAL
+    from caustica.passes.caustics.light_space import fit_view
+    from caustica.passes.shading.shadows import LIGHT_DIRECTIONAL
     from caustica.scene.shapes import plane
 
     floor = sc.SceneObject("floor", plane((2.0, 2.0)), sc.Diffuse([0.5, 0.5, 0.5]))

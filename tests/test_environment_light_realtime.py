@@ -1,4 +1,4 @@
-"""The environment's light in the raster techniques (issue 23 parts 2, 3; passes/environment_lights.py).
+"""The environment's light in the raster techniques (issue 23 parts 2, 3; passes/shading/environment.py).
 
 Known answers: the environment's sun (a small bright disc) lights and shadows a floor as the directional
 light of the same irradiance does; an IOR-1 ball under the sun casts no shadow (its caustic gives the light

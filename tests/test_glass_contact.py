@@ -1,5 +1,5 @@
 """Glass standing on the floor: the light maps under it (raytrace/environment_bake.py) and depth-search's exits
-through the face that lies on the floor (passes/glass_contact.py), against known answers under a constant sky."""
+through the face that lies on the floor (passes/shading/glass_contact.py), against known answers under a constant sky."""
 from __future__ import annotations
 
 import numpy as np

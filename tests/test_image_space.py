@@ -197,7 +197,7 @@ def test_second_surface_matters_only_for_nonconvex_refractors(keeper):
 def test_dn_of_a_sphere_is_its_diameter_and_is_cached(tmp_path, monkeypatch, keeper):
     """d_N at every icosphere vertex is the diameter 2R; the cache (memory, then disk) returns the same
     array without tracing; the GPU carries it into world units under a uniform scale."""
-    from caustica.passes import image_space
+    from caustica.passes.shading import image_space
 
     monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path))
     monkeypatch.setattr(image_space, "_MEMORY", {})
@@ -234,7 +234,7 @@ def test_parameters_are_validated(renderer):
 def test_one_ior_variant_equals_the_per_channel_paths(renderer, monkeypatch):
     """Glass with one IOR follows one path for all channels (DISPERSION 0): the image and exit
     directions of the per-channel variant, forced here for the same glass."""
-    from caustica.passes import surfaces
+    from caustica.passes.shading import surfaces
 
     scene = caustica.load_scene("glass-sphere")
     scene.camera = scene.camera.with_size(64, 64)

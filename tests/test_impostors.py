@@ -6,7 +6,7 @@ import pytest
 
 import caustica.metrics
 from caustica.errors import SceneError, TechniqueError
-from caustica.passes.impostors import atlas_cell, atlas_grid, impostor_defines
+from caustica.passes.nearby.impostors import atlas_cell, atlas_grid, impostor_defines
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.raytrace.paths import follow_refraction
 from caustica.render.bindings import MAX_IMPOSTORS
@@ -357,7 +357,7 @@ def _tiled_wall(tiles=2):
 
 
 def test_coplanar_tiles_share_one_rectangle():
-    from caustica.passes.impostors import coplanar_groups
+    from caustica.passes.nearby.impostors import coplanar_groups
 
     floor = SceneObject("floor", plane((6.0, 6.0)), Diffuse(color=[0.6] * 3), Transform(position=[0.0, -1.0, 0.0]))
     scene = _scene([_ball(1.5, (0.0, 0.0, 0.0)), *_tiled_wall(), floor, _box()])
@@ -401,7 +401,7 @@ def test_flat_patches_are_looked_up_at_prect_with_the_full_search_s_hits(rendere
     the steps (``Impostor.flat``), and lands where the full search does; a slab (a box) and a ball keep it."""
     from dataclasses import replace
 
-    import caustica.passes.impostors as impostors
+    import caustica.passes.nearby.impostors as impostors
 
     center = np.zeros(3)
     assert impostors.make_impostor(center, _tiled_wall(1)[0], 1, 64).flat

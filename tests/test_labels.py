@@ -2,15 +2,14 @@
 from __future__ import annotations
 
 import numpy as np
-
-from caustica.renderer import Renderer
 import pytest
 
 from caustica.errors import OutputError, RenderOptionError
 from caustica.labels import LABELS, material_table, read_labels, write_labels
 from caustica.raytrace.optics import dot, refract
-from caustica.scene import Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform
-from caustica.scene import procedural_environment
+from caustica.renderer import Renderer
+from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
+                            procedural_environment)
 from caustica.scene.environment import Environment, sky_checker
 from caustica.scene.shapes import box, plane, sphere
 
@@ -215,7 +214,7 @@ def test_flow_under_a_water_surface_lands_on_the_floor_by_snell(renderer):
 
 def ball_over_floor(lights=True, caster=True) -> Scene:
     """Without lights the sky has no sun either (the raster techniques light with the sun as a
-    directional light, passes/environment_lights.py)."""
+    directional light, passes/shading/environment.py)."""
     objects = [SceneObject("floor", plane((12.0, 12.0)), Diffuse(color=[0.5, 0.5, 0.5]))]
     if caster:
         objects.append(SceneObject("ball", sphere(0.6, 5), Glass(1.5), Transform(position=[0.0, 1.2, 0.0])))

@@ -1,4 +1,4 @@
-"""Multisampled outlines (``antialias="msaa"``, passes/subpixel.py): a straight edge resolves to the
+"""Multisampled outlines (``antialias="msaa"``, passes/post/subpixel.py): a straight edge resolves to the
 coverage of 4 samples per pixel, the inside of surfaces is left bit for bit as at 1 spp, rendered outlines
 move towards the supersampled image, every raster technique takes it, and a context without
 multisampling is refused in one line."""
@@ -6,18 +6,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_graph import TECHNIQUE_SCENES
 
 import caustica
 from caustica import Renderer
 from caustica.errors import RenderOptionError
 from caustica.metrics.images import psnr_linear
-from caustica.passes.subpixel import SAMPLES
+from caustica.passes.post.subpixel import SAMPLES
 from caustica.scene import Camera, Diffuse, DirectionalLight, Environment, Mesh, Mirror, Scene, SceneObject
 from caustica.scene.environment import procedural_environment
 from caustica.scene.presets import PRESETS
 from caustica.scene.shapes import sphere, torus
-
-from test_graph import TECHNIQUE_SCENES
 
 SIZE = (96, 64)
 BACKGROUND, SURFACE = 1.0, 0.25  # the constant environment, the flat grey triangle lit by it alone
@@ -167,9 +166,9 @@ def test_cpu_techniques_ignore_it():
 def test_cli_renders_with_msaa_and_refuses_without_multisampling(tmp_path, capsys, monkeypatch):
     """``caustica render --antialias msaa`` writes the msaa image; without multisampling: one line, exit 2."""
     import moderngl
+    from test_cli import assert_one_line_error, run_cli
 
     from caustica.images import read_image
-    from test_cli import assert_one_line_error, run_cli
 
     out = tmp_path / "door.exr"
     code, _, _ = run_cli(["render", "door-mirror", "-o", out, "--size", "48x40", "--frames", "1", "--technique",

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from caustica.errors import TechniqueError
-from caustica.passes.surfaces import ShadeSurfaces
+from caustica.passes.shading.surfaces import ShadeSurfaces
 from caustica.scene import Camera, Diffuse, Glass, PointLight, Scene, SceneObject, Transform, procedural_environment
 from caustica.scene.shapes import plane, sphere
 from caustica.techniques import get_technique

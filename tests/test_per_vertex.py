@@ -8,7 +8,7 @@ import pytest
 
 from caustica.errors import TechniqueError
 from caustica.metrics import psnr_linear
-from caustica.passes.lights import ShadowMaps
+from caustica.passes.shading.shadows import ShadowMaps
 from caustica.per_vertex import closest_point_to_lines, double_refraction, principal_directions, split_patches
 from caustica.per_vertex.viewpoint import Lines, fit_view_volume
 from caustica.raytrace.embree_scene import ray_scene_for
@@ -328,7 +328,7 @@ def _straight_down_map(renderer, lit_texels):
     """A 64 x 64 caustic map of a directional light shining straight down (-y) from (0, 10, 0) over a floor at
     y = 0, 4 x 4 world units wide (ortho), with ``lit_texels`` (rows, cols slices) lit; and its light sample."""
     from caustica.lighting.samples import LightSample
-    from caustica.passes.caustics import CAUSTIC_PROJECTIVE, CausticMap
+    from caustica.passes.caustics.maps import CAUSTIC_PROJECTIVE, CausticMap
     from caustica.scene.codes import LIGHT_DIRECTIONAL
     from caustica.scene.transform import orthographic_clip_from_view
 
@@ -345,7 +345,7 @@ def _straight_down_map(renderer, lit_texels):
 def test_lit_boxes_put_a_caustic_maps_light_on_its_receiver(renderer):
     """Known answer: texels 30-33 lit in both directions, grown by LIT_MARGIN (2) to 28-35, lie on the floor
     (y = 0) between x, z = +-(35.5 / 64 * 2 - 1) * 2 = +-0.21875."""
-    from caustica.passes.caustics import LIT_MARGIN, lit_boxes
+    from caustica.passes.caustics.maps import LIT_MARGIN, lit_boxes
 
     assert LIT_MARGIN == 2
     caustic, sample = _straight_down_map(renderer, (slice(30, 34), slice(30, 34)))
@@ -360,7 +360,7 @@ def test_lit_boxes_put_a_caustic_maps_light_on_its_receiver(renderer):
 def test_a_caustic_reaches_a_view_that_sees_its_light(renderer):
     """maps_reaching: a camera looking at the lit patch sees it; one looking at the floor 3 units away, or up,
     does not; an unlit map reaches nothing; a cube map (no box fitted) reaches everything."""
-    from caustica.passes.caustics import CAUSTIC_CUBE, CausticMap, maps_reaching
+    from caustica.passes.caustics.maps import CAUSTIC_CUBE, CausticMap, maps_reaching
 
     caustic, sample = _straight_down_map(renderer, (slice(30, 34), slice(30, 34)))
     assert maps_reaching([caustic], [sample], _look([0.0, 2.0, 2.0], [0.0, 0.0, 0.0], fov=20.0))

@@ -19,10 +19,10 @@ import trimesh
 
 from caustica.gpu.shaders import ShaderError
 from caustica.lighting.samples import MAX_LIGHTS
-from caustica.passes import deferred
-from caustica.passes.convex_exits import CONVEX_EXITS_MODES, convex_shape
-from caustica.passes.glass_contact import contact_plane
-from caustica.passes.surfaces import ShadeSurfaces
+from caustica.passes.shading import deferred
+from caustica.passes.shading.convex_exits import CONVEX_EXITS_MODES, convex_shape
+from caustica.passes.shading.glass_contact import contact_plane
+from caustica.passes.shading.surfaces import ShadeSurfaces
 from caustica.render.bindings import MAX_CAUSTIC_TILES
 from caustica.scene import Camera, Diffuse, Environment, Glass, Mirror, PointLight, Scene, SceneObject, Transform
 from caustica.scene.codes import MATERIAL_CODES
@@ -33,7 +33,7 @@ from caustica.techniques.auto import QUALITY, plan
 
 SKY = Environment(np.full((16, 32, 3), 0.5, np.float32))
 ABSENT = None  # a free define's value: not defined at all
-# The defines ShadeSurfaces._draw_objects and passes/deferred.py add per frame, with every value they take.
+# The defines ShadeSurfaces._draw_objects and passes/shading/deferred.py add per frame, with every value they take.
 FREE_DEFINES = {
     **{define: (0, 1) for define in ShadeSurfaces.optional.values() if define},  # optional inputs: written or not
     "SURFACE_KIND": tuple(sorted(set(MATERIAL_CODES.values()))),
@@ -281,7 +281,7 @@ def test_every_planned_shading_program_compiles(renderer, shading_runs):
     the defines a frame adds that hold every pair of their values (variants)."""
     library = renderer.device.shaders
     free = {**FREE_DEFINES, **FRAME_DEFINES}
-    resolve = "passes/deferred_resolve.vert"
+    resolve = "passes/shading/deferred_resolve.vert"
     shapes = set()
     for (vertex, fragment, given, host), plans in shading_runs.items():
         own = {k: v for k, v in given if v is not ABSENT}

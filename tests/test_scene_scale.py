@@ -1,7 +1,7 @@
 """Scenes are scale-free (DESIGN.md: every distance in scene units): the same scene in millimetres or
 kilometres gives the same image. The photon passes' surface offsets and tolerances were absolute
 (1e-4 scene units), so a glass ball of 0.06 mm radius lost its caustic; they are now fractions of the
-casters' size (passes/casters.py, length_unit).
+casters' size (passes/caustics/casters.py, length_unit).
 """
 from __future__ import annotations
 

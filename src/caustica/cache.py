@@ -139,7 +139,7 @@ _DIGESTS: dict[int, tuple] = {}  # id(array) -> (weak reference to it, digest); 
 
 def scene_state_key(scene) -> tuple:
     """What shadow maps and light paths depend on: lights, the environment (its sun is a light:
-    passes/environment_lights.py) and object geometry and placement."""
+    passes/shading/environment.py) and object geometry and placement."""
     parts = [state_key(light) for light in scene.lights]
     parts.append(("environment", array_digest(scene.environment.image)))
     for obj in scene.objects:

@@ -16,7 +16,7 @@ from .atomic import folders_made
 from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
-from .passes.resolve import ANTIALIAS_MODES
+from .passes.post.resolve import ANTIALIAS_MODES
 from .progress import NORMAL, QUIET, VERBOSE, detail, is_quiet, note, output_policy, progress
 from .scene.rules import IOR_RANGE
 from .techniques.auto import QUALITY

@@ -3,7 +3,7 @@ texture sides. Pure arithmetic (no GL calls): the renderer passes the GL's limit
 
 The memory figure is an estimate, not an account of every allocation: ``BYTES_PER_SAMPLE`` for the
 camera-sized targets at the supersampled size (colour, depth, normals and the technique's channels,
-a few rgba16f/rgba32f textures), with ``antialias="msaa"`` the targets passes/subpixel.py adds (their
+a few rgba16f/rgba32f textures), with ``antialias="msaa"`` the targets passes/post/subpixel.py adds (their
 formats' bytes), plus, per light sample, each square map a technique's parameters ask
 for (six faces for point lights: cube maps). Above ``MEMORY_BUDGET`` the frame is refused with the
 figure; on a GPU with more memory raise ``caustica.frame_limits.MEMORY_BUDGET``.
@@ -60,7 +60,7 @@ def antialias_bytes(antialias: str) -> int:
     if antialias != "msaa":
         return 0
     from .gpu.targets import format_bytes
-    from .passes.subpixel import TARGETS
+    from .passes.post.subpixel import TARGETS
 
     return sum(format_bytes(fmt, samples) for fmt, samples in TARGETS)
 
@@ -104,7 +104,7 @@ def check_environment_texture(environment, limit: int) -> None:
 
 def check_map_sides(params, scene, limit: int) -> None:
     """RenderOptionError when a parameter's map is wider than the GL's texture limit: shadow maps of point
-    lights lie as six faces side by side in one texture (passes/lights.py), the other maps are squares."""
+    lights lie as six faces side by side in one texture (passes/shading/shadows.py), the other maps are squares."""
     strip = 6 if any(light.kind in ("point", "line") for light in scene.lights) else 1
     for name, side in _map_sides(params).items():
         width = side * (strip if name == "shadow_map_size" else 1)

@@ -10,7 +10,7 @@ caustic irradiance on the diffuse surface seen first, 0 where no caustic techniq
 fraction of a pixel's samples that an object covers).
 
 Rasterized techniques take id, material, depth, normal, glass and caustic from one extra pass at pixel
-centres (passes/labels.py), alpha from the supersampled frame; CPU techniques from Embree primary rays.
+centres (passes/post/labels.py), alpha from the supersampled frame; CPU techniques from Embree primary rays.
 The flow is always the exact oracle's (raytrace/paths.py follow_refraction from each glass pixel's centre
 ray, Embree), whatever technique drew the image. :func:`write_labels` and :func:`read_labels` keep them in
 one multi-layer OpenEXR or one .npz.
@@ -97,7 +97,7 @@ def _value_key(value):
 
 
 def raster_layers(buffers: dict, names, scene, camera, supersampling: int) -> dict:
-    """The layers ``names`` from passes/labels.py's buffers read back (read_label_buffers) at the output
+    """The layers ``names`` from passes/post/labels.py's buffers read back (read_label_buffers) at the output
     size of ``camera``; the flow traced from the glass mask."""
     from .gpu.readback import box_downsample
 

@@ -10,13 +10,13 @@ from . import frame_limits
 from .errors import GLUnavailableError, RendererClosedError, RenderOptionError, SceneError
 from .gpu.readback import read_rgb, read_rgba, supersampling_factor
 from .labels import check_labels, check_technique_gives, raster_layers, traced_layers
-from .passes.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
+from .passes.post.adaptive import FLAGS, AdaptiveFlags, combined, read_flags
+from .passes.post.labels import label_pass, read_label_buffers
+from .passes.post.resolve import check_antialias, resolved
+from .passes.post.subpixel import check_multisampling
+from .progress import progress_policy
 from .render.frame import Frame, frame_setting
 from .render.graph import run_graph
-from .passes.labels import label_pass, read_label_buffers
-from .passes.resolve import check_antialias, resolved
-from .passes.subpixel import check_multisampling
-from .progress import progress_policy
 from .scene import Scene, rules
 from .scene.scene import check_scene, recentred, without_invisible_glass
 from .techniques import get_technique
@@ -107,7 +107,7 @@ class Renderer:
         techniques`` lists them) or a Technique instance. ``antialias``: ``none``, ``edge`` (a
         post-process), ``msaa`` (outlines from multisampled coverage) or ``adaptive`` (4 spp at the
         pixels a 1-spp frame flags; spp 1; ``last_adaptive_fraction``) on rasterized images
-        (passes/resolve.py; CPU techniques ignore it). ``labels``: a
+        (passes/post/resolve.py; CPU techniques ignore it). ``labels``: a
         list of names from caustica.labels.LABELS; then ``(image, layers)``, layers a {name: array}
         at the output size (docs/labels.md)."""
         result, _ = self.render_timed(scene, technique, spp, labels=labels, antialias=antialias, **params)
@@ -256,7 +256,7 @@ class Renderer:
         """The technique's image: its graph run, the colour resolved on the GPU (averaged over k x k
         samples, edge anti-aliased with ``antialias``), read back; every texture given back but those kept
         for inspection (``keep_channels``). Returns (image, label buffers): with ``labels`` (checked
-        names), passes/labels.py's pass runs last and its buffers are read back too, else None."""
+        names), passes/post/labels.py's pass runs last and its buffers are read back too, else None."""
         self._give_back_kept()
         k = supersampling_factor(spp)
         extra = [] if labels is None else [label_pass(scene, labels, k)]
@@ -276,7 +276,7 @@ class Renderer:
         return image.astype(np.float32), buffers
 
     def _render_adaptive(self, tech, scene: Scene, camera, parameters, labels=None):
-        """antialias 'adaptive' (passes/adaptive.py): the graph at 1 spp and its flags, then, when any pixel
+        """antialias 'adaptive' (passes/post/adaptive.py): the graph at 1 spp and its flags, then, when any pixel
         is flagged, at 4 spp with the flagged pixels alone shaded, the two combined on the GPU and read
         back. Sets ``last_adaptive_flags`` and ``last_adaptive_fraction``; returns (image, label buffers) as :meth:`_render_graph`,
         the labels at 1 spp."""

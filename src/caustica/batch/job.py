@@ -16,8 +16,7 @@ from pathlib import Path
 from ..atomic import Terminated, missing_folders
 from ..errors import CausticaError, OutputError, short
 from .manifest import JOB_FILE, LOCK_FILE, MANIFEST, Manifest
-from .sweep import (DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output,
-                    check_seed)
+from .sweep import DEFAULT_OUTPUT, IMAGE_FORMATS, LABEL_FORMATS, MAX_FRAMES, Variation, check_output, check_seed
 
 
 @dataclass(frozen=True)
@@ -90,7 +89,7 @@ def make_job(scene_or_sweep, out_dir, *, frames=None, orbit=None, size=None, spp
              camera=None):
     """The Job for a scene (preset, scene file, glTF, Scene) or a sweep file, and its base scene, checked
     up front: SceneError, TechniqueError or OutputError in one line. Arguments given win over the sweep's."""
-    from ..passes.resolve import check_antialias
+    from ..passes.post.resolve import check_antialias
     from ..scene.scene import Scene
     from .edits import SceneEditor
     from .sweep import Sweep, is_sweep_file, read_sweep

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import SceneError, closest_name, first_line, short
 from ..labels import FORMATS as LABEL_FORMATS
-from ..passes.resolve import ANTIALIAS_MODES
+from ..passes.post.resolve import ANTIALIAS_MODES
 from ..scene.io import _KIND_TEXT, _convert, _read_toml
 
 NUMBER, VEC3, RGB, SCALE, STRING, MATERIAL = "number", "vec3", "rgb", "numbers3", "string", "material"

@@ -90,7 +90,7 @@ class GpuDevice:
         return texture
 
     def draw_fullscreen(self, program, vertices: int = 3) -> None:
-        """Triangles whose vertex stage makes them from gl_VertexID (passes/fullscreen.vert: one
+        """Triangles whose vertex stage makes them from gl_VertexID (common/fullscreen.vert: one
         triangle over the viewport) with ``program``; its attribute-less vertex array is kept."""
         vao = self._fullscreen.get(program.glo)
         if vao is None or vao.program is not program:  # a GL name is reused once its program is gone

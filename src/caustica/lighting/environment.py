@@ -58,7 +58,7 @@ def _extract_sun(environment: Environment) -> EnvironmentSun:
 def ambient_sh(environment: Environment, samples, shadows=None, bake=None) -> np.ndarray:
     """(9, 3) SH irradiance diffuse surfaces take as ambient: the floor's bounce below the horizon where the
     frame's ``environment_shadows`` or ``environment_bake`` hold it (floor_bounce_sh); else the environment's
-    without its sun where the ``light_samples`` (passes/lights.py) hold the sun, else the whole environment's."""
+    without its sun where the ``light_samples`` (passes/shading/shadows.py) hold the sun, else the whole environment's."""
     for held in (shadows, bake):
         if held is not None and held.ambient_sh is not None:
             return held.ambient_sh

@@ -32,12 +32,12 @@ class LightSample:
     intensity: np.ndarray
     cone_cos: tuple[float, float] = (1.0, 1.0)
     clip_from_world: np.ndarray | None = None  # directional and spot maps
-    environment: bool = False  # the environment's sun (passes/environment_lights.py), not one of scene.lights
+    environment: bool = False  # the environment's sun (passes/shading/environment.py), not one of scene.lights
 
 
 def light_samples(scene) -> list[LightSample]:
     """Expand the scene's lights into point/directional/spot samples, then the environment's sun as a
-    directional sample (passes/environment_lights.py) where it has one and a sample is free."""
+    directional sample (passes/shading/environment.py) where it has one and a sample is free."""
     center = scene.bounds().mean(axis=0)
     radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
     samples: list[LightSample] = []

@@ -1,7 +1,7 @@
 """Light maps of the environment's light on the diffuse receivers, baked with ``exact``'s rays, looked up in real time.
 
 The raster techniques light diffuse surfaces with the environment's SH irradiance, unoccluded, or with a
-few lobes' shadow maps (passes/environment_lights.py); neither has the sky's light refracted by glass
+few lobes' shadow maps (passes/shading/environment.py); neither has the sky's light refracted by glass
 onto the floor (its caustic), and the lobes cost a frame several times plain's. For a static scene the
 floor's share of that light does not depend on the camera, so it is computed once per scene state and read
 by the shading with one texture fetch: a light map, the oldest precomputation of global illumination
@@ -10,7 +10,7 @@ by the shading with one texture fetch: a light map, the oldest precomputation of
 Each texel of the floor's top rectangle (and of the faces of box-shaped diffuse objects: walls, table tops,
 boxes; of both sides of the rectangle of a plane holding flat objects: a backdrop, a chart's squares), and each
 vertex of a curved receiver (a sphere, a scanned mesh: at most VERTEX_CAP of them, the others interpolated from
-their baked neighbours; passes/environment_lights.py bake_plan says which), gathers the irradiance of the
+their baked neighbours; passes/shading/environment.py bake_plan says which), gathers the irradiance of the
 *ambient* environment (the image
 without its sun where the sun is a directional light of its own, which keeps its sharp shadow and its caustic
 map) with ``exact``'s cosine rays (:func:`~caustica.raytrace.paths.cosine_gather`): occluded by every object,
@@ -39,8 +39,8 @@ import numpy as np
 from ..cache import kept_on
 from ..progress import progress
 from ..scene.codes import MATERIAL_GLASS
-from ..scene.mesh import Mesh
 from ..scene.environment import Environment, texel_grid
+from ..scene.mesh import Mesh
 from .embree_scene import ray_scene_for
 from .environment_light import environment_light
 from .paths import EnvironmentSampling, Materials, cosine_gather

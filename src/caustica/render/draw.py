@@ -62,7 +62,7 @@ def fullscreen_pass(frame: Frame, texture, shader: str, defines: dict, k: int, f
     out = frame.texture((width // k, height // k), fmt)
     gpu.targets.framebuffer([out]).use()
     gpu.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-    program = gpu.shaders.program("passes/fullscreen.vert", shader, defines)
+    program = gpu.shaders.program("common/fullscreen.vert", shader, defines)
     for unit, (name, source) in enumerate({"source": texture, **(inputs or {})}.items()):
         source.use(unit)
         set_uniform(program, name, unit)

@@ -1,6 +1,6 @@
 """Albedo textures of diffuse receivers: image files, procedural textures, and the lookup convention.
 
-One convention, shared by the GPU (passes/surfaces.py, common/surface_inputs.glsl) and the exact
+One convention, shared by the GPU (passes/shading/surfaces.py, common/surface_inputs.glsl) and the exact
 oracle (raytrace/paths.py through :func:`sample_texture`): glTF's TEXCOORD_0, (u, v) = (0, 0) at the
 image's top-left corner with v growing downwards, the image's row 0 its top row. Texel (column i,
 row j) of a W x H image has its centre at ((i + 0.5) / W, (j + 0.5) / H), as in GL, which is given

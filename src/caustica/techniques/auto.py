@@ -37,7 +37,7 @@ from ..cache import kept_on, material_state_key, scene_state_key, state_key
 from ..errors import TechniqueError
 from ..lighting.bake import MAX_BAKE_SIZE, bake_plan
 from ..lighting.environment import LOBES, MAX_LOBES, environment_sun, lobe_occlusion, scene_floor
-from ..passes.convex_exits import convex_shape
+from ..passes.shading.convex_exits import convex_shape
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from ..scene.gltf.origin import thin_walled_glass, thin_walled_note
 from ..scene.scene import invisible_objects, without_invisible_glass
@@ -149,7 +149,7 @@ def _exits_of(glass) -> str:
     cylinders = int(shape.quadrics[:, 7].sum())
     counts = ((len(shape.planes), "plane"), (len(shape.quadrics) - cylinders, "sphere"), (cylinders, "cylinder"))
     faces = " and ".join(f"{count} {name}{'' if count == 1 else 's'}" for count, name in counts if count)
-    return f"exits computed exactly on its {faces} (ours, passes/convex_exits.py)"
+    return f"exits computed exactly on its {faces} (ours, passes/shading/convex_exits.py)"
 
 
 def _plan_visible(scene, quality: str, frame_size) -> Plan:
@@ -393,7 +393,7 @@ def _caustic_paths(scene, lit: list) -> CausticPaths:
 
 
 def _lights(lit: list, sun) -> str:
-    """'N light(s)', naming the environment's sun among them (passes/environment_lights.py)."""
+    """'N light(s)', naming the environment's sun among them (passes/shading/environment.py)."""
     text = f"{len(lit)} light(s)"
     return text + (", the environment's sun among them (a directional light)" if any(x is sun for x in lit) else "")
 
@@ -468,7 +468,7 @@ def _traced_table_pays(glass: list, beyond_two: float) -> bool:
     other than the two interfaces caustic mapping estimates (Shah et al. 3.1). In convex glass the light beyond
     two interfaces is reflected totally inside, which caustic mapping's exit_reflections follow. The scenes that
     set TABLE_SHARE: docs/auto.md, "Which glass takes the traced table"."""
-    from ..passes.casters import nearly_closed
+    from ..passes.caustics.casters import nearly_closed
 
     return (all(nearly_closed(o.mesh) and o.material.abbe is None for o in glass)
             and not all(o.mesh.is_convex() for o in glass) and beyond_two > TABLE_SHARE)

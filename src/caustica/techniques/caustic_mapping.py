@@ -1,7 +1,7 @@
 """``caustic-mapping``: caustics by image-space photon tracing from the light (Shah et al.).
 
 Shah, Konttinen and Pattanaik, "Caustics Mapping: An Image-space Technique for Real-time Caustics" (TVCG 2007).
-Per light sample (``passes/light_space.py``, ``landing_chain``, which ``photon-splats`` shares):
+Per light sample (``passes/caustics/light_space.py``, ``landing_chain``, which ``photon-splats`` shares):
 
 1. The casters (glass and mirrors) are rendered from the light into a view fitted around them (III-B): front
    faces of every object, back faces of the glass; one photon per covered texel, carrying the light's exact flux
@@ -31,17 +31,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..gpu.meshes import bind_samplers, set_uniform
 from ..errors import TechniqueError
-from ..render.frame import Channel, Frame, Pass
-from ..passes.glass_contact import bind_caster_contacts
-from ..passes.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
+from ..gpu.meshes import bind_samplers, set_uniform
 from ..gpu.shaders import run_compute
-from ..passes.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
-                                  landing_chain, listed)
-from ..passes.light_views import bind_views
-from .composite import POINT_MAPS, SPLATS, CausticTechnique
+from ..passes.caustics.casters import MAX_CASTERS, caster_code, casters, half_diagonal, length_unit
+from ..passes.caustics.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, dispatch_photons,
+                                           landing_chain, listed)
+from ..passes.caustics.light_views import bind_views
+from ..passes.shading.glass_contact import bind_caster_contacts
+from ..render.frame import Channel, Frame, Pass
 from .base import param
+from .composite import POINT_MAPS, SPLATS, CausticTechnique
 from .env_map import ShadowedParams
 
 ESTIMATORS = {"iterate": 0, "newton": 1}
@@ -136,7 +136,7 @@ class TracePhotons(Pass):
                 reflections[i] = p.exit_reflections if obj.mesh.is_convex() else 0
         channels = 3 if dispersive else 1
         defines = {"VIEW_COUNT": 2, "MAX_CASTERS": MAX_CASTERS, "ADAPTIVE": int(p.adaptive_levels > 0)}
-        program = frame.gpu.shaders.compute("passes/caustic_trace.comp", defines)
+        program = frame.gpu.shaders.compute("passes/caustics/caustic_trace.comp", defines)
         set_uniform(program, "caster_type", types)
         set_uniform(program, "caster_ior", iors)
         set_uniform(program, "caster_sigma", sigmas)
@@ -262,7 +262,7 @@ class AdaptivePhotons(TracePhotons):
 
     def _refine(self, frame: Frame, photons: Photons, view, channels: int) -> None:
         """caustic_refine.comp over one level's cells, bends measured in ``view``'s texels."""
-        program = frame.gpu.shaders.compute("passes/caustic_refine.comp")
+        program = frame.gpu.shaders.compute("passes/caustics/caustic_refine.comp")
         width, height = photons.grid
         view.bind(program)
         set_uniform(program, "grid", (width, height))
@@ -284,7 +284,7 @@ class ExpandPhotons(Pass):
         self.writes = (Channel(channel, "buffer[light]", "per light: Photons on the finest grid, or None"),)
 
     def run(self, frame: Frame) -> None:
-        program = frame.gpu.shaders.compute("passes/caustic_expand.comp")
+        program = frame.gpu.shaders.compute("passes/caustics/caustic_expand.comp")
         out = []
         for levels in frame.read(self.levels):
             if levels is None:

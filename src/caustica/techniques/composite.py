@@ -1,7 +1,7 @@
 """Composition of a view technique and a caustic technique: ``depth-search+caustic-mapping``.
 
 The caustic technique's passes (which write ``caustic_maps`` or ``caustic_tiles``,
-``passes/caustics.py``) run after the view technique's shadow maps and before
+``passes/caustics/maps.py``) run after the view technique's shadow maps and before
 the first view pass that reads what they write: the surface shading, which adds
 the caustic irradiance on diffuse receivers, or (``impostors``) the impostor
 textures, so that a caustic on a receiver seen through or in glass shows there
@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 
 from ..errors import TechniqueError, closest_name
-from ..passes.surfaces import ShadeSurfaces
+from ..passes.shading.surfaces import ShadeSurfaces
 from .raster import RasterTechnique
 from .registry import get_technique
 

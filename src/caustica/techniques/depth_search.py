@@ -26,7 +26,7 @@ refractors (outward normal and eye distance). For each glass fragment:
    glass red and blue reuse green's lookups there (``shared_bounce_lookups``), their own at the first exit.
 6. Ours: ``convex_exits`` computes every exit exactly where the glass is an analytic sphere or a mesh bounded
    by at most ``MAX_CONVEX_PLANES`` planes and ``MAX_CONVEX_QUADRICS`` spherical or cylindrical faces, convex
-   or concave (a polyhedron, a lens; ``passes/convex_exits.py``), the depth search elsewhere.
+   or concave (a polyhedron, a lens; ``passes/shading/convex_exits.py``), the depth search elsewhere.
 
 Works for n_t < n_i (fig. 10). Exact dielectric Fresnel at every interface,
 Beer-Lambert absorption inside; with dispersion the geometry follows the green
@@ -36,7 +36,7 @@ Limits: two interfaces (more with ``internal_bounces``); P2 is found in screen
 space, as exact as the buffers and only inside the view; one silhouette per
 search line and one layer per buffer (concave objects and overlapping
 refractors give wrong exits, as the paper states); nothing nearby is seen
-through the glass unless ``nearby`` (``passes/impostors.py``; the ``impostors``
+through the glass unless ``nearby`` (``passes/nearby/impostors.py``; the ``impostors``
 technique is the paper's own answer, 2.2). Design notes and measurements:
 docs/benchmarks-archive.md, "depth-search design notes".
 """
@@ -47,12 +47,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..gpu.meshes import set_uniform
-from ..passes.casters import half_diagonal
-from ..passes.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
-from ..passes.glass_contact import bind_contact_plane, contact_defines
-from ..passes.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
-from ..passes.lights import ShadowMaps
-from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.caustics.casters import half_diagonal
+from ..passes.nearby.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
+from ..passes.shading.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
+from ..passes.shading.glass_contact import bind_contact_plane, contact_defines
+from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -114,7 +114,7 @@ class DepthSearch(RasterTechnique):
             set_uniform(program, "bounce_iterations", params.iterations if params.bounce_iterations == AS_ITERATIONS
                         else params.bounce_iterations)
 
-        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
+        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/nearby/impostors.py)
         defines = {**nearby.defines, "INTERNAL_BOUNCES": params.internal_bounces,
                    "SHARED_BOUNCES": int(params.shared_bounce_lookups),
                    "ASSUME_BACK_FIRST": int(params.assume_back_first),
@@ -125,7 +125,7 @@ class DepthSearch(RasterTechnique):
             RefractorSurfaces("back", "farthest"),
             *nearby.passes,
             # The front-surface buffer comes from the glass G-buffer draw (captures_front_surface).
-            ShadeSurfaces("passes/depth_search.frag", defines,
+            ShadeSurfaces("passes/shading/depth_search.frag", defines,
                           inputs=("front_surface", "back_surface", *nearby.inputs),
                           set_uniforms=chain_uniforms(set_uniforms, nearby.set_uniforms), deferred=("glass",),
                           frame_defines=chain_defines(nearby.frame_defines, contact_defines,

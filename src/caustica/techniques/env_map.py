@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 from ..lighting.bake import MAX_BAKE_SIZE
 from ..lighting.environment import MAX_LOBES
-from ..passes.lights import ShadowMaps
-from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
 from .base import Params, param
 from .raster import RasterTechnique

@@ -26,7 +26,7 @@ Limits: exactly two interfaces (rays that meet the refractor again, or another
 refractor, are not followed); the environment is at infinity (nothing nearby is
 seen through the glass) unless ``nearby`` intersects T2 with the diffuse planes
 or searches a camera-view texture of the scene without refractors (the
-chapter's "intersecting T2 with other geometry"; ``passes/impostors.py``); d~ is not physically based, so concave objects and
+chapter's "intersecting T2 with other geometry"; ``passes/nearby/impostors.py``); d~ is not physically based, so concave objects and
 long protrusions are approximated and P2 may land off the refractor (the eq.
 6.3.2 fallback); several refractors share one back-face buffer; the method is
 designed for n_glass > 1 (for n < 1 the interpolation weight exceeds 1).
@@ -35,10 +35,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.image_space import FrontDistanceAlongNormal
-from ..passes.impostors import NearbyParams, nearby_option
-from ..passes.lights import ShadowMaps
-from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.nearby.impostors import NearbyParams, nearby_option
+from ..passes.shading.image_space import FrontDistanceAlongNormal
+from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -70,13 +70,13 @@ class ImageSpace(RasterTechnique):
 
     def build_passes(self, params):
         inputs = ("back_surface", "front_dn") if params.use_dn else ("back_surface",)
-        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/impostors.py)
+        nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/nearby/impostors.py)
         defines = {"USE_DN": params.use_dn, "TIR_MODE": TIR_MODES.index(params.tir_mode), **nearby.defines}
         passes = [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", params.second_surface)]
         if params.use_dn:
             passes.append(FrontDistanceAlongNormal())
         passes += nearby.passes
-        passes.append(ShadeSurfaces("passes/image_space.frag", defines, inputs=inputs + nearby.inputs,
+        passes.append(ShadeSurfaces("passes/shading/image_space.frag", defines, inputs=inputs + nearby.inputs,
                                     set_uniforms=nearby.set_uniforms, deferred=("glass",),
                                     frame_defines=nearby.frame_defines))
         return passes

@@ -6,7 +6,7 @@ Per light sample, each frame, no readback:
    the light (a pinhole at the light aimed at their bounding sphere,
    ``photon_buffer`` texels a side) with the ``impostors`` technique's shading
    (depth-search's two interfaces for glass, the mirror's reflection), every
-   ray meeting the rectangles of ``passes/impostors.py``: each texel outputs
+   ray meeting the rectangles of ``passes/nearby/impostors.py``: each texel outputs
    the throughput (exact Fresnel at both interfaces, Beer-Lambert) and
    (u, v, k) of the rectangle it hit. Diffuse objects are drawn too, so they
    occlude the light.
@@ -15,7 +15,7 @@ Per light sample, each frame, no readback:
    texel (u, v) of rectangle k's tile (``caustic_size`` a side; the paper adds
    it to one texel, which rings against a photon grid as fine as the tile,
    tests/test_caustic_radiometry.py) with integer atomics on 64-bit
-   fixed-point sums (``passes/fixed_flux.py``: the bytes do not depend on the
+   fixed-point sums (``passes/caustics/fixed_flux.py``: the bytes do not depend on the
    order of the adds); the paper's glReadPixels path is replaced by this.
    Then the filter
    c(u, v) = s sum_{i,j=-k..k} p(u+i, v+j) sqrt(1 + 2k^2 - (i^2 + j^2)) with
@@ -31,7 +31,7 @@ Per light sample, each frame, no readback:
    that object by the rectangles' parallel projections (a planar receiver is
    its rectangle: the paper's direct texture) and scales by |N . axis| on the
    side facing the caster (the ``caustic_tiles`` contract of
-   ``passes/caustics.py``; ``shaders/common/caustics.glsl``). Until
+   ``passes/caustics/maps.py``; ``shaders/common/caustics.glsl``). Until
    2026-11-23 this went through light-space receiver maps (the
    ``caustic_maps`` contract): 6 x 512^2 texels per point light, three times
    the cost of the rest of the caustics on llvmpipe, and a resampling.
@@ -50,7 +50,7 @@ caster but hidden from it by the receiver itself takes its tile's caustic);
 Wyman's nearby planes seen through glass show no caustic; point lights
 inside the casters' bounding sphere make none; glass standing on a receiver
 passes no light through the face lying on it (caustic mapping, photon splats
-and the transport table land it: passes/glass_contact.py).
+and the transport table land it: passes/shading/glass_contact.py).
 """
 from __future__ import annotations
 
@@ -60,9 +60,9 @@ import numpy as np
 
 from ..gpu.meshes import bind_samplers, set_uniform, write_uniform_array
 from ..gpu.shaders import run_compute
-from ..passes.caustics import CausticTiles
-from ..passes.fixed_flux import splat_fixed_point
-from ..passes.impostors import BuildImpostors
+from ..passes.caustics.fixed_flux import splat_fixed_point
+from ..passes.caustics.maps import CausticTiles
+from ..passes.nearby.impostors import BuildImpostors
 from ..render.bindings import MAX_CAUSTIC_TILES
 from ..render.frame import Channel, Frame, Pass
 from ..render.offscreen import aimed_camera, render_offscreen
@@ -168,7 +168,7 @@ class CausticTextures(Pass):
         width = size * max(len(impostors), 1)
 
         def dispatch(bind, bound: int) -> None:
-            program = frame.gpu.shaders.compute("passes/impostor_caustic_splat.comp", {"FLUX_BOUND": bound})
+            program = frame.gpu.shaders.compute("passes/caustics/impostor_caustic_splat.comp", {"FLUX_BOUND": bound})
             bind(program)
             set_uniform(program, "tile_size", size)
             set_uniform(program, "tile_count", len(impostors))
@@ -214,7 +214,7 @@ def filter_tiles(frame: Frame, flux, size: int, texel_areas, k: int, s: float | 
     width = flux[0].size[0]
     occupancy, flux_rgb = flux_occupancy(frame, flux)
     out = frame.zeroed((width, size), "rgba32f")  # blocks with no photon near stay 0
-    program = frame.gpu.shaders.compute("passes/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
+    program = frame.gpu.shaders.compute("passes/caustics/impostor_caustic_filter.comp", {"FILTER_K": int(k), "CELL": CELL})
     bind_samplers(program, ("flux_rgb", "occupancy"), (flux_rgb, occupancy))
     set_uniform(program, "tile_size", size)
     set_uniform(program, "filter_s", float(s if s is not None else 1.0 / filter_weights(k).sum()))
@@ -233,7 +233,7 @@ def flux_occupancy(frame: Frame, flux):
     width, height = flux[0].size
     occupancy = frame.texture(((width + CELL - 1) // CELL, (height + CELL - 1) // CELL), "r32f")
     flux_rgb = frame.texture((width, height), "rgba32f")
-    program = frame.gpu.shaders.compute("passes/impostor_caustic_occupancy.comp", {"CELL": CELL})
+    program = frame.gpu.shaders.compute("passes/caustics/impostor_caustic_occupancy.comp", {"CELL": CELL})
     bind_samplers(program, ("flux_r", "flux_g", "flux_b"), flux)
     occupancy.bind_to_image(0, read=False, write=True)
     flux_rgb.bind_to_image(1, read=False, write=True)

@@ -1,7 +1,7 @@
 """``impostors``: reflection and refraction of nearby geometry with impostors (Hu and Qin, TVCG 2007, 2.2).
 
 For each reflector/refractor R (glass or mirror) and each other object k
-(the ``max_impostors`` nearest to R's centre), each frame (``passes/impostors.py``):
+(the ``max_impostors`` nearest to R's centre), each frame (``passes/nearby/impostors.py``):
 
 1. RECT_k and TEX_k (2.2.1, fig. 12-13): a rectangle through the object's
    centre, perpendicular to the axis from R's centre to it (a planar object is
@@ -28,7 +28,7 @@ A glass object behind another stays visible: it is one of the front object's
 impostors, and is refracted by it like any other object.
 
 ``merge_planes`` (ours; auto sets it): flat diffuse objects that lie in one plane share one rectangle and
-texture (passes/impostors.py ``coplanar_groups``); a plane's texture is exact, so nothing is lost, and each
+texture (passes/nearby/impostors.py ``coplanar_groups``); a plane's texture is exact, so nothing is lost, and each
 ray makes one lookup for them all, and the seams between separate textures are gone (docs/auto.md).
 
 Limits (the paper's): one rectangle per object, so visibility within an object
@@ -46,7 +46,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.impostors import BuildImpostors, chain_defines, chain_uniforms, impostor_defines, world_index
+from ..passes.nearby.impostors import BuildImpostors, chain_defines, chain_uniforms, impostor_defines, world_index
 from ..render.bindings import MAX_IMPOSTORS, bind_impostors
 from ..scene.rules import MAX_COORDINATE
 from .base import param

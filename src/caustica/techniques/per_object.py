@@ -21,8 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import TechniqueError, closest_name
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..render.frame import Pass
-from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique

@@ -67,20 +67,20 @@ import numpy as np
 
 from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
-from ..render.frame import Channel, Frame, Pass
-from ..passes.caustics import maps_reaching
-from ..passes.lights import ShadowMaps
-from ..render.offscreen import OffscreenCamera, render_offscreen, scene_subset
-from ..passes.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.caustics.maps import maps_reaching
+from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..per_vertex.patches import Patch, split_patches, unique_indices
-from ..per_vertex.refine import Traced, refine
 from ..per_vertex.rays import double_refraction, reflection_rays, trace_lines
+from ..per_vertex.refine import Traced, refine
 from ..per_vertex.viewpoint import (UP_MODES, Lines, ViewVolume, fit_view_volume, hidden, principal_directions,
-                                   widen_view_volume)
+                                    widen_view_volume)
 from ..raytrace.embree_scene import ray_scene_for
 from ..raytrace.optics import normalize
-from ..scene.scene import Scene
+from ..render.frame import Channel, Frame, Pass
+from ..render.offscreen import OffscreenCamera, render_offscreen, scene_subset
 from ..scene.rules import IOR_RANGE
+from ..scene.scene import Scene
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -485,7 +485,7 @@ def _draw_patch(frame: Frame, reflector: Reflector, k: int, forward, backward, p
     # One variant per case (the shader's LENS, ZOOM, DISPERSION): CPU rasterizers run every branch.
     defines = {"LENS": int(reflector.lens), "ZOOM": int(backward is not None),
                "DISPERSION": int(len(reflector.channels) > 1)}
-    program = gpu.shaders.program("passes/per_vertex_surface.vert", "passes/per_vertex_surface.frag", defines)
+    program = gpu.shaders.program("passes/shading/per_vertex_surface.vert", "passes/shading/per_vertex_surface.frag", defines)
     vbo, ibo = frame.own(ctx.buffer(data.tobytes())), frame.own(ctx.buffer(indices.tobytes()))
     # skip_errors: a variant's linker drops the attributes it does not read (uv_r, uv_b, zoom).
     vao = frame.own(ctx.vertex_array(program, [(vbo, "3f 3f 2f 2f 2f 1f 3f", "in_position", "in_normal", "in_uv_r",

@@ -5,7 +5,7 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
 
 1. Rendering from the light ("Rendering From the Light"): the scene is drawn
    from the light with the image-space refraction routine of ``image-space``
-   (``passes/photon_splats.py``, :class:`RefractFromLight`): T1 at the front
+   (``passes/caustics/photon_splats.py``, :class:`RefractFromLight`): T1 at the front
    surface, d~ = (theta_t/theta_i) d_V + (1 - theta_t/theta_i) d_N (eq. 6.3.1)
    with d_V from the light's front and farthest back distances and d_N per
    vertex (exact, cached), P2 = P1 + d~ T1, N2 from the back faces at P2's
@@ -25,14 +25,14 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    Shah et al.'s intersection estimate against the receivers' light-space
    position texture, the one ``caustic-mapping`` uses). A first landing on a
    coarse view of the whole scene fits the caustic map's view tightly around
-   the hits (``passes/light_space.py``: FitCausticViews in ``landing_chain``, the
+   the hits (``passes/caustics/light_space.py``: FitCausticViews in ``landing_chain``, the
    chain ``caustic-mapping`` runs too); the photons then
    land again on that view's receivers, ``land_iterations`` steps from the first hits.
 3. Caustic map ("Rendering the Caustic Map"): Gaussian splats of radius
    ``splat_radius`` caustic-map texels (sigma = radius / 2; the paper's 7 x 7
    splats are radius 3) at least, widened to each photon's footprint (the area
    its photon-buffer texel lands on, from the neighbours' landing points:
-   ``passes/light_space.py``, SplatPhotons; fixed splats beat against the map's
+   ``passes/caustics/light_space.py``, SplatPhotons; fixed splats beat against the map's
    texels where the photons spread apart), additive point sprites as in the paper or a compute
    shader with fixed-point atomics (``splat``). Energy: the paper's weights sum to
    R = pixelsInCausticMap / totalPhotons, counting photons; ours carry
@@ -41,7 +41,7 @@ chapter after "Approximate, Image-Space Refraction". Per light sample:
    transmittance (1 - F1)(1 - F2) and Beer-Lambert exp(-sigma_a d~)), and
    every splat's weights sum to one, so the map (flux / receiver texel area)
    is irradiance in W/m^2, the ``caustic_maps`` contract
-   (``passes/caustics.py``). RGB dispersion: one photon per channel.
+   (``passes/caustics/maps.py``). RGB dispersion: one photon per channel.
 4. Applying the caustic map: the view technique's surface shader projects it
    like a shadow map (``shaders/common/caustics.glsl``). The map is rebuilt only
    when a light, an object or a material changes (CachedPasses; "Putting it
@@ -63,8 +63,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.light_space import landing_chain
-from ..passes.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
+from ..passes.caustics.light_space import landing_chain
+from ..passes.caustics.photon_splats import TIR_MODES, LandPhotons, RefractFromLight
 from .base import param
 from .composite import SPLATS, CausticTechnique
 from .env_map import ShadowedParams

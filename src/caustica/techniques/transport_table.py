@@ -14,7 +14,7 @@ Every frame the object may move rigidly and the lights change freely:
    directions; 5.1), the illumination volumes of the lit triangles with the
    flux ratio of eq. (2), accumulated directly on the receiver surfaces as
    photons (``caustica.transport.runtime``).
-2. The shared caustic-map path (``passes/light_space.py``): a caustic view
+2. The shared caustic-map path (``passes/caustics/light_space.py``): a caustic view
    fitted around the photons, the receivers' positions from the light, the
    splat (fixed-point atomics or point sprites) and the resolve into irradiance.
 
@@ -41,16 +41,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..render.frame import Channel, Frame, Pass
+from ..passes.caustics.light_space import (PHOTON_BYTES, FitCausticViews, LightSurfaces, Photons, ResolveCausticMaps,
+                                           SplatPhotons)
 from ..render.cached import CachedPasses
-from ..passes.light_space import (
-    PHOTON_BYTES,
-    FitCausticViews,
-    LightSurfaces,
-    Photons,
-    ResolveCausticMaps,
-    SplatPhotons,
-)
+from ..render.frame import Channel, Frame, Pass
 from ..transport.precompute import DirectionGrid
 from .base import param
 from .composite import POINT_MAPS, SPLATS, CausticTechnique
@@ -92,7 +86,7 @@ class TransportTableParams(TableParams):
 def scene_photons(scene, sample, params: TransportTableParams, progress: bool = True):
     """(positions, flux, stats) of every glass object's caustic photons for one light sample (CPU arrays).
 
-    Glass standing on a receiver is traced without its faces on it (ours, passes/glass_contact.py): light reaching
+    Glass standing on a receiver is traced without its faces on it (ours, passes/shading/glass_contact.py): light reaching
     such a face passes into the receiver there, with no interface between them."""
     from ..raytrace.environment_bake import without_standing_faces
     from ..transport.runtime import caustic_photons, object_exit_rays, receiver_scene

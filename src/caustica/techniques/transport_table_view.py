@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..passes.lights import ShadowMaps
-from ..passes.surfaces import ShadeSurfaces
+from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.surfaces import ShadeSurfaces
 from ..raytrace.optics import dot, fresnel_dielectric, normalize
 from ..scene.transform import normal_matrix
 from .raster import RasterTechnique
@@ -51,7 +51,7 @@ class ViewExit:
 
 def view_exit(obj, eye: np.ndarray, params: TableParams, progress: bool = False) -> ViewExit:
     """The table lookup (5.3) for the viewing rays from ``eye`` to every vertex of glass ``obj``."""
-    from ..transport.runtime import vertex_frames, lookup, table_for
+    from ..transport.runtime import lookup, table_for, vertex_frames
 
     mesh = obj.mesh
     table = table_for(mesh, obj.material.ior, params.directions, params.max_depth, params.quantized, progress)
@@ -92,5 +92,5 @@ class TransportTableView(RasterTechnique):
 
     def build_passes(self, params):
         return [ShadowMaps(params.shadow_map_size),
-                ShadeSurfaces("passes/transport_view.frag", inputs=(), set_uniforms=_view_attributes(params),
-                              vertex="passes/transport_view.vert")]
+                ShadeSurfaces("passes/shading/transport_view.frag", inputs=(), set_uniforms=_view_attributes(params),
+                              vertex="passes/shading/transport_view.vert")]

@@ -1,6 +1,6 @@
 """Run time of the light transport table (Iwasaki et al., section 5): refracted rays and caustic photons.
 
-Per glass object and light sample (``passes/lights.py``: directional, point,
+Per glass object and light sample (``passes/shading/shadows.py``: directional, point,
 spot; a line light is N point samples):
 
 1. Lookup (5.1): the light's incident direction at every vertex, in the
@@ -27,7 +27,7 @@ spot; a line light is N point samples):
    blends of the vertex rays) to the receivers individually. m^2 is the
    volume's share of ``photon_budget``: half shared by S_p (a uniform cover
    of the receivers), half by flux (bright volumes get several photons). The shared splat + resolve passes
-   (``passes/light_space.py``) turn the photons into caustic maps.
+   (``passes/caustics/light_space.py``) turn the photons into caustic maps.
 
 Traced exit rays (ours, ``exit_rays="traced"``; :func:`traced_exit_rays`): the vertex rays are traced with
 Embree through the object for the light's own directions (the precompute's trace, ``trace_samples``) instead of
@@ -61,8 +61,8 @@ from ..raytrace.optics import dot, normalize
 from ..scene.codes import LIGHT_DIRECTIONAL, LIGHT_SPOT
 from ..scene.mesh import Mesh, split_at_midpoints
 from .compress import TransportTableError, dequantize, load_table, quantize, table_bytes
-from .precompute import (DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, glass_scene, precompute_table,
-                         tangent_frames, trace_samples)
+from .precompute import (DEFAULT_DIRECTIONS, DEFAULT_MAX_DEPTH, TABLE_VERSION, TransportTable, glass_scene,
+                         precompute_table, tangent_frames, trace_samples)
 
 MAX_SUBDIVISION = 256
 _TABLES: LruCache = LruCache(8)  # the tables most recently used

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import first_line
-from ..passes.resolve import resolved
+from ..passes.post.resolve import resolved
 from ..renderer import Renderer
 from ..techniques import get_technique
 from ..techniques.raster import RasterTechnique

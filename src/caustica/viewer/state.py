@@ -15,14 +15,13 @@ import numpy as np
 
 from ..errors import CausticaError, RenderOptionError
 from ..images import TONEMAPS
-from ..passes.resolve import ANTIALIAS_MODES, check_antialias
+from ..passes.post.resolve import ANTIALIAS_MODES, check_antialias
 from ..scene import Scene
 from ..techniques import get_technique
 from ..techniques.base import check_spp
 from .display import auto_mode, value_range
 from .orbit import OrbitCamera
 from .params import param_specs
-
 
 VIEW_ANTIALIAS_MODES = tuple(mode for mode in ANTIALIAS_MODES if mode != "adaptive")
 

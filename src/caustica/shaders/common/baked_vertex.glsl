@@ -1,4 +1,4 @@
-// The environment's light baked per vertex (passes/environment_lights.py scene_bake, common/lighting.glsl's light
+// The environment's light baked per vertex (passes/shading/environment.py scene_bake, common/lighting.glsl's light
 // maps), passed from a mesh vertex stage to the surface shaders. Host define: ENVIRONMENT_BAKE_VERTICES (0
 // default; 1: ShadeSurfaces' diffuse variants where the bake holds vertices). A vertex stage includes this and
 // calls pass_baked_irradiance() in main: the object's vertex gl_VertexID (the index of an indexed draw) at

@@ -1,9 +1,9 @@
-// Exact exits from inside glass of known shape (ours; passes/convex_exits.py): the intersection of at most
+// Exact exits from inside glass of known shape (ours; passes/shading/convex_exits.py): the intersection of at most
 // MAX_CONVEX_PLANES half-spaces (Haines, "Fast ray-convex polyhedron intersection", Graphics Gems II), with
 // the mesh's shading normal on each plane as an affine field (Mesh.face_plane_normals), and of the insides or
 // outsides of at most MAX_CONVEX_QUADRICS balls and round cylinders (an analytic sphere; a lens's spherical
 // faces, convex or concave, and its rim).
-// Host defines: MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS (convex_defines, passes/convex_exits.py). Uniforms, per
+// Host defines: MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS (convex_defines, passes/shading/convex_exits.py). Uniforms, per
 // glass object (bind_convex_shape): convex_kind (int: 0 none, 1 a solid), convex_plane_count (int), convex_planes
 // (vec4[]: world outward unit normal xyz, offset w; n . x <= w inside), convex_normals (vec4[3 per plane]: the
 // rows of plane k's field at 3k..3k+2, shading normal ~ row . (x, 1)), convex_quadric_count (int),

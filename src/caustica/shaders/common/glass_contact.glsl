@@ -1,4 +1,4 @@
-// Glass standing on a receiver (ours, passes/glass_contact.py): whether the exit point p through the face of
+// Glass standing on a receiver (ours, passes/shading/glass_contact.py): whether the exit point p through the face of
 // outward normal n lies on the receiver plane (unit normal plane.xyz, plane.xyz . x = plane.w on it; a zero plane:
 // none) within `tolerance`, the face turned into it. Then `landing` is p put on that plane: there all the light that
 // reaches the face passes into the receiver (no air between them: no refraction, Fresnel or total reflection).

@@ -19,7 +19,7 @@
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
 //   only), IMPOSTORS_CURVED (1; 0: every rectangle is a flat patch, passes/impostors.impostor_defines), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PLANE_TEXTURES (0: the textured planes,
-//   at most passes/impostors.py MAX_PLANE_TEXTURES), PHOTON_BUFFER (0): 1 makes a hit
+//   at most passes/nearby/impostors.py MAX_PLANE_TEXTURES), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;
 //   NEARBY_OUTPUT (0): what a refractor or mirror writes to location 1 (nearby_output): 0 its exit
 //   direction, 1 the nearby hit point (xyz, w = 1 hit), 2 the photon record (u, v, k + 1, w = 1 hit).

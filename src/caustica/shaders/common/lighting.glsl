@@ -1,5 +1,5 @@
 // Direct light on diffuse receivers with shadow maps, plus unoccluded ambient from the
-// environment's SH irradiance. Host defines: MAX_LIGHTS (passes/lights.py sets it; 8 here alone);
+// environment's SH irradiance. Host defines: MAX_LIGHTS (passes/shading/shadows.py sets it; 8 here alone);
 // LIGHT_POINT, _DIRECTIONAL, _SPOT (scene/codes.py: light_type's codes; the shader library sets them
 // in every program).
 #ifndef MAX_LIGHTS
@@ -178,7 +178,7 @@ vec3 ambient_irradiance(vec3 n) {
     return max(e, vec3(0.0));
 }
 
-// The environment's lobes (passes/environment_lights.py, issue 23 part 2): the rest of the environment cut
+// The environment's lobes (passes/shading/environment.py, issue 23 part 2): the rest of the environment cut
 // into strata of equal power, each with a directional shadow map (tiles of env_shadow_atlas). Where a
 // stratum's map says its direction is blocked at p, its share max(0, n . -direction) * irradiance leaves
 // the SH ambient; unblocked, the ambient is the SH's exactly. Host define: ENVIRONMENT_SHADOWS (0 or 1,
@@ -197,7 +197,7 @@ uniform mat4 env_lobe_clip_from_world[MAX_ENV_LOBES];
 uniform sampler2D env_shadow_atlas;
 uniform sampler2D env_nearest_atlas;  // rg32f: the nearest opaque, glass distance over each texel's 3x3 taps
 #endif
-// One bounce (host define ENVIRONMENT_BOUNCE; passes/lobe_bounce.frag): per texel, the radiance of the
+// One bounce (host define ENVIRONMENT_BOUNCE; passes/shading/lobe_bounce.frag): per texel, the radiance of the
 // nearest opaque surface facing along the lobe, which a receiver whose tap the opaque map shadows sees
 // instead of the sky.
 #ifndef ENVIRONMENT_BOUNCE
@@ -208,7 +208,7 @@ uniform sampler2D env_bounce_atlas;
 #endif
 // Glass in the lobes' maps (host define ENVIRONMENT_GLASS, 1 where the scene has glass): a second atlas, rgb
 // the glass's optical depth along each lobe (-log of its transmittance per channel: two Fresnel interfaces
-// and Beer-Lambert absorption over the chord; passes/glass_optical_depth.frag), a its nearest distance (as
+// and Beer-Lambert absorption over the chord; passes/shading/glass_optical_depth.frag), a its nearest distance (as
 // env_shadow_atlas's). A tap that the glass's distance shadows lets exp(-depth) through.
 #ifndef ENVIRONMENT_GLASS
 #define ENVIRONMENT_GLASS 0
@@ -253,7 +253,7 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 #endif
 
 // The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py,
-// passes/environment_lights.py scene_bake): the ambient environment's irradiance, occluded, through glass, with
+// passes/shading/environment.py scene_bake): the ambient environment's irradiance, occluded, through glass, with
 // one bounce, on the diffuse receivers, in one rgba32f atlas env_bake: the maps' tiles (rgb); from row
 // env_bake_layout.x a table of its env_bake_layout.y rectangles, one a row of five texels (rectangle_rows:
 // origin and slack, how far off its plane a point may lie; u / |u|^2; v / |v|^2; normal; tile x0, y0, columns,

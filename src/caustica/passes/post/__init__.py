@@ -1,0 +1,1 @@
+"""Passes after shading: resolving supersampled frames, anti-aliasing (edge, MSAA outlines, adaptive), labels."""
