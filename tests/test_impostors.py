@@ -6,7 +6,8 @@ import pytest
 
 import caustica.metrics
 from caustica.errors import SceneError, TechniqueError
-from caustica.passes.nearby.impostors import atlas_cell, atlas_grid, impostor_defines
+from caustica.passes.nearby.impostors import impostor_defines
+from caustica.passes.nearby.rectangles import atlas_cell, atlas_grid
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.raytrace.paths import follow_refraction
 from caustica.render.bindings import MAX_IMPOSTORS
@@ -357,7 +358,7 @@ def _tiled_wall(tiles=2):
 
 
 def test_coplanar_tiles_share_one_rectangle():
-    from caustica.passes.nearby.impostors import coplanar_groups
+    from caustica.passes.nearby.rectangles import coplanar_groups
 
     floor = SceneObject("floor", plane((6.0, 6.0)), Diffuse(color=[0.6] * 3), Transform(position=[0.0, -1.0, 0.0]))
     scene = _scene([_ball(1.5, (0.0, 0.0, 0.0)), *_tiled_wall(), floor, _box()])

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..gpu.meshes import set_uniform
 from ..passes.caustics.casters import half_diagonal
-from ..passes.nearby.impostors import NearbyParams, chain_defines, chain_uniforms, nearby_option
+from ..passes.nearby.planes import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.shading.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
 from ..passes.shading.glass_contact import bind_contact_plane, contact_defines
 from ..passes.shading.shadows import ShadowMaps

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.nearby.impostors import NearbyParams, nearby_option
+from ..passes.nearby.planes import NearbyParams, nearby_option
 from ..passes.shading.image_space import FrontDistanceAlongNormal
 from ..passes.shading.shadows import ShadowMaps
 from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces

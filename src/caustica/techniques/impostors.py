@@ -46,7 +46,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..passes.nearby.impostors import BuildImpostors, chain_defines, chain_uniforms, impostor_defines, world_index
+from ..passes.nearby.impostors import BuildImpostors, impostor_defines, world_index
+from ..passes.nearby.planes import chain_defines, chain_uniforms
 from ..render.bindings import MAX_IMPOSTORS, bind_impostors
 from ..scene.rules import MAX_COORDINATE
 from .base import param

@@ -1,4 +1,4 @@
-"""Nearby geometry for reflected and refracted rays: impostors (Hu and Qin), planes and search (Wyman).
+"""Impostors for reflected and refracted rays (Hu and Qin 2.2): nearby objects as textured rectangles with depth.
 
 Hu and Qin, "Interactive reflections, refractions and caustics with impostors"
 (TVCG 2007), 2.2.1: each object near a reflector/refractor R stands in as a
@@ -17,11 +17,6 @@ search, shading) then works unchanged inside the impostor texture, which is
 what recursion (an impostor of a reflector rendered with impostors itself,
 fig. 1b, 24g) needs. The shader (``shaders/common/impostors.glsl``) projects
 with the same matrix, so the lookup and the texture agree exactly.
-
-Also here, for ``image-space`` and ``depth-search``'s ``nearby`` option
-(Wyman, "intersecting T2 with other geometry"): the diffuse planar objects as
-shader planes, and a camera-view texture of the scene without refractors for
-the image-space search.
 """
 from __future__ import annotations
 
@@ -33,17 +28,10 @@ import numpy as np
 from ...cache import state_key
 from ...errors import SceneError
 from ...gpu.meshes import set_uniform
-from ...parameters import Params, param
-from ...raytrace.environment_bake import same_plane
-from ...render.bindings import MAX_IMPOSTORS, MAX_PLANE_TEXTURES, MAX_PLANES, bind_planes
+from ...render.bindings import MAX_IMPOSTORS
 from ...render.frame import Channel, Frame, Pass
 from ...render.offscreen import aimed_camera, offscreen_channels, scene_subset
-from ...scene import rules
-from ...scene.textures import texture_of
-from ..shading.surfaces import ShadeSurfaces
-
-SLAB_RATIO = 0.1  # a diffuse object at most this thick for its width is its own rectangle (its near face)
-NEARBY_MODES = ("none", "impostors", "planes", "search-linear", "search-binary", "search-secant")
+from .rectangles import atlas_cell, atlas_grid, axis_basis, coplanar_groups, flat_patch, object_sphere, slab_rectangle
 
 
 @dataclass
@@ -86,71 +74,6 @@ class ImpostorSet:
         return [imp for group in self.by_reflector.values() for imp in group]
 
 
-def object_sphere(obj) -> tuple[np.ndarray, float]:
-    """Bounding-box centre of the world mesh and the farthest vertex's distance from it."""
-    vertices = obj.world_mesh().vertices.astype(np.float64)
-    center = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
-    return center, float(np.linalg.norm(vertices - center, axis=1).max()) + 1e-9
-
-
-def planar_rectangle(obj, tolerance: float = 1e-6):
-    """(centre, unit normal, half_u, half_v) when the object's world mesh is a flat rectangle-like patch, else None."""
-    return _flat_patch(obj.world_mesh().vertices.astype(np.float64), tolerance)
-
-
-def _principal_frame(vertices: np.ndarray):
-    """(mean, singular values, (u, v, n) the principal axes with n the thinnest, (a, b, c) the points'
-    coordinates along them) of world points; None when they span fewer than three axes."""
-    center = vertices.mean(axis=0)
-    _, s, vt = np.linalg.svd(vertices - center, full_matrices=False)
-    if len(s) < 3:
-        return None
-    return center, s, vt, tuple((vertices - center) @ axis for axis in vt)
-
-
-def _face(center, u, v, n, a, b, depth: float):
-    """(centre, n, half_u, half_v): the rectangle bounding coordinates ``a``, ``b`` at ``depth`` along n."""
-    center = center + 0.5 * (a.max() + a.min()) * u + 0.5 * (b.max() + b.min()) * v + depth * n
-    return center, n, 0.5 * (a.max() - a.min()) * u, 0.5 * (b.max() - b.min()) * v
-
-
-def _flat_patch(vertices: np.ndarray, tolerance: float = 1e-6):
-    """planar_rectangle of a set of world points: their plane and the rectangle that bounds them in it."""
-    frame = _principal_frame(vertices)
-    if frame is None or frame[1][2] > tolerance * max(frame[1][0], 1e-12):
-        return None
-    center, _, (u, v, n), (a, b, _) = frame
-    return _face(center, u, v, n, a, b, 0.0)
-
-
-def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(u, axis)
-
-
-def slab_rectangle(obj, reflector_center: np.ndarray):
-    """(centre, unit normal away from the reflector, half_u, half_v, thickness) of the face towards
-    ``reflector_center`` when the world mesh is flat or a thin slab (a floor, a table top, a wall as a box
-    at most SLAB_RATIO as thick as it is wide), else None. Also None when the reflector's centre lies
-    within the slab's thickness (it would see its sides)."""
-    frame = _principal_frame(obj.world_mesh().vertices.astype(np.float64))
-    if frame is None:
-        return None
-    center, _, (u, v, n), (a, b, c) = frame
-    width, thickness = min(np.ptp(a), np.ptp(b)), float(np.ptp(c))
-    if thickness > SLAB_RATIO * width:
-        return None
-    side = float(np.dot(reflector_center - center, n))
-    if c.min() <= side <= c.max() and thickness > 0.0:
-        return None
-    if side > 0.0:
-        n, c = -n, -c
-    # The face nearest the reflector: the smallest depth along n (which points away from it).
-    return (*_face(center, u, v, n, a, b, c.min()), thickness)
-
-
 def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect_offset: float = 0.0,
                   distance_factor: float = 50.0, merged=()) -> Impostor:
     """The rectangle of ``obj`` seen from ``reflector_center`` and the camera of its texture (2.2.1);
@@ -158,7 +81,7 @@ def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect
     center, radius = object_sphere(obj)
     plane = slab_rectangle(obj, reflector_center) if obj.material.kind == "diffuse" else None
     thickness = 0.0
-    flat = _flat_patch(np.concatenate([o.world_mesh().vertices for _, o in [(index, obj), *merged]]).astype(np.float64)) \
+    flat = flat_patch(np.concatenate([o.world_mesh().vertices for _, o in [(index, obj), *merged]]).astype(np.float64)) \
         if merged else None
     if flat is not None:  # coplanar flat patches: one rectangle over their union, its normal away from the reflector
         rect_center, normal, half_u, half_v = flat
@@ -169,13 +92,13 @@ def make_impostor(reflector_center: np.ndarray, obj, index: int, size: int, rect
         radius = float(np.linalg.norm(half_u + half_v)) + 1e-9
         center = rect_center
         # Keep the texture square in texels but as large as the plane (never degenerate).
-        half_u = half_u if np.linalg.norm(half_u) > 1e-6 * radius else _basis(axis)[0] * 1e-3 * radius
-        half_v = half_v if np.linalg.norm(half_v) > 1e-6 * radius else _basis(axis)[1] * 1e-3 * radius
+        half_u = half_u if np.linalg.norm(half_u) > 1e-6 * radius else axis_basis(axis)[0] * 1e-3 * radius
+        half_v = half_v if np.linalg.norm(half_v) > 1e-6 * radius else axis_basis(axis)[1] * 1e-3 * radius
     else:
         axis = center - reflector_center
         axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else np.array([0.0, 0.0, -1.0])
         rect_center = center - axis * float(rect_offset) * radius
-        u, v = _basis(axis)
+        u, v = axis_basis(axis)
         half_u, half_v = u * radius, v * radius
     distance = float(distance_factor) * radius
     origin = rect_center - axis * distance
@@ -298,39 +221,6 @@ class BuildImpostors(Pass):
                          into=(impostor.texture, impostor.cell))
 
 
-def coplanar_groups(world, indices: list[int], tolerance: float = 1e-6) -> list[list[int]]:
-    """``indices`` (nearest first) in groups that share one rectangle: flat diffuse patches that lie in one plane
-    (normals parallel, offsets equal within ``tolerance`` of the scene's size) together, in the order of their
-    nearest member, every other object alone. A plane's texture is exact (Hu and Qin 2.2.1), so one texture of
-    the union sees what the separate ones saw, with one lookup instead of one per patch: a chart of six colour
-    groups before a lens costs a sixth."""
-    size = float(np.linalg.norm(np.ptp(world.bounds(), axis=0))) or 1.0
-    groups, planes = [], []
-    for i in indices:
-        obj = world.objects[i]
-        plane = planar_rectangle(obj) if obj.material.kind == "diffuse" else None
-        for k, known in enumerate(planes):
-            if plane is not None and known is not None and same_plane(plane, known, tolerance * size, tolerance):
-                groups[k].append(i)
-                break
-        else:
-            groups.append([i])
-            planes.append(plane)
-    return groups
-
-
-def atlas_grid(count: int, size: int, limit: int) -> tuple[int, int]:
-    """Columns and rows of an atlas of ``count`` (>= 1) squares of ``size`` texels: one row when it fits
-    under the texture ``limit`` (no cell unused), else as near a square as whole rows allow."""
-    columns = count if count * size <= limit else int(np.ceil(np.sqrt(count)))
-    return columns, -(-count // columns)
-
-
-def atlas_cell(k: int, columns: int, size: int) -> tuple[int, int]:
-    """Texel offset of square ``k`` in an atlas of ``columns`` squares of ``size`` texels a row."""
-    return (k % columns) * size, (k // columns) * size
-
-
 def _impostor_state_key(scene) -> tuple:
     """What impostor textures depend on: geometry, placement, materials, lights, environment, and
     the objects themselves (an ImpostorSet names its scene's objects, which later passes match by
@@ -362,146 +252,3 @@ def world_index(frame: Frame, obj) -> int | None:
 # Wyman's options ----------------------------------------------------------------------------
 
 
-@dataclass
-class NearbyPlane:
-    """A diffuse planar object as the shader's planes see it (impostors.glsl, NEARBY_PLANES)."""
-
-    center: np.ndarray
-    normal: np.ndarray
-    half_u: np.ndarray  # half extents along the rectangle's sides
-    half_v: np.ndarray
-    color: np.ndarray  # albedo (times the texture's mean where the texture cannot be mapped)
-    texture: np.ndarray | None = None  # mapped affinely: uv = uv_origin + s uv_axes[0] + t uv_axes[1]
-    uv_origin: np.ndarray = field(default_factory=lambda: np.zeros(2))  # uv at the centre
-    uv_axes: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))  # d uv / d s, d uv / d t (s, t: -1..1)
-
-
-def nearby_planes(scene) -> list[NearbyPlane]:
-    """The diffuse planar objects, at most MAX_PLANES; the first MAX_PLANE_TEXTURES textured ones whose
-    uvs are an affine map of the rectangle keep their texture, the others take its mean colour."""
-    planes = []
-    for obj in scene.objects_of("diffuse"):
-        rect = planar_rectangle(obj)
-        if rect is None:
-            continue
-        plane = NearbyPlane(*rect, np.asarray(obj.material.color, np.float64))
-        texture = texture_of(obj)
-        mapping = affine_uvs(obj, plane) if texture is not None else None
-        if mapping is not None and sum(p.texture is not None for p in planes) < MAX_PLANE_TEXTURES:
-            plane.texture, (plane.uv_origin, plane.uv_axes) = texture, mapping
-        elif texture is not None:
-            plane.color = plane.color * texture.reshape(-1, 3).mean(axis=0, dtype=np.float64)
-        planes.append(plane)
-    return planes[:MAX_PLANES]
-
-
-def affine_uvs(obj, plane: NearbyPlane, tolerance: float = 1e-4):
-    """(uv at the centre, (d uv / d s, d uv / d t)) when ``obj``'s uvs are an affine function of the
-    rectangle coordinates s, t (-1..1 along half_u, half_v) within ``tolerance``, else None."""
-    mesh = obj.world_mesh()
-    q = mesh.vertices.astype(np.float64) - plane.center
-    st = np.stack([q @ plane.half_u / (plane.half_u @ plane.half_u), q @ plane.half_v / (plane.half_v @ plane.half_v)], 1)
-    design = np.hstack([np.ones((len(st), 1)), st])
-    fit, *_ = np.linalg.lstsq(design, mesh.uvs.astype(np.float64), rcond=None)
-    if np.abs(design @ fit - mesh.uvs).max() > tolerance:
-        return None
-    return fit[0], fit[1:]
-
-
-def plane_defines(frame: Frame) -> dict:
-    """PLANE_TEXTURES for this frame's shaders: how many of its planes are textured (no define for none)."""
-    count = sum(p.texture is not None for p in nearby_planes(frame.scene))
-    return {"PLANE_TEXTURES": count} if count else {}
-
-
-class NearbyView(Pass):
-    """The scene without refractors from the camera, radiance + eye distance (Wyman's nearby-geometry texture)."""
-
-    reads = ("light_samples", "shadow_maps")
-    optional = {"environment_bake": None}  # the floor's light map, as the camera's view shows it
-    writes = (Channel("nearby_view", "rgba32f", "camera view without refractors: radiance rgb, eye distance a (0: none)"),)
-
-    def run(self, frame: Frame) -> None:
-        from ..shading.surfaces import RefractorSurfaces
-
-        scene = frame.scene
-        keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
-        with offscreen_channels(frame, scene_subset(scene, keep), frame.camera,
-                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"),
-                                share=("environment_bake",)) as kept:
-            packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
-                                  np.zeros(3), radial=True)
-        frame.write("nearby_view", packed)
-
-
-@dataclass
-class NearbyParams(Params):
-    """The ``nearby`` option of ``image-space`` and ``depth-search`` (Wyman, "intersecting T2 with other geometry").
-
-    'none': the environment (their original behaviour); 'planes': the diffuse planar objects intersected
-    in the shader; 'search-linear' / 'search-binary' / 'search-secant': image-space search along T2 in a
-    camera-view texture of the scene without refractors, ``search_linear_steps`` uniform steps over
-    ``search_distance`` (0: the scene's diagonal), then ``search_refine_steps`` binary or secant steps.
-    """
-
-    nearby: str = param("none", choices=tuple(m for m in NEARBY_MODES if m != "impostors"),
-                        hint=" (impostors: use the 'impostors' technique)", paper="Wyman, intersecting T2 with other geometry",
-                        help="what T2 meets after the glass: the environment, the diffuse planes, or a search of the scene")
-    search_linear_steps: int = param(32, range=(1, 512), paper="Wyman, intersecting T2 with other geometry",
-                                     help="search-*: uniform steps along T2 over search_distance")
-    search_refine_steps: int = param(6, range=(0, 32), help="search-binary / search-secant: refining steps after the hit")
-    search_distance: float = param(0.0, range=(0.0, rules.MAX_COORDINATE), unit="scene units", special={0.0: "the scene's diagonal"},
-                                   help="search-*: how far along T2 the search looks")
-
-
-@dataclass
-class NearbyOption:
-    """What a view technique adds for its ``nearby`` option: passes before shading, inputs, defines, uniforms,
-    and defines from the frame (ShadeOptions.frame_defines)."""
-
-    passes: list
-    inputs: tuple
-    defines: dict
-    set_uniforms: object
-    frame_defines: object = None
-
-
-def nearby_option(nearby: str, params) -> NearbyOption:
-    """Wyman's nearby-geometry options for ``image-space`` and ``depth-search`` ('none', 'planes', 'search-*')."""
-    code = NEARBY_MODES.index(nearby)
-    if nearby == "none":
-        return NearbyOption([], (), {}, None)
-    if nearby == "planes":
-        return NearbyOption([], (), {"NEARBY": code}, lambda program, frame, obj: obj is None and bind_planes(program, nearby_planes(frame.scene), frame.gpu),
-                            plane_defines)
-
-    def set_search(program, frame, obj):
-        if obj is not None:
-            return
-        set_uniform(program, "search_linear_steps", int(params.search_linear_steps))
-        set_uniform(program, "search_refine_steps", int(params.search_refine_steps))
-        diameter = float(np.linalg.norm(np.ptp(frame.scene.bounds(), axis=0)))
-        set_uniform(program, "search_distance", float(params.search_distance or diameter))
-
-    return NearbyOption([NearbyView()], ("nearby_view",), {"NEARBY": code}, set_search)
-
-
-def chain_defines(*functions):
-    """One frame_defines(frame) -> dict merging each non-None function's defines in turn (None if none)."""
-    functions = [f for f in functions if f is not None]
-
-    def call(frame):
-        return {key: value for f in functions for key, value in f(frame).items()}
-
-    return call if functions else None
-
-
-def chain_uniforms(*functions):
-    """One set_uniforms(program, frame, obj) calling each non-None function in turn."""
-    functions = [f for f in functions if f is not None]
-
-    def call(program, frame, obj):
-        for f in functions:
-            f(program, frame, obj)
-
-    return call if functions else None
