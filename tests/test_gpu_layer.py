@@ -92,6 +92,85 @@ def test_strict_uniforms_catch_a_misspelling_but_not_an_optimised_away_uniform(c
     monkeypatch.setattr(meshes, "STRICT_UNIFORMS", False)
     set_uniform(program, "used_valeu", 1.0)  # production: silent
 
+
+def test_second_renderer_on_the_context_compiles_no_program():
+    """Programs belong to the GL context: a Renderer made after another one closed renders the same
+    images without compiling a program, and holds its own count of them."""
+    from caustica.gpu.shaders import context_programs
+    from caustica.renderer import Renderer
+    from caustica.scene.io import load_scene
+
+    scene = load_scene("caustic-sphere")
+    jobs = [("env-map", {}), ("caustic-mapping", {"map_size": 64})]
+    with Renderer((32, 24)) as first:
+        before = [first.render(scene, technique, **options) for technique, options in jobs]
+        programs = first.device.counts()["programs"]
+    with Renderer((32, 24)) as second:
+        cache = context_programs(second.device.ctx)
+        compiles = cache.compiles
+        after = [second.render(scene, technique, **options) for technique, options in jobs]
+        assert cache.compiles == compiles
+        assert second.device.counts()["programs"] == programs > 0
+    assert all(np.array_equal(a, b) for a, b in zip(before, after))
+
+
+def _value_shader(tmp_path):
+    _write(tmp_path, "value.comp", "#version 430 core\nlayout(local_size_x = 1) in;\nuniform float offset;\n"
+           "layout(std430, binding = 0) buffer Out { float result; };\nvoid main() { result = VALUE + offset; }\n")
+
+
+def test_a_shared_program_comes_back_as_compiled(ctx, tmp_path):
+    """What one library wrote into a program (a uniform, a block binding) is undone before the next
+    library gets it: a new Renderer sees a program as if freshly compiled."""
+    from caustica.gpu.meshes import set_uniform
+
+    _value_shader(tmp_path)
+    first = ShaderLibrary(ctx, tmp_path)
+    program = first.compute("value.comp", {"VALUE": 2.0})
+    set_uniform(program, "offset", 5.0)
+    program["Out"].binding = 3
+    first.release()
+    second = ShaderLibrary(ctx, tmp_path)
+    assert second.compute("value.comp", {"VALUE": 2.0}) is program
+    assert program["offset"].value == 0.0 and program["Out"].binding == 0
+    buffer = ctx.buffer(reserve=4)
+    buffer.bind_to_storage_buffer(0)
+    program.run(1)
+    assert np.frombuffer(buffer.read(), "f4")[0] == 2.0
+    buffer.release()
+    second.release()
+
+
+def test_idle_programs_are_bounded_and_released(ctx, tmp_path, monkeypatch):
+    """Programs no library holds stay up to the context's idle limit, least recently released going
+    first; a library dropped without release lets go of its programs at the next compile; with no
+    idle limit (a context the caller owns, the viewer's window) release frees every program."""
+    from caustica.gpu import shaders
+    from caustica.gpu.census import live_gl_names
+
+    _value_shader(tmp_path)
+    cache = shaders.ContextPrograms(idle_limit=1)
+    monkeypatch.setitem(shaders._context_programs, ctx, cache)
+    library = ShaderLibrary(ctx, tmp_path)
+    old, kept = (library.compute("value.comp", {"VALUE": float(v)}) for v in (1, 2))
+    other = ShaderLibrary(ctx, tmp_path)
+    assert other.compute("value.comp", {"VALUE": 1.0}) is old and cache.compiles == 2
+    library.release()
+    assert cache.counts() == {"programs": 2, "idle": 1, "compiles": 2}  # `old` is still held by `other`
+    other.release()
+    assert cache.counts() == {"programs": 1, "idle": 1, "compiles": 2}  # `old` released last: `kept` went
+    assert ShaderLibrary(ctx, tmp_path).compute("value.comp", {"VALUE": 1.0}) is old
+    import gc
+
+    gc.collect()  # the library above was dropped unreleased
+    names = live_gl_names(ctx)["program"]
+    ShaderLibrary(ctx, tmp_path).compute("value.comp", {"VALUE": 3.0})
+    gc.collect()
+    assert cache.counts()["idle"] == 1 and cache.compiles == 3
+    cache.idle_limit = 0
+    cache.release_idle()
+    assert cache.counts()["programs"] == 0 and live_gl_names(ctx)["program"] < names
+
 def test_target_pool_reuses_by_size_and_format(renderer):
     pool = renderer.device.targets
     a = pool.texture((32, 16), "r32f")

@@ -103,7 +103,12 @@ def shared_context():
 
 def headless_context_exists() -> bool:
     """Whether this process has made the shared headless (EGL) context (one inherited through a fork is not)."""
-    return _shared_context is not None and _shared_pid == os.getpid()
+    return _shared_context is not None and is_shared_context(_shared_context)
+
+
+def is_shared_context(ctx) -> bool:
+    """Whether ``ctx`` is this process's own shared headless context (made here, not inherited)."""
+    return ctx is _shared_context and _shared_pid == os.getpid()
 
 
 def is_inherited(ctx) -> bool:

@@ -16,10 +16,12 @@ from __future__ import annotations
 import functools
 import re
 import weakref
+from collections import OrderedDict, deque
 from pathlib import Path
 
 from ..errors import CausticaError
 from ..scene.codes import CODE_DEFINES
+from .context import is_shared_context
 
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "shaders"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*(//.*)?$')
@@ -35,10 +37,117 @@ _COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
 _UNIFORM = re.compile(r"\buniform\b([^;{]*);")  # a block ("uniform Name {") is not a plain uniform
 _DECLARED_NAME = re.compile(r"(\w+)\s*(?:\[[^\]]*\]\s*)?(?:,|$)")
 _declared: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # program -> uniform names in its source
+_context_programs: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # moderngl context -> ContextPrograms
+# Programs no library uses that the process's shared headless context keeps for the next library
+# (least recently released first out); a context its caller owns (the viewer's window) keeps none.
+IDLE_PROGRAMS = 256
 
 
 class ShaderError(CausticaError, RuntimeError):
     """A shader file is missing or does not compile; the message names file and line."""
+
+
+class ContextPrograms:
+    """The compiled programs of one GL context, keyed by their preprocessed stage sources, shared by
+    every :class:`ShaderLibrary` on that context.
+
+    Each program counts the libraries that hold it. A program no library holds any more is kept,
+    up to ``idle_limit`` of them, and released beyond that, least recently released first. Handed to
+    a new library, a kept program first gets back the uniform values and block bindings it had when
+    it was compiled, so that what one Renderer wrote into it cannot reach another's images.
+    """
+
+    def __init__(self, idle_limit: int):
+        self.idle_limit = int(idle_limit)
+        self.compiles = 0  # programs compiled on this context
+        self._entries: dict = {}  # source key -> [program, libraries holding it, state when compiled]
+        self._idle: OrderedDict = OrderedDict()  # source keys no library holds, least recently released first
+        self._dropped: deque = deque()  # key lists of libraries garbage collected unreleased
+
+    def acquire(self, key, build):
+        """The program for ``key`` (``build()`` compiles it when this context has none), counted as
+        held by one more library."""
+        self._forget_dropped()
+        entry = self._entries.get(key)
+        if entry is None:
+            program = build()
+            self.compiles += 1
+            entry = self._entries[key] = [program, 0, _program_state(program)]
+        else:
+            self._idle.pop(key, None)
+            _restore_state(entry[0], entry[2])
+        entry[1] += 1
+        return entry[0]
+
+    def let_go(self, keys, release: bool = True) -> None:
+        """A library no longer holds the programs of ``keys``; with ``release``, free the idle ones
+        beyond the limit now (not from a garbage collector's callback: it may run mid-frame)."""
+        for key in keys:
+            entry = self._entries.get(key)
+            if entry is not None:
+                entry[1] -= 1
+                if entry[1] <= 0:
+                    self._idle[key] = None
+                    self._idle.move_to_end(key)
+        if release:
+            self._trim()
+
+    def drop_later(self, keys) -> None:
+        """Queue the keys of a library collected unreleased; they are let go at the next acquire."""
+        self._dropped.append(keys)
+
+    def release_idle(self) -> None:
+        """Release every program no library holds."""
+        self._forget_dropped()
+        while self._idle:
+            self._release(next(iter(self._idle)))
+
+    def counts(self) -> dict[str, int]:
+        return {"programs": len(self._entries), "idle": len(self._idle), "compiles": self.compiles}
+
+    def _forget_dropped(self) -> None:
+        while self._dropped:
+            self.let_go(self._dropped.popleft(), release=False)
+        self._trim()
+
+    def _trim(self) -> None:
+        while len(self._idle) > self.idle_limit:
+            self._release(next(iter(self._idle)))
+
+    def _release(self, key) -> None:
+        del self._idle[key]
+        use_no_program()
+        self._entries.pop(key)[0].release()
+
+
+def context_programs(ctx) -> ContextPrograms:
+    """The program cache of ``ctx`` (made on first use): the shared headless context keeps
+    IDLE_PROGRAMS unused programs for later libraries, any other context none."""
+    programs = _context_programs.get(ctx)
+    if programs is None:
+        programs = _context_programs[ctx] = ContextPrograms(IDLE_PROGRAMS if is_shared_context(ctx) else 0)
+    return programs
+
+
+def _program_state(program) -> dict:
+    """What a program's users can change in it: every uniform's bytes and every block's binding."""
+    state = {}
+    for name in program:
+        member = program[name]
+        if hasattr(member, "read"):
+            state[name] = member.read()
+        elif hasattr(member, "binding"):
+            state[name] = member.binding
+    return state
+
+
+def _restore_state(program, state: dict) -> None:
+    for name, value in state.items():
+        member = program[name]
+        if isinstance(value, bytes):
+            member.write(value)
+        else:
+            member.binding = value
 
 
 class ShaderLibrary:
@@ -47,6 +156,9 @@ class ShaderLibrary:
         self.root = Path(root)
         self.defines = dict(CODE_DEFINES if defines is None else defines)  # defined in every program
         self._programs: dict = {}
+        self._context = context_programs(ctx)
+        self._held: list = []  # the context's source keys of the programs in _programs
+        self._drop = weakref.finalize(self, self._context.drop_later, self._held)
 
     def source(self, name: str, defines: dict | None = None) -> tuple[str, list[str]]:
         """Preprocessed source of ``name`` and the file table its ``#line`` ids index."""
@@ -101,8 +213,8 @@ class ShaderLibrary:
             for stage, name in stages.items():
                 if name:
                     sources[stage], tables[stage] = self.source(name, defines)
-            self._programs[key] = self._build(lambda: self.ctx.program(**sources), tables)
-            _declared[self._programs[key]] = frozenset().union(*map(uniform_names, sources.values()))
+            self._programs[key] = self._shared(tuple(sorted(sources.items())), lambda: self.ctx.program(**sources),
+                                               tables, frozenset().union(*map(uniform_names, sources.values())))
         return self._programs[key]
 
     def compute(self, name: str, defines: dict | None = None):
@@ -110,9 +222,17 @@ class ShaderLibrary:
         key = ("compute", name, tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             source, table = self.source(name, defines)
-            self._programs[key] = self._build(lambda: self.ctx.compute_shader(source), {"compute_shader": table})
-            _declared[self._programs[key]] = uniform_names(source)
+            self._programs[key] = self._shared((("compute_shader", source),),
+                                               lambda: self.ctx.compute_shader(source), {"compute_shader": table},
+                                               uniform_names(source))
         return self._programs[key]
+
+    def _shared(self, sources: tuple, make, tables: dict, declared: frozenset):
+        """The context's program for these stage sources, compiled by ``make`` if it has none."""
+        program = self._context.acquire(sources, lambda: self._build(make, tables))
+        self._held.append(sources)
+        _declared[program] = declared
+        return program
 
     @staticmethod
     def _build(make, tables: dict):
@@ -122,12 +242,14 @@ class ShaderLibrary:
             raise ShaderError(_translate_log(str(exc), tables)) from None
 
     def count(self) -> int:
-        """Programs built (one per shader files and defines; kept while the library lives)."""
+        """Programs this library holds (one per shader files and defines)."""
         return len(self._programs)
 
     def release(self) -> None:
-        for program in self._programs.values():
-            program.release()
+        """Let go of this library's programs: the context keeps them for the next library (up to
+        its idle limit) or releases them."""
+        self._context.let_go(self._held)
+        self._held.clear()
         self._programs.clear()
 
 
@@ -183,6 +305,12 @@ def run_compute(program, group_x: int, group_y: int = 1, group_z: int = 1) -> No
     after the viewer closes); glUseProgram(0) after the dispatch avoids it.
     """
     program.run(group_x=int(group_x), group_y=int(group_y), group_z=int(group_z))
+    use_no_program()
+
+
+def use_no_program() -> None:
+    """Make no program current (a current program that is released is only flagged for deletion and
+    stays alive: moderngl makes a program current to write its uniforms)."""
     use_program = _gl_use_program()
     if use_program is not None:
         use_program(0)
