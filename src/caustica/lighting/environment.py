@@ -101,7 +101,7 @@ def _strata(image: np.ndarray, count: int) -> EnvironmentLobes:
     (luminance times solid angle, at the lookup's texel directions u = (x + 1/2) / W, v = y / (H - 1)), each
     band's columns into count / bands segments of equal power. Light from below the horizon stays unoccluded
     SH: above a floor it arrives as the floor's bounce, which no raster technique traces, and the ground's
-    unoccluded light stands in for it better than its shadow (measured: docs/environment-light.md)."""
+    unoccluded light stands in for it better than its shadow (docs/environment-light.md)."""
     h, w = image.shape[:2]
     uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, np.arange(h) / (h - 1))
     direction = uv_to_direction(np.stack([uu, vv], axis=-1))

@@ -34,16 +34,16 @@ def half_diagonal(objects) -> float:
 
 def length_unit(scene) -> float:
     """The casters' bounding radius (the scene's without casters), the photon shaders' ``length_unit``:
-    their surface offsets and convergence tolerances are fractions of it. They were absolute (1e-4 scene
-    units), which lost the caustic of a ball 10^-4 the size of caustic-sphere's."""
+    their surface offsets and convergence tolerances are fractions of it, so that they scale with the casters
+    (an absolute offset would swallow a tiny ball's caustic)."""
     return half_diagonal(casters(scene)) or half_diagonal(scene.objects) or 1.0
 
 
 def caster_code(obj) -> int:
     """What the caustic passes do with an object's light: a glass mesh is a solid (front faces in, back
     faces out) unless it is open beyond small holes (:func:`nearly_closed`), then a single surface (water).
-    The Stanford bunny's scan holes made it a single surface: photons refracted once and ran on inside
-    the "glass" to the floor, those entering near its silhouette streaking far across it."""
+    Small holes keep a scanned solid (the Stanford bunny) a solid: as a single surface its photons would
+    refract once and run on inside the "glass" to the floor."""
     kind = obj.material.kind
     if kind == "mirror":
         return CASTER_MIRROR

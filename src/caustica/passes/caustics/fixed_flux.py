@@ -2,11 +2,10 @@
 
 Float atomics (imageAtomicAdd on r32f, GL_NV_shader_atomic_float) round after
 every add, and the order of the adds follows the scheduling of the shader
-threads: on llvmpipe the caustic maps of caustic-mapping, photon-splats,
-transport-table and impostor-caustics changed by a few float ulps from one
-process to the next. Integer addition is associative, so here each add is
+threads, so the sums can differ by float ulps from one run to the next.
+Integer addition is associative, so here each add is
 rounded once, to a fixed-point step, and the steps are summed exactly: the same
-inputs give the same bytes in any order (``shaders/passes/fixed_point_flux.glsl``,
+inputs give the same bytes in any order (``shaders/passes/caustics/fixed_point_flux.glsl``,
 core GL 4.3 atomics on an SSBO of uints, resolved back into three r32f textures).
 
 Scale: a first dispatch of the splat (``FLUX_BOUND`` 1) takes the largest single

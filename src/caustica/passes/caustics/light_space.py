@@ -245,9 +245,9 @@ class FitCausticViews(Pass):
     only ``halo_trim`` go (or STRAY_PHOTONS photons' share of a sparse grid),
     with texels added to keep that density, up to ``max_growth`` times
     ``size`` a side (``halo_trim`` None, the default: the core's view;
-    :func:`landing_chain` gives HALO_TRIM). A per-axis trim of
-    1e-3 alone cut a ball's outer halo along a square under a close light (0.1 percent of the flux lies beyond 20 degrees, the
-    trimmed view held 15; tests/test_caustic_views.py). Point lights fall back
+    :func:`landing_chain` gives HALO_TRIM): a per-axis trim alone would cut a
+    ball's outer halo along a square under a close light (tests/test_caustic_views.py;
+    docs/measured-defaults.md). Point lights fall back
     to the cube atlas when the landing points spread wider than one frustum.
     """
 
@@ -308,8 +308,7 @@ class SplatPhotons(Pass):
     (``passes/caustics/fixed_flux.py``: order-independent, so the same photons give the
     same bytes; core GL 4.3), 'points' draws additive Gaussian point sprites
     (blending in primitive order: deterministic too), 'auto' picks compute
-    where GL_NV_shader_atomic_float exists (as before the compute splat went
-    fixed-point), else points. Both use the same normalised kernels, so a
+    where GL_NV_shader_atomic_float exists, else points. Both use the same normalised kernels, so a
     photon deposits exactly its flux whichever path runs. Writes three r32f
     textures per light.
 

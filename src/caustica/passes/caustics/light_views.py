@@ -9,7 +9,7 @@ splats do the same. This module holds the views those maps live in:
   orthographic, any ``clip_from_world``) or a six-face cube atlas (6N x N, the
   layout of ``passes/shading/shadows.py``), with its texels' area at unit distance (the shaders'
   ``texel_measure``: solid angle or perpendicular area) and ``bind`` /
-  :func:`bind_views` for ``shaders/passes/caustic_light_space.glsl``.
+  :func:`bind_views` for ``shaders/passes/caustics/caustic_light_space.glsl``.
 - Fitting (III-F, "view frustum limitation"): :func:`fit_view` fits a view
   tightly around world points as seen from the light (the casters' vertices,
   :func:`caster_points`, for the photon grid of III-B; the photons' landing

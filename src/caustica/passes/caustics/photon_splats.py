@@ -6,13 +6,13 @@ each refractor texel stores, instead of a colour, the photon that leaves it.
 
 - :class:`RefractFromLight` draws the scene in the photon buffer's light view
   (``caster_views``, fitted around the refractors) with
-  ``shaders/passes/photon_refract.frag``: exit point P2, exit direction T2 and
+  ``shaders/passes/caustics/photon_refract.frag``: exit point P2, exit direction T2 and
   flux per texel (one photon per RGB channel when a glass disperses). d_N comes
   from :func:`caustica.passes.shading.image_space.distance_along_normal` (per vertex,
   cached), d_V and N2 from the refractors' back faces seen from the light
   (``caster_back``, :class:`caustica.passes.caustics.light_space.LightSurfaces`).
 - :class:`LandPhotons` lands the photons on the receivers
-  (``shaders/passes/photon_land.comp``): the intersection estimate against the
+  (``shaders/passes/caustics/photon_land.comp``): the intersection estimate against the
   receivers' light-space position texture, into a
   :class:`caustica.passes.caustics.light_space.Photons` buffer, the format
   :class:`~caustica.passes.caustics.light_space.SplatPhotons` reads.

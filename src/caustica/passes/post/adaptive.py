@@ -39,7 +39,7 @@ def read_flags(flags) -> np.ndarray:
 
 def preset_depth(frame: Frame, depth, flags) -> None:
     """``depth`` (the frame's camera depth buffer, cleared to 1) set to 0, the nearest, at the samples of
-    pixels ``flags`` leaves unflagged (shaders/passes/adaptive_skip.frag), so that no object or background
+    pixels ``flags`` leaves unflagged (shaders/passes/post/adaptive_skip.frag), so that no object or background
     drawn after it with a LESS or LEQUAL test shades there."""
     import moderngl
 

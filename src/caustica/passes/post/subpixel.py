@@ -5,7 +5,7 @@ section 3. The technique's graph shades each pixel once, at its centre, as at 1 
 object is drawn twice more with a trivial shader (labels.frag with ID_DEPTH: object id, view depth), at the pixel
 centres and into a multisampled target, whose samples give each pixel its true geometric coverage: a
 CPU or GPU rasterizer runs that shader once per pixel (llvmpipe included), so the multisampled draw costs
-about what a single-sampled one does. The resolve (shaders/passes/subpixel_resolve.frag) gives each
+about what a single-sampled one does. The resolve (shaders/passes/post/subpixel_resolve.frag) gives each
 sample the colour of a nearby centre that saw the same surface (same object, nearest depth), and averages
 the samples. It fixes what the geometry makes: outlines and the edges where one object hides another
 or itself. It knows nothing of edges inside the shading (a shadow, a caustic, the environment through

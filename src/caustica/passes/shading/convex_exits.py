@@ -6,7 +6,7 @@ interfaces, and that total internal reflection and multi-interface refraction "a
 supported" (section 6). In a glass block the light entering a face leaves only through that face or
 the opposite one (for IOR above sqrt 2 every adjacent face reflects it totally), so most of its
 paths cross three or four interfaces, and each internal exit searched in screen space lands on the
-wrong face (env-slab: 18.5 dB on the glass pixels against Mitsuba, docs/benchmarks.md).
+wrong face (docs/measured-defaults.md has the figures).
 
 Where a glass object's shape is known in closed form the shader computes every exit exactly instead:
 

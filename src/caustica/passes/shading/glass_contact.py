@@ -4,16 +4,15 @@ Hu and Qin (TVCG 2007, 2.1.4) leave the glass at its exit P2 along the refracted
 internal bounces send the share F (all of it past the critical angle) on inside. A clear cube resting on a floor has
 its bottom face in the floor's plane: no air lies between glass and floor there, so the light that reaches that face
 lands on the floor at P2, all of it, and none is reflected back, as in the light maps' rays
-(raytrace/environment_bake.py, which leave such faces out). Before, that face reflected totally what arrived past
-the critical angle, and the refracted rest started on the floor's own plane, which the impostor lookup missed.
+(raytrace/environment_bake.py, which leave such faces out).
 
 :func:`contact_plane` is the receiver's plane that a glass object stands on
 (``raytrace.environment_bake.standing_plane``); the shader (``depth_search.frag``, GLASS_CONTACT) takes an exit
 within ``contact_tolerance`` of it through a face turned into it as landing there: the nearby lookup straight into
 the receiver from the exit point put on its plane, weight 1, and the path ends. From the light the same holds
 (:func:`bind_caster_contacts`, ``caustic_trace.comp``): caustic mapping's photon (Shah et al. III-C) that reaches
-such a face, at once or after internal reflections, lands at its exit with the flux it carries, where before it
-left the glass below the receiver's plane and was lost (the floor under a standing cube dark but for the sky).
+such a face, at once or after internal reflections, lands at its exit with the flux it carries instead of leaving
+the glass below the receiver's plane.
 Photon splats (Wyman, ``photon_refract.frag``) land a photon whose exit face seen from the light lies on the plane
 where T1 meets it, with no exit Fresnel; the transport table (Iwasaki et al.) traces the glass without those faces
 (``raytrace.environment_bake.without_standing_faces``), so its rays leave through the opening into the receiver.

@@ -17,7 +17,7 @@
 // Host defines: NEARBY (0 none, 1 impostors, 2 planes, 3 search-linear, 4 search-binary,
 //   5 search-secant; 0), MAX_IMPOSTORS (8: the most rectangles any reflector of the frame has),
 //   IMPOSTOR_ITERATIONS (4: fig. 16 steps, 0 uncorrected), IMPOSTOR_SAMPLES (8: 2.2.2 seeds, 0 Prect
-//   only), IMPOSTORS_CURVED (1; 0: every rectangle is a flat patch, passes/impostors.impostor_defines), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
+//   only), IMPOSTORS_CURVED (1; 0: every rectangle is a flat patch, passes/nearby/impostors.impostor_defines), IMPOSTOR_REFLECTIONS (1; 0: reflected rays, mirrors' and refractors' entry, see the environment) -- constants, so that loops unroll and uniform indices are constant (a CPU rasterizer runs
 //   every iteration a uniform bound allows), MAX_PLANES (8), PLANE_TEXTURES (0: the textured planes,
 //   at most passes/nearby/impostors.py MAX_PLANE_TEXTURES), PHOTON_BUFFER (0): 1 makes a hit
 //   return radiance 1 (a throughput) and a miss 0, for the photon buffer of TVCG 3.1;

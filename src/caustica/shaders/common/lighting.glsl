@@ -178,7 +178,7 @@ vec3 ambient_irradiance(vec3 n) {
     return max(e, vec3(0.0));
 }
 
-// The environment's lobes (passes/shading/environment.py, issue 23 part 2): the rest of the environment cut
+// The environment's lobes (passes/shading/environment.py): the rest of the environment cut
 // into strata of equal power, each with a directional shadow map (tiles of env_shadow_atlas). Where a
 // stratum's map says its direction is blocked at p, its share max(0, n . -direction) * irradiance leaves
 // the SH ambient; unblocked, the ambient is the SH's exactly. Host define: ENVIRONMENT_SHADOWS (0 or 1,

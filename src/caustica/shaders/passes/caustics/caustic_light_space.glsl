@@ -1,4 +1,4 @@
-// Light-space views shared by the caustic passes (caustica/passes/light_views.py, LightView.bind).
+// Light-space views shared by the caustic passes (caustica/passes/caustics/light_views.py, LightView.bind).
 // A view is a projective map (perspective or orthographic) or a six-face cube atlas (6N x N, faces in
 // the order of CUBE_FORWARD / CUBE_UP). View v has view_kind[v] (0 projective, 1 cube), view_ortho[v],
 // view_clip[6 v + face] (clip_from_world), view_forward[6 v + face], view_unit_area[v] (texel area on the

@@ -1,8 +1,10 @@
 // Caustic mapping photon pass (Shah et al. III-C, figs. 3-4): one photon per texel of the casters'
 // light-space grid (view 0). The photon carries the light's flux through its texel (intensity times
 // solid angle, or irradiance times area), refracts at the front surface (exact Fresnel per channel),
-// leaves through the back surface found from the back buffer (Wyman: d_V, refined by the same
-// estimator against the back-face texture; N2 from the back buffer), or reflects off a mirror, and
+// leaves through the back surface found from the back buffer (Wyman's d_V, the back faces' distance
+// from the light less the front's, grown until past the back faces and refined by exit_iterations
+// regula falsi steps (Illinois) against the back-face texture; N2 from the back buffer), or reflects
+// off a mirror, and
 // lands where the intersection estimate against the receivers' position texture (view 1) puts it.
 // The first guess of the estimate is the distance to the receiver behind the origin (Shah et al. use
 // d = 1), or, in a second pass, to where the first pass landed the photon.

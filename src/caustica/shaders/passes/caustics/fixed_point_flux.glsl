@@ -1,6 +1,6 @@
 // Flux per texel summed in 64-bit fixed point with 32-bit integer atomics (core GL 4.3), so that the
 // sums do not depend on the order the adds run in (float atomics round after every add, in whatever
-// order the threads come: the bytes changed from one process to the next). See passes/caustics/fixed_flux.py.
+// order the threads come, which can differ from one run to the next). See passes/caustics/fixed_flux.py.
 // Layout of flux_words: [0] floatBitsToUint of the largest single add (the bound: a first dispatch
 // takes the atomicMax, FLUX_BOUND 1; non-negative floats order as their bit patterns), then for
 // accumulator i = (channel * height + y) * width + x the low word at 1 + 2 i and the high at 2 + 2 i.

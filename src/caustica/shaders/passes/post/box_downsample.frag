@@ -1,5 +1,5 @@
 // The box pixel filter of supersampling: each output pixel averages its K x K block of the source
-// (the reference renderers' box filter; what numpy's block mean computed on the CPU before).
+// (the reference renderers' box filter).
 // Host defines: K (samples per pixel side).
 #version 430 core
 uniform sampler2D source;

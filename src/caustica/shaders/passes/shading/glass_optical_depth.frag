@@ -1,4 +1,4 @@
-// Glass along a direction into an rgba32f target (issue 23: the environment lobes' tinted glass shadows;
+// Glass along a direction into an rgba32f target (the environment lobes' tinted glass shadows;
 // passes/shading/shadows.py ShadowMaps), cleared to (0, 0, 0, FAR): rgb its optical depth, every fragment summed with
 // additive blending (a + 0 stays FAR); then, host define NEAREST_DISTANCE 1, a the nearest fragment's
 // distance along the direction by MIN blending (rgb = min(depth, FAR) stays).
