@@ -4,8 +4,8 @@
 // leaves through the back surface found from the back buffer (Wyman's d_V, the back faces' distance
 // from the light less the front's, grown until past the back faces and refined by exit_iterations
 // regula falsi steps (Illinois) against the back-face texture; N2 from the back buffer), or reflects
-// off a mirror, and
-// lands where the intersection estimate against the receivers' position texture (view 1) puts it.
+// off a mirror, and lands where the intersection estimate against the receivers' position texture
+// (view 1) puts it.
 // The first guess of the estimate is the distance to the receiver behind the origin (Shah et al. use
 // d = 1), or, in a second pass, to where the first pass landed the photon.
 // ADAPTIVE 1 (Wyman and Nichols 2009, adaptive caustic maps; techniques/caustic_mapping.py, AdaptivePhotons):
