@@ -11,10 +11,15 @@ Per light sample, each frame, no readback:
    (u, v, k) of the rectangle it hit. Diffuse objects are drawn too, so they
    occlude the light.
 2. Caustic textures (3.2, fig. 19c): a compute shader adds each photon's flux
-   (intensity x the texel's solid angle x throughput) bilinearly around
-   texel (u, v) of rectangle k's tile (``caustic_size`` a side; the paper adds
-   it to one texel, which rings against a photon grid as fine as the tile,
-   tests/test_caustic_radiometry.py) with integer atomics on 64-bit
+   (intensity x the texel's solid angle x throughput) around texel (u, v) of
+   rectangle k's tile (``caustic_size`` a side), spread evenly over the
+   footprint of its photon-buffer texel there (the parallelogram to the
+   landing points of its neighbours, the shorter step where they disagree)
+   in bilinear sub-photons at most a texel apart. The paper adds it to one
+   texel, which rings against a photon grid as fine as the tile
+   (tests/test_caustic_radiometry.py) and, where rays grazing a ball land
+   farther apart than the filter reaches, leaves dark notches between the
+   photon rows (tests/test_impostor_caustic_footprint.py). Integer atomics on 64-bit
    fixed-point sums (``passes/caustics/fixed_flux.py``: the bytes do not depend on the
    order of the adds); the paper's glReadPixels path is replaced by this.
    Then the filter
