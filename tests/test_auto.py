@@ -10,10 +10,10 @@ import pytest
 
 import caustica
 from caustica import Renderer, TechniqueError
+from caustica.planning.rules import plan
 from caustica.scene import (Camera, Diffuse, Glass, Mirror, PointLight, Scene, SceneObject, Transform,
                             procedural_environment)
 from caustica.scene.shapes import box, plane, sphere
-from caustica.techniques.auto import plan
 
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "auto.md"
 
@@ -317,7 +317,7 @@ def test_the_traced_table_gives_the_caustics_where_light_crosses_the_glass_more_
     technique's own default is 2^18), and the render makes no table, in memory or on disk. Glass whose light
     crosses it twice keeps caustic mapping (docs/auto.md: as accurate or more there): a ring lying flat (not
     convex, 0.007 beyond two) and a convex marble; a ring standing (0.29) takes the table."""
-    from caustica.techniques.auto import _caustic_paths
+    from caustica.planning.probes import caustic_paths
     from caustica.transport.runtime import has_cached_table, table_mesh
 
     monkeypatch.setenv("CAUSTICA_CACHE", str(tmp_path / "cache"))
@@ -343,7 +343,7 @@ def test_the_traced_table_gives_the_caustics_where_light_crosses_the_glass_more_
     ring = SceneObject("ring", torus(0.4, 0.14, 32, 12), Glass(ior=1.5),
                        Transform(position=[0.2, 0.6, -0.2], rotation=[90.0, 0.0, 0.0]))
     standing = scene_of([ring, table()], light=True, size=(48, 36))
-    share = _caustic_paths(standing, standing.lights).beyond_two
+    share = caustic_paths(standing, standing.lights).beyond_two
     assert 0.05 < share < 1.0 / 3.0, share
     assert plan(standing).technique == "impostors+transport-table"
 
@@ -352,12 +352,13 @@ def test_convex_glass_keeps_caustic_mapping_where_its_light_reflects_inside():
     """A glass cylinder standing under a light sends most of its caustic through three interfaces or more (in
     at the top, totally reflected off the side wall, out at the bottom): caustic mapping follows those paths
     (exit_reflections), so a transport table would not pay there, while the same share through a knot does."""
+    from caustica.planning.probes import caustic_paths
+    from caustica.planning.rules import _traced_table_pays
     from caustica.scene.shapes import cylinder
-    from caustica.techniques.auto import _caustic_paths, _traced_table_pays
 
     glass = SceneObject("cylinder", cylinder(0.25, 0.8, 32), Glass(ior=1.5), Transform(position=[0.0, 0.45, 0.0]))
     scene = scene_of([glass, table()], light=True, size=(48, 36))
-    share = _caustic_paths(scene, scene.lights).beyond_two
+    share = caustic_paths(scene, scene.lights).beyond_two
     assert share > 1.0 / 3.0, share
     assert not _traced_table_pays([glass], share)
     knot = knot_of_glass().objects[0]
@@ -386,7 +387,7 @@ def test_lobes_and_caustics_that_change_no_pixel_are_left_out():
     neither, says why, and its image is the one rendered with the caustic map, and within 0.1 % on average of
     the one with the lobes."""
     from caustica.lighting.environment import lobe_occlusion
-    from caustica.techniques.auto import LOBE_SHARE
+    from caustica.planning.probes import LOBE_SHARE
 
     scene = lens_before_a_chart()
     assert 0.0 < lobe_occlusion(scene) < LOBE_SHARE
@@ -406,14 +407,14 @@ def test_lobes_are_kept_where_an_opaque_object_hides_sky():
     """A box on the table hides part of the sky from it: the share (8 %) is well above LOBE_SHARE and the plan keeps
     the lobes (the environment is the only light); the glass ball alone dims the table's sky by 0.7 %."""
     from caustica.lighting.environment import lobe_occlusion
-    from caustica.techniques.auto import LOBE_SHARE, _occluded_ambient
+    from caustica.planning.probes import LOBE_SHARE, occluded_ambient
 
     block = SceneObject("block", box((0.5, 0.5, 0.5)), Diffuse(color=[0.5, 0.5, 0.5]),
                         Transform(position=[-0.4, 0.25, 0]))
     scene = scene_of([marble(), table(), block])
-    assert lobe_occlusion(scene) > 5 * LOBE_SHARE and _occluded_ambient(scene)
+    assert lobe_occlusion(scene) > 5 * LOBE_SHARE and occluded_ambient(scene)
     alone = scene_of([marble(), table()])
-    assert 0.0 < lobe_occlusion(alone) < LOBE_SHARE and not _occluded_ambient(alone)
+    assert 0.0 < lobe_occlusion(alone) < LOBE_SHARE and not occluded_ambient(alone)
 
 
 def test_exit_shares_of_a_ball_have_the_closed_form():
@@ -500,7 +501,7 @@ def test_glass_takes_its_fresnel_loss_and_absorption_from_a_lobe():
 
 
 def test_the_caustic_map_follows_the_frame_size():
-    from caustica.techniques.auto import caustic_map_size
+    from caustica.planning.rules import caustic_map_size
 
     # Twice the longer side as a power of two, at least 256, at most the quality's.
     assert [caustic_map_size(512, s) for s in ((64, 48), (128, 128), (129, 90), (256, 256), (1920, 1080))] == \

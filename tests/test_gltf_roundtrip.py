@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from caustica.errors import SceneError
+from caustica.planning.rules import plan
 from caustica.scene import budget
 from caustica.scene.environment import procedural_environment
 from caustica.scene.io import export_scene, load_scene
-from caustica.techniques.auto import plan
 
 DATA = Path(__file__).resolve().parent / "data" / "gltf"
 BLENDER_FILES = sorted(DATA.glob("blender-*.glb"))

@@ -1,7 +1,7 @@
 """Every shading program ``auto`` can plan compiles, and glass that is no solid of planes, balls and cylinders
 renders standing on a floor (issue 43: depth_search.frag called the contact test that only CONVEX_EXITS included).
 
-The compile test takes the planned techniques from :func:`caustica.techniques.auto.plan` on scenes of each kind it
+The compile test takes the planned techniques from :func:`caustica.planning.rules.plan` on scenes of each kind it
 tells apart, at every quality, and their ShadeSurfaces passes' own defines from their ``build_passes``. The defines a
 frame adds (material variants, optional inputs, deferred stages, the frame's glass) are free: a small evaluator of the
 preprocessor's ``#if`` lines walks the shader's source and branches on a free define only where an active condition
@@ -23,13 +23,13 @@ from caustica.passes.shading import deferred
 from caustica.passes.shading.convex_exits import CONVEX_EXITS_MODES, convex_shape
 from caustica.passes.shading.glass_contact import contact_plane
 from caustica.passes.shading.surfaces import ShadeSurfaces
+from caustica.planning.rules import QUALITY, plan
 from caustica.render.bindings import MAX_CAUSTIC_TILES
 from caustica.scene import Camera, Diffuse, Environment, Glass, Mirror, PointLight, Scene, SceneObject, Transform
 from caustica.scene.codes import MATERIAL_CODES
 from caustica.scene.mesh import Mesh, vertex_normals
 from caustica.scene.shapes import plane, sphere, torus_knot
 from caustica.techniques import get_technique
-from caustica.techniques.auto import QUALITY, plan
 
 SKY = Environment(np.full((16, 32, 3), 0.5, np.float32))
 ABSENT = None  # a free define's value: not defined at all

@@ -150,7 +150,7 @@ def test_a_big_mesh_is_capped_and_its_interpolated_vertices_stay_close():
     """A receiver of 81920 triangles (40962 vertices) bakes at most VERTEX_CAP vertices and the plan says so; the
     others take their baked neighbours' weighted mean: on a black floor under a constant sky every vertex is within
     4 % of pi on average of its closed form pi (1 + n_y) / 2 (64 rays a vertex)."""
-    from caustica.techniques.auto import plan
+    from caustica.planning.rules import plan
 
     big = ball(subdivisions=6, position=(0.0, 1.0, 0.0), name="big")
     floor = SceneObject("floor", plane((1000.0, 1000.0)), Diffuse([0.0] * 3))
@@ -235,10 +235,11 @@ def test_auto_on_a_lens_before_a_chart_bakes_and_plans_no_lobes_nor_caustic_map(
     floor): auto bakes the chart's plane and the boxes' faces instead of the lobes it planned, and no caustic map:
     of the sun's flux towards the lens 0.6 % lands on a diffuse surface (the sun lights the chart from behind; the
     lens's internal reflections reach a box), under CAUSTIC_SHARE, and the map changed no pixel."""
+    from caustica.planning.probes import CAUSTIC_SHARE
+    from caustica.planning.rules import plan
     from caustica.scene import procedural_environment
     from caustica.scene.presets_per_vertex import test_chart
     from caustica.scene.shapes import biconvex_lens
-    from caustica.techniques.auto import CAUSTIC_SHARE, plan
 
     lens = SceneObject("lens", biconvex_lens(0.3, 0.14, 0.01, 64, 16), Glass(ior=1.5))
     boxes = [SceneObject("box-a", box((0.2, 0.2, 0.2)), Diffuse([0.7, 0.3, 0.2]), Transform(position=[-0.45, -0.3, -0.4])),

@@ -48,7 +48,7 @@ def scene_from_dict(data: "dict[str, object]", base_dir: "str | Path" = ".", nam
 # Public names imported on first use: name -> the module that defines it.
 _LAZY = {
     "Renderer": ".renderer",
-    "plan": ".techniques.auto",
+    "plan": ".planning.rules",
     "show": ".notebook",
     "export_scene": ".scene.io",
     "Camera": ".scene.camera",

@@ -17,9 +17,9 @@ from .errors import CausticaError, OutputError, TechniqueError, first_line
 from .frame_limits import MAX_SPP
 from .images import TONEMAPS
 from .passes.post.resolve import ANTIALIAS_MODES
+from .planning.rules import QUALITY
 from .progress import NORMAL, QUIET, VERBOSE, detail, is_quiet, note, output_policy, progress
 from .scene.rules import IOR_RANGE
-from .techniques.auto import QUALITY
 
 QUALITIES = tuple(QUALITY)  # auto's quality levels
 
@@ -770,7 +770,7 @@ def cmd_techniques(args) -> int:
 
 
 def cmd_plan(args) -> int:
-    from .techniques.auto import plan
+    from .planning.rules import plan
 
     scene, = _scenes([args.scene], args)
     if args.budget is None:

@@ -104,8 +104,8 @@ def plan_rules(path: Path = AUTO_DOCS) -> list[tuple[str, str]]:
 def preset_plans() -> list[dict]:
     """Per built-in preset: its object and light counts and auto's plan."""
     from . import load_scene
+    from .planning.rules import plan
     from .scene.presets import preset_names
-    from .techniques.auto import plan
 
     out = []
     for name in preset_names():
@@ -173,13 +173,13 @@ def _technique_section(name: str) -> list[str]:
 def which_technique_markdown(plans: list[dict] | None = None) -> str:
     """docs/which-technique.md: what auto picks in each situation and why (its rules, and its plan of every
     preset), and each technique's strengths and limits from the registry."""
-    from .techniques import auto as auto_module
+    from .planning import rules as auto_rules
+    from .planning.rules import QUALITY
     from .techniques import technique_names
-    from .techniques.auto import QUALITY
 
     plans = preset_plans() if plans is None else plans
     out = ["# Which technique when", "",
-           "Generated from the `auto` planner (`caustica.plan`, src/caustica/techniques/auto.py), docs/auto.md's "
+           "Generated from the `auto` planner (`caustica.plan`, src/caustica/planning/rules.py), docs/auto.md's "
            "table of its rules and the technique registry by `python -m caustica.docs_techniques "
            "--which-technique`; do not edit by hand (tests/test_which_technique.py checks that it is current). "
            "`caustica plan SCENE` prints the plan of any scene; docs/auto.md has the measurements behind the "
@@ -189,7 +189,7 @@ def which_technique_markdown(plans: list[dict] | None = None) -> str:
            "docs/auto.md's table, which tests/test_auto.py checks against the planner on a scene of each kind:", "",
            "| scene holds | auto renders with |", "|---|---|"]
     out += [f"| {kind} | `{technique}` |" for kind, technique in plan_rules()]
-    rules = next(p for p in (auto_module.__doc__ or "").split("\n\n") if p.lstrip().startswith("- "))
+    rules = next(p for p in (auto_rules.__doc__ or "").split("\n\n") if p.lstrip().startswith("- "))
     out += ["", "The planner's rules and their reasons, from its docstring:", "", _markdown_text(_doc_list(rules))]
     groups: dict[str, list] = {}
     for row in plans:

@@ -174,7 +174,7 @@ class Renderer:
         return resolved, values
 
     def plan(self, scene: Scene, quality: str = "balanced", budget_ms: float = 0.0, spp: int = 1):
-        """auto's Plan (techniques/auto.py) for ``scene`` at this renderer's size and ``spp``: at ``quality``,
+        """auto's Plan (planning/rules.py) for ``scene`` at this renderer's size and ``spp``: at ``quality``,
         or with ``budget_ms`` the highest quality whose frame time here (measured, cached) fits it; a budget
         below the cheapest plan's is a TechniqueError naming the smallest that works."""
         self._check_open()
