@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 from caustica.metrics import psnr_linear
+from caustica.per_vertex.preparation import reflector_kind
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.renderer import Renderer
 from caustica.scene import Camera, Diffuse, PointLight, Scene, SceneObject, procedural_environment
@@ -116,7 +117,7 @@ def interleaved_ms(fns, repeats: int = 9) -> list[float]:
 
 def per_vertex_ms(scene, params) -> tuple[float, int]:
     """Median ms of the CPU per-vertex work of the scene's first reflector, and its ray-issuing vertices."""
-    index = next(i for i, o in enumerate(scene.objects) if pv.reflector_kind(o, params))
+    index = next(i for i, o in enumerate(scene.objects) if reflector_kind(o, params))
     camera, ray_scene = scene.camera, ray_scene_for(scene)
 
     def work():

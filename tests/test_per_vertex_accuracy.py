@@ -16,6 +16,7 @@ from scipy.ndimage import binary_erosion
 
 from caustica.metrics import psnr_linear
 from caustica.per_vertex import Lines, ViewVolume, hidden, split_patches
+from caustica.per_vertex.preparation import screen_pixels
 from caustica.raytrace.embree_scene import ray_scene_for
 from caustica.raytrace.optics import normalize, reflect
 from caustica.renderer import Renderer
@@ -114,7 +115,7 @@ def test_refined_mesh_is_crack_free_and_exact_at_its_new_vertices(curved):
     # The hit/escape border: edges between a hit and an escape are about a pixel long (the paper's ~3).
     unique, _ = edges(ours.faces)
     border = lines.finite[unique[:, 0]] != lines.finite[unique[:, 1]]
-    pixels = pv.screen_pixels(camera, ours.points)
+    pixels = screen_pixels(camera, ours.points)
     length = np.linalg.norm(pixels[unique[border, 0]] - pixels[unique[border, 1]], axis=1)
     assert np.median(length) <= 1.0 and np.mean(length <= 1.5) > 0.9
 

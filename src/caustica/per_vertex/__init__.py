@@ -4,7 +4,8 @@
 (3.2-3.4, 4.2, 4.3), which hits a map hides (section 6, fig. 16); ``rays``: reflection
 and double-refraction rays per vertex (3.1, 4.5); ``patches``: FOV-threshold
 subdivision with shared vertices, made adaptive (4.1); ``refine``: adaptive
-subdivision of a mirror's mesh (4.1, fig. 6).
+subdivision of a mirror's mesh (4.1, fig. 6); ``preparation``: a reflector's lens lines, view volumes, refined
+mesh and texture coordinates for steps 1-3 (3.2-3.4, 4.1-4.5).
 """
 from .patches import Patch, split_patches
 from .rays import Refracted, double_refraction, reflection_rays, trace_lines
