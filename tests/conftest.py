@@ -29,6 +29,16 @@ def renderer():
 
 
 @pytest.fixture(scope="session")
+def reference_cache() -> Path:
+    """The persistent folder of Mitsuba references ($CAUSTICA_CACHE or ~/.cache/caustica, reference/): an entry
+    is keyed by what the image depends on (scene content, camera, spp, variant, REFERENCE_VERSION), so a
+    machine renders each test's reference once; tests of the cache itself use a folder of their own."""
+    from caustica.reference.render import default_cache_dir
+
+    return default_cache_dir()
+
+
+@pytest.fixture(scope="session")
 def data_dir() -> Path:
     if not DATA.is_dir():
         pytest.skip(f"shared data not found at {DATA}")

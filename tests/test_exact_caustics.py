@@ -89,7 +89,7 @@ def test_a_glass_ball_focuses_light_inside_its_shadow():
     assert lit.mean(axis=2).max() > 3.0 * bare.mean(axis=2).max()
 
 
-def test_exact_caustics_match_mitsubas_light_tracer():
+def test_exact_caustics_match_mitsubas_light_tracer(reference_cache):
     """On diffuse pixels Mitsuba's composite takes the light part from its light tracer (ptracer), which
     finds caustics by construction: exact's caustic region must agree within the reference's noise."""
     pytest.importorskip("mitsuba", reason="the Mitsuba reference needs the 'reference' extra")
@@ -97,7 +97,7 @@ def test_exact_caustics_match_mitsubas_light_tracer():
     from caustica.reference.render import render_reference
 
     scene = ball_over_floor(1.5)
-    reference = render_reference(scene, spp=512, progress=False, cache=False)
+    reference = render_reference(scene, spp=512, progress=False, cache_dir=reference_cache)
     masks = region_masks(scene)
     with Renderer() as renderer:
         with_caustics = renderer.render(scene, "exact", 4)

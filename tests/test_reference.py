@@ -123,13 +123,13 @@ def test_export_mesh_vertices_round_trip(mi, tmp_path):
 # -- renders against the exact oracle -------------------------------------------------------------
 
 
-def test_camera_orientation_matches_exact(tmp_path):
+def test_camera_orientation_matches_exact(reference_cache):
     """An off-centre red ball (right of centre and above) lands on the same pixels."""
     scene = caustica.load_scene("glass-sphere")
     scene.objects[0].material = Diffuse(color=[0.8, 0.0, 0.0])
     scene.objects[0].transform = Transform(position=[0.8, 0.5, 0.0], scale=0.4)
     size = (96, 64)
-    ref = render_reference(scene, size=size, spp=16, cache_dir=tmp_path, progress=False)
+    ref = render_reference(scene, size=size, spp=16, cache_dir=reference_cache, progress=False)
     exact = Renderer(size).render(scene, "exact", spp=4)
     red_ref, red_exact = ref[..., 1] < 0.1 * ref[..., 0], exact[..., 1] < 0.1 * exact[..., 0]
     assert red_exact.sum() > 100
@@ -138,11 +138,11 @@ def test_camera_orientation_matches_exact(tmp_path):
     assert rows.mean() < 32 and cols.mean() > 48
 
 
-def test_background_matches_environment_lookup(tmp_path):
+def test_background_matches_environment_lookup(reference_cache):
     scene = caustica.load_scene("glass-sphere")
     scene.objects = []
     scene.camera = Camera(position=[0, 0.3, 0], look_at=[0.7, 0.1, -1], fov_y=70, size=(96, 64))
-    ref = render_reference(scene, spp=64, cache_dir=tmp_path, progress=False)
+    ref = render_reference(scene, spp=64, cache_dir=reference_cache, progress=False)
     _, dirs = scene.camera.primary_rays(64)
     expected = scene.environment.lookup(dirs.reshape(-1, 3)).reshape(*dirs.shape[:3], 3).mean(axis=2)
     psnr = 10 * np.log10(expected.max() ** 2 / np.mean((ref - expected) ** 2))
@@ -150,21 +150,21 @@ def test_background_matches_environment_lookup(tmp_path):
 
 
 @pytest.mark.parametrize("material", [Glass(ior=1.5), Mirror(color=[0.9, 0.9, 0.9])], ids=["glass", "mirror"])
-def test_sphere_agrees_with_exact(material, tmp_path):
+def test_sphere_agrees_with_exact(material, reference_cache):
     scene = caustica.load_scene("glass-sphere")
     scene.objects[0].material = material
-    ref = render_reference(scene, size=SIZE, spp=SPP, cache_dir=tmp_path, progress=False)
+    ref = render_reference(scene, size=SIZE, spp=SPP, cache_dir=reference_cache, progress=False)
     exact = Renderer(SIZE).render(scene, "exact", spp=16)
     assert ref.shape == (64, 64, 3) and ref.dtype == np.float32
     assert relmse(exact, ref) < 2e-3
 
 
-def test_caustic_sphere_composite(tmp_path):
+def test_caustic_sphere_composite(reference_cache):
     """Black environment: the lit floor matches exact on average; the caustic is in the reference and in
     exact's photons, and absent from exact without them."""
     scene = caustica.load_scene("caustic-sphere")
     scene.environment = procedural_environment("black")
-    ref = render_reference(scene, size=SIZE, spp=SPP, cache_dir=tmp_path, progress=False)
+    ref = render_reference(scene, size=SIZE, spp=SPP, cache_dir=reference_cache, progress=False)
     with Renderer(SIZE) as renderer:
         # No photons and no environment rays (their bounce off the ball brings some light back)
         exact = renderer.render(scene, "exact", spp=16, caustic_photons=0, environment_samples=0)
@@ -221,12 +221,12 @@ def test_missing_mitsuba_raises_typed_error(monkeypatch):
         mitsuba_module()
 
 
-def test_absorbing_glass_reference_agrees_with_exact(mi, tmp_path):
+def test_absorbing_glass_reference_agrees_with_exact(mi, reference_cache):
     """Beer-Lambert through a homogeneous medium (sigma_t > 1 and a zero channel both export):
     relMSE 0.016 against exact at 48^2, 256 spp; bound 0.05."""
     scene = caustica.load_scene("glass-sphere")
     scene.objects[0].material = Glass(1.5, absorption_color=[1.0, 0.2, 0.2], absorption_distance=1.0)
-    reference = render_reference(scene, size=(48, 48), spp=256, progress=False, cache_dir=tmp_path)
+    reference = render_reference(scene, size=(48, 48), spp=256, progress=False, cache_dir=reference_cache)
     exact = Renderer((48, 48)).render(scene, "exact", spp=4)
     assert np.all(np.isfinite(reference))
     assert relmse(exact, reference) < 0.05
@@ -270,7 +270,7 @@ def test_the_reference_says_where_the_lights_caustics_seen_through_glass_are_mis
     assert not missing(scene)
 
 
-def test_glass_standing_on_the_floor_is_rendered_without_its_faces_on_the_floor(tmp_path):
+def test_glass_standing_on_the_floor_is_rendered_without_its_faces_on_the_floor(reference_cache):
     """A clear 64-sided cylinder standing on the floor under sky-checker: exact traces the light inside it straight
     onto the floor under its cap (raytrace.environment_bake.without_standing_faces), and so does the reference
     now. Before, Mitsuba met the bottom cap and the floor coplanar and took one or the other triangle by triangle
@@ -289,6 +289,6 @@ def test_glass_standing_on_the_floor_is_rendered_without_its_faces_on_the_floor(
     hits = ray_scene_for(scene).intersect(origins.reshape(-1, 3), dirs.reshape(-1, 3))
     glass = objects_of_kind(scene, "glass")[hits.object_index].reshape(48, 64)
     assert glass.sum() > 600
-    reference = render_reference(scene, spp=1024, progress=False, cache_dir=tmp_path)
+    reference = render_reference(scene, spp=1024, progress=False, cache_dir=reference_cache)
     exact = Renderer((64, 48)).render(scene, "exact", spp=4)
     assert relmse(exact[glass], reference[glass]) < 0.025
