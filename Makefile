@@ -5,7 +5,9 @@ PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
-# Test workers (pytest-xdist): one per core, at most four; PYTEST_WORKERS=0 runs in one process.
+# Test workers (pytest-xdist): one per core, at most four; PYTEST_WORKERS=0 runs in one process. Each test
+# module goes whole to one worker (--dist loadscope: its module fixtures are built once), the modules
+# that took longest last time first (tests/conftest.py).
 PYTEST_WORKERS ?= auto
 
 .PHONY: demo test bench setup sysdeps clean docs gallery gpu-suite
@@ -15,7 +17,7 @@ demo: $(STAMP)
 	$(VENV)/bin/caustica render caustic-sphere -o out/demo.png --explain
 
 test: $(STAMP)
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --maxprocesses=4 $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --maxprocesses=4 --dist loadscope $(PYTEST_ARGS)
 
 # The docs site (mkdocs.yml) into site/; --strict: any warning (a broken link, an unreadable docstring) fails.
 docs: $(STAMP)

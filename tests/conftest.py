@@ -43,3 +43,34 @@ def data_dir() -> Path:
     if not DATA.is_dir():
         pytest.skip(f"shared data not found at {DATA}")
     return DATA
+
+
+# Slowest modules first: each module's test time from the last run is kept in pytest's cache, and the next
+# run collects the modules longest first (with `make test`'s --dist loadscope every module goes whole to one
+# worker, so its module fixtures are built once, and no long module is left to run alone at the end).
+MODULE_SECONDS = "caustica/module_seconds"
+
+
+def _module_of(nodeid: str) -> str:
+    return nodeid.split("::", 1)[0]
+
+
+def pytest_collection_modifyitems(config, items):
+    cache = getattr(config, "cache", None)
+    seconds = cache.get(MODULE_SECONDS, {}) if cache is not None else {}
+    if seconds:
+        items.sort(key=lambda item: -seconds.get(_module_of(item.nodeid), 0.0))  # stable: in-module order kept
+
+
+def pytest_runtest_logreport(report):
+    _module_seconds[_module_of(report.nodeid)] = _module_seconds.get(_module_of(report.nodeid), 0.0) + report.duration
+
+
+def pytest_sessionfinish(session):
+    cache = getattr(session.config, "cache", None)
+    if cache is None or not _module_seconds or hasattr(session.config, "workerinput"):
+        return  # an xdist worker: the controller, which sees every report, writes them
+    cache.set(MODULE_SECONDS, {**cache.get(MODULE_SECONDS, {}), **{k: round(v, 2) for k, v in _module_seconds.items()}})
+
+
+_module_seconds: dict[str, float] = {}
