@@ -6,7 +6,7 @@ meshes.py), environment textures are kept by image content for the ``ENVIRONMENT
 most recent images, albedo textures by content too, at most ``ALBEDO_TEXTURES`` and none unused
 for ``IDLE_FRAMES`` frames, and ``cache`` (results reused across frames) holds at most
 ``CACHE_ENTRIES`` entries, least recently used first out. ``release`` frees all of it; the
-context stays (shared).
+context stays (shared), and so do the shader programs, which belong to it (gpu/shaders.py).
 """
 from __future__ import annotations
 
