@@ -141,8 +141,8 @@ def states(lobes: int):
     no_sun = mock.patch.object(light_samples, "environment_sun",
                                lambda env: environment_light.EnvironmentSun(None, env.irradiance_sh()))
     def without(**fields):  # the lobes' EnvironmentShadows with ``fields`` taken out (set to None)
-        draw = lights.ShadowMaps._environment_shadows
-        return mock.patch.object(lights.ShadowMaps, "_environment_shadows", lambda *args: (
+        draw = environment_passes.EnvironmentLobeMaps._environment_shadows
+        return mock.patch.object(environment_passes.EnvironmentLobeMaps, "_environment_shadows", lambda *args: (
             None if (shadows := draw(*args)) is None else dataclasses.replace(shadows, **fields)))
 
     return [("sun in SH (before)", no_sun, {"environment_lobes": 0}),

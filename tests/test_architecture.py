@@ -107,3 +107,30 @@ def test_binders_take_their_units_from_the_table():
                 for target in node.targets:
                     names = [n.id for n in ast.walk(target) if isinstance(n, ast.Name)]
                     assert not any(n.endswith("_UNIT") for n in names), f"{path}: {names}"
+
+
+LAYERS = [  # lowest first: a module imports from its own layer or the ones before it (docs/architecture.md)
+    {"errors", "text", "progress", "cache", "atomic", "input_files", "images"},
+    {"scene", "parameters"},
+    {"raytrace", "per_vertex"},
+    {"lighting", "transport", "metrics", "reference"},
+    {"gpu"},
+    {"render", "labels"},
+    {"passes"},
+    {"techniques", "planning"},
+    {"renderer", "frame_limits", "cli", "batch", "bench", "viewer", "notebook", "__main__", "docs_techniques", ""},
+]
+# Presets that build their geometry with the per-vertex and ray solvers (a mirror fitted to a view), and the
+# scene files' export, which writes Mitsuba XML too.
+LAYER_EXCEPTIONS = {"caustica.scene.presets_per_vertex", "caustica.scene.io"}
+
+
+def layer_of(module: str) -> int:
+    top = module.split(".")[1] if "." in module else ""
+    return next(i for i, names in enumerate(LAYERS) if top in names)
+
+
+def test_layers_import_only_downwards():
+    upward = sorted(f"{a} -> {b}" for a, targets in import_graph().items() for b in targets
+                    if layer_of(b) > layer_of(a) and a not in LAYER_EXCEPTIONS)
+    assert not upward, upward

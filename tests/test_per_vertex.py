@@ -8,7 +8,7 @@ import pytest
 
 from caustica.errors import TechniqueError
 from caustica.metrics import psnr_linear
-from caustica.passes.shading.shadows import ShadowMaps
+from caustica.passes.shading.lights import light_passes
 from caustica.per_vertex import closest_point_to_lines, double_refraction, principal_directions, split_patches
 from caustica.per_vertex.viewpoint import Lines, fit_view_volume
 from caustica.raytrace.embree_scene import ray_scene_for
@@ -47,7 +47,7 @@ def flat_scene(radius: float, resolution: int = 8) -> Scene:
 def reflector_maps(renderer, scene, index, params):
     """The per-vertex work of one reflector and, per patch, its maps read back (rows bottom-up, as GL)."""
     frame = Frame(renderer.device, scene, scene.camera, params)
-    run_passes([ShadowMaps(params.shadow_map_size)], frame)
+    run_passes(light_passes(params.shadow_map_size), frame)
     camera = scene.camera
     reflector = pv.prepare_reflector(scene, index, camera.position, camera.up, ray_scene_for(scene), params)
     maps = []

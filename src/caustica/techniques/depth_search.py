@@ -51,7 +51,7 @@ from ..passes.caustics.casters import half_diagonal
 from ..passes.nearby.planes import NearbyParams, chain_defines, chain_uniforms, nearby_option
 from ..passes.shading.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
 from ..passes.shading.glass_contact import bind_contact_plane, contact_defines
-from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.lights import light_passes
 from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
@@ -121,7 +121,7 @@ class DepthSearch(RasterTechnique):
                    "BACK_SECANT": int(params.back_iteration != "depth-step"),
                    "BACK_SPHERE_START": int(params.back_iteration == "sphere-secant")}
         return [
-            ShadowMaps(params.shadow_map_size),
+            *light_passes(params.shadow_map_size),
             RefractorSurfaces("back", "farthest"),
             *nearby.passes,
             # The front-surface buffer comes from the glass G-buffer draw (captures_front_surface).

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from ..lighting.bake import MAX_BAKE_SIZE
 from ..lighting.environment import MAX_LOBES
-from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.lights import light_passes
 from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..scene.materials import Diffuse
 from .base import Params, param
@@ -49,7 +49,7 @@ class EnvMap(RasterTechnique):
 
     def build_passes(self, params):
         # The back faces only give the Beer-Lambert thickness: skipped when no glass absorbs.
-        return [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
+        return [*light_passes(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
                 ShadeSurfaces()]
 
 
@@ -62,4 +62,4 @@ class Plain(RasterTechnique):
 
     def build_passes(self, params):
         # Everything diffuse: no refractor buffer to draw or read.
-        return [ShadowMaps(params.shadow_map_size), ShadeSurfaces(material_override=Diffuse(), inputs=())]
+        return [*light_passes(params.shadow_map_size), ShadeSurfaces(material_override=Diffuse(), inputs=())]

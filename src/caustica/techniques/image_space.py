@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 from ..passes.nearby.planes import NearbyParams, nearby_option
 from ..passes.shading.image_space import FrontDistanceAlongNormal
-from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.lights import light_passes
 from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
@@ -72,7 +72,7 @@ class ImageSpace(RasterTechnique):
         inputs = ("back_surface", "front_dn") if params.use_dn else ("back_surface",)
         nearby = nearby_option(params.nearby, params)  # Wyman's nearby geometry (passes/nearby/impostors.py)
         defines = {"USE_DN": params.use_dn, "TIR_MODE": TIR_MODES.index(params.tir_mode), **nearby.defines}
-        passes = [ShadowMaps(params.shadow_map_size), RefractorSurfaces("back", params.second_surface)]
+        passes = [*light_passes(params.shadow_map_size), RefractorSurfaces("back", params.second_surface)]
         if params.use_dn:
             passes.append(FrontDistanceAlongNormal())
         passes += nearby.passes

@@ -68,6 +68,7 @@ from ..gpu.shaders import run_compute
 from ..passes.caustics.fixed_flux import splat_fixed_point
 from ..passes.caustics.maps import CausticTiles
 from ..passes.nearby.impostors import BuildImpostors
+from ..passes.shading.lights import without_light_passes
 from ..render.bindings import MAX_CAUSTIC_TILES
 from ..render.frame import Channel, Frame, Pass
 from ..render.offscreen import aimed_camera, render_offscreen
@@ -150,7 +151,7 @@ class ImpostorPhotons(Pass):
             if camera is None:
                 out.append(None)
                 continue
-            passes = impostor_view_passes(self.params, 0, output=2, photon=True)[1:]
+            passes = without_light_passes(impostor_view_passes(self.params, 0, output=2, photon=True))
             passes = [p for p in passes if not isinstance(p, BuildImpostors)]
             kept = render_offscreen(frame, frame.scene, camera, passes, keep=("color", "exit_direction"),
                                     share=("impostors", "impostor_world"))

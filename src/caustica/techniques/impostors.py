@@ -48,6 +48,7 @@ from dataclasses import dataclass
 
 from ..passes.nearby.impostors import BuildImpostors, impostor_defines, world_index
 from ..passes.nearby.planes import chain_defines, chain_uniforms
+from ..passes.shading.lights import without_light_passes
 from ..render.bindings import MAX_IMPOSTORS, bind_impostors
 from ..scene.rules import MAX_COORDINATE
 from .base import param
@@ -90,7 +91,7 @@ class ImpostorParams(DepthSearchParams):
 
 
 def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, photon: bool = False) -> list:
-    """Depth-search's passes with the impostors: ShadowMaps, refractor buffers, BuildImpostors,
+    """Depth-search's passes with the impostors: the light passes, refractor buffers, BuildImpostors,
     ShadeSurfaces (NEARBY impostors). ``output``/``photon``: NEARBY_OUTPUT, PHOTON_BUFFER."""
     passes = DepthSearch().build_passes(params)
     shade = passes[-1]
@@ -118,8 +119,8 @@ def texture_passes(params: ImpostorParams, depth: int) -> list:
     """Passes that render one object into its impostor texture (the frame brings light samples and
     shadow maps): depth-search with impostors ``depth`` levels deep, the environment alone at 0."""
     if depth <= 0:
-        return DepthSearch().build_passes(params)[1:]
-    return impostor_view_passes(params, depth - 1)[1:]
+        return without_light_passes(DepthSearch().build_passes(params))
+    return without_light_passes(impostor_view_passes(params, depth - 1))
 
 
 class Impostors(RasterTechnique):

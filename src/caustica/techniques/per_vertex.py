@@ -67,7 +67,7 @@ import numpy as np
 from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.caustics.maps import maps_reaching
-from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.lights import light_passes
 from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
 from ..per_vertex.patches import Patch, split_patches
 from ..per_vertex.preparation import (Reflector, lens_lines, refine_mirror, reflector_kind, screen_pixels,
@@ -348,4 +348,4 @@ class PerVertex(RasterTechnique):
     Params = PerVertexParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size), *view_passes(params, params.depth)]
+        return [*light_passes(params.shadow_map_size), *view_passes(params, params.depth)]

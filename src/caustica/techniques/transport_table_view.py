@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..passes.shading.shadows import ShadowMaps
+from ..passes.shading.lights import light_passes
 from ..passes.shading.surfaces import ShadeSurfaces
 from ..raytrace.optics import dot, fresnel_dielectric, normalize
 from ..scene.transform import normal_matrix
@@ -91,6 +91,6 @@ class TransportTableView(RasterTechnique):
     Params = TransportViewParams
 
     def build_passes(self, params):
-        return [ShadowMaps(params.shadow_map_size),
+        return [*light_passes(params.shadow_map_size),
                 ShadeSurfaces("passes/shading/transport_view.frag", inputs=(), set_uniforms=_view_attributes(params),
                               vertex="passes/shading/transport_view.vert")]

@@ -16,18 +16,28 @@ samples of ``EnvironmentLight.sample_bright`` (which samples by power, so the es
 bright part spread wider than SUN_SPREAD degrees (several suns, a window) is no sun: it stays in the SH.
 
 Part 2 (where auto asks for ``environment_lobes``): the rest of the sky as strata of equal power with
-shadow maps (passes/shading/shadows.py ShadowMaps draws them), glass passing its transmittance, the blocked sky
+shadow maps (EnvironmentLobeMaps below draws them), glass passing its transmittance, the blocked sky
 showing the occluders' bounce, and a floor's bounce for the light from below (docs/environment-light.md).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import moderngl
 import numpy as np
 
-from ...lighting.bake import MAX_BAKE_SIZE, MAX_OBJECT_RECTS, TABLE_TEXELS
-from ...lighting.environment import LOBE_MAP_SIZE, MAX_LOBES, EnvironmentLobes
-from ...render.frame import frame_setting
+from ...cache import material_state_key, scene_state_key
+from ...gpu.meshes import set_uniform
+from ...gpu.shaders import run_compute
+from ...lighting.bake import MAX_BAKE_SIZE, MAX_OBJECT_RECTS, TABLE_TEXELS, bake_atlas, scene_bake
+from ...lighting.environment import (LOBE_MAP_SIZE, MAX_LOBES, EnvironmentLobes, environment_lobes, floor_bounce_sh,
+                                     mean_albedo, scene_floor)
+from ...lighting.samples import MAX_LIGHTS, LightSample, directional_sample
+from ...render.bindings import bind_lights
+from ...render.draw import draw_objects
+from ...render.frame import Channel, Frame, Pass, frame_setting
+from ...scene.lights import DirectionalLight
+from .shadows import distance_map
 
 # Part 2: the rest of the environment's light, occluded -------------------------------------------------
 
@@ -47,7 +57,7 @@ def lobe_settings(params) -> tuple[int, int]:
 
 @dataclass
 class EnvironmentShadows:
-    """ShadowMaps' ``environment_shadows``: the lobes, their directional samples (passes/shading/shadows.py's
+    """EnvironmentLobeMaps' ``environment_shadows``: the lobes, their directional samples (passes/shading/shadows.py's
     LightSample, one tile each) and the atlas of their opaque objects' distance maps (r32f, K N x N); where
     the scene has glass, the atlas of the glass along each lobe (rgba32f: rgb its optical depth, -log of its
     transmittance per channel, a its nearest distance; passes/shading/glass_optical_depth.frag), else None."""
@@ -62,7 +72,7 @@ class EnvironmentShadows:
 
     def defines(self) -> dict[str, int]:
         """lighting.glsl's ENVIRONMENT_GLASS and ENVIRONMENT_BOUNCE: 1 where the glass's, the bounce's atlas is
-        bound (ShadowMaps always draws the bounce; bench_environment_light measures without it)."""
+        bound (EnvironmentLobeMaps always draws the bounce; bench_environment_light measures without it)."""
         return {"ENVIRONMENT_GLASS": int(self.glass is not None), "ENVIRONMENT_BOUNCE": int(self.bounce is not None)}
 
 
@@ -80,7 +90,7 @@ def bake_settings(params) -> int:
 
 @dataclass
 class EnvironmentBake:
-    """ShadowMaps' ``environment_bake``: the scene's bake (:class:`SceneBake`) in one rgba32f ``texture`` (the
+    """EnvironmentLightMaps' ``environment_bake``: the scene's bake (:class:`SceneBake`) in one rgba32f ``texture`` (the
     maps' ``tiles``, x0, y0, columns, rows in texels each; below them the rectangles' table from row
     ``table_row``, rectangle_rows, TABLE_TEXELS a row; below that the vertices' irradiance from row ``vertex_row``,
     row-major),
@@ -109,7 +119,7 @@ class EnvironmentBake:
 
     def entry(self, scene, obj) -> tuple[int, int, int]:
         """``obj``'s (first map, map count, first vertex or -1) by its place in ``scene`` (the frame's, whose
-        state the bake's is: ShadowMaps' cache key) or in a part of it (a view without some objects)."""
+        state the bake's is: EnvironmentLightMaps' cache key) or in a part of it (a view without some objects)."""
         index = next((i for i, o in enumerate(scene.objects) if o is obj), None)
         if index is not None and len(scene.objects) == len(self.objects):
             return self.objects[index]
@@ -127,5 +137,156 @@ class EnvironmentBake:
             rows[:count * TABLE_TEXELS] = self.rectangles[first:first + count].reshape(-1, 4)
             kept = self._uniforms[id(obj)] = (rows, count, vertex)
         return kept
+
+
+class EnvironmentLobeMaps(Pass):
+    """The environment's lobes (lighting/environment.py) where the frame's parameters ask for
+    ``environment_lobes`` (auto sets it): their directional maps side by side in one atlas, the glass along
+    them, the occluders' bounce and the nearest distances (docs/environment-light.md); None otherwise."""
+
+    reads = ("light_samples", "shadow_maps")
+    writes = (Channel("environment_shadows", "host", "EnvironmentShadows: the environment's lobes and their maps' "
+                                                     "atlas, or None"),)
+
+    def cache_key(self, frame: Frame):
+        lobes = lobe_settings(frame.params)
+        # The lobes' maps tell glass from opaque objects and hold the glass's IOR and absorption and the colours.
+        return (lobes, scene_state_key(frame.scene), material_state_key(frame.scene) if lobes[0] else ())
+
+    def run(self, frame: Frame) -> None:
+        frame.write("environment_shadows",
+                    self._environment_shadows(frame, frame.read("light_samples"), frame.read("shadow_maps")))
+
+    def _environment_shadows(self, frame: Frame, samples: list[LightSample], maps: list):
+        count, size = lobe_settings(frame.params)
+        if not count:
+            return None
+        scene = frame.scene
+        sun_taken = any(s.environment for s in samples)
+        lobes = environment_lobes(scene.environment, sun_taken, count)
+        floor = scene_floor(scene)
+        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
+        center = scene.bounds().mean(axis=0)
+        radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+        tiles = [directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
+        # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
+        # nearest distance and its optical depth along each lobe, in one more atlas.
+        opaque = [o for o in scene.objects if o.material.kind != "glass"]
+        glass = [o for o in scene.objects if o.material.kind == "glass"]
+        atlas = distance_map(frame, tiles, opaque, size)
+        sky_only = floor_bounce_sh(scene.environment, sun_taken, np.zeros(3))
+        bounce = self._bounce(frame, tiles, opaque, size, samples, maps, sky_only)
+        glass_atlas = self._glass(frame, tiles, glass, size) if glass else None
+        return EnvironmentShadows(atlas, tiles, lobes, glass_atlas, ground, bounce,
+                                  self._nearest(frame, atlas, glass_atlas, size))
+
+    def _nearest(self, frame: Frame, atlas, glass_atlas, size: int):
+        """rg32f: per lobe texel the nearest opaque and glass distance over its 3x3 taps (lobe_nearest.comp)."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture(atlas.size, 2, dtype="f4"))
+        program = frame.gpu.shaders.compute("passes/shading/lobe_nearest.comp")
+        atlas.use(0)
+        (glass_atlas or atlas).use(1)
+        set_uniform(program, "opaque", 0)
+        set_uniform(program, "glass", 1)
+        set_uniform(program, "has_glass", int(glass_atlas is not None))
+        set_uniform(program, "tile_size", size)
+        target.bind_to_image(0, read=False, write=True)
+        run_compute(program, (atlas.size[0] + 7) // 8, (atlas.size[1] + 7) // 8)
+        ctx.memory_barrier()
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
+
+    def _bounce(self, frame: Frame, tiles: list[LightSample], opaque, size: int, samples, maps, sky_sh):
+        """Per lobe texel (rgba32f atlas), the radiance of the nearest opaque surface facing along the lobe
+        (lobe_bounce.frag), lit by ``samples`` through their shadow ``maps`` and by ``sky_sh``; 0 where none."""
+
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target], frame.own(ctx.depth_renderbuffer((size * len(tiles), size)))))
+        program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/shading/lobe_bounce.frag",
+                                            {"MAX_LIGHTS": MAX_LIGHTS})
+        bind_lights(program, samples, maps)
+        set_uniform(program, "irradiance_sh", sky_sh.astype("f4"))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        for k, tile in enumerate(tiles):
+            fbo.viewport = (k * size, 0, size, size)
+            set_uniform(program, "direction", tile.direction.astype("f4"))
+            for obj in opaque:
+                set_uniform(program, "albedo", mean_albedo(obj).astype("f4"))
+                draw_objects(frame, program, [obj], tile.clip_from_world)
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
+
+    def _glass(self, frame: Frame, tiles: list[LightSample], glass, size: int):
+        """The glass along each directional tile (glass_optical_depth.frag), rgba32f: rgb its optical depth
+        per channel (every face of every glass object summed with additive blending), a its nearest distance
+        (MIN blending); no depth test."""
+        ctx = frame.gpu.ctx
+        target = frame.own(ctx.texture((size * len(tiles), size), 4, dtype="f4"))
+        fbo = frame.own(ctx.framebuffer([target]))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 1e30)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        try:
+            for nearest, equation in ((0, moderngl.FUNC_ADD), (1, moderngl.MIN)):
+                ctx.blend_equation = equation
+                program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/shading/glass_optical_depth.frag",
+                                                    {"NEAREST_DISTANCE": nearest})
+                for k, tile in enumerate(tiles):
+                    fbo.viewport = (k * size, 0, size, size)
+                    set_uniform(program, "origin", tile.position.astype("f4"))
+                    set_uniform(program, "direction", tile.direction.astype("f4"))
+                    for obj in glass:
+                        set_uniform(program, "sigma", obj.material.absorption_coefficient.astype("f4"))
+                        set_uniform(program, "ior", obj.material.ior_rgb.astype("f4"))
+                        set_uniform(program, "solid", float(obj.mesh.is_solid()))
+                        draw_objects(frame, program, [obj], tile.clip_from_world)
+        finally:
+            ctx.blend_equation = moderngl.FUNC_ADD
+            ctx.disable(moderngl.BLEND)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+        target.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return target
+
+
+class EnvironmentLightMaps(Pass):
+    """The light maps and per-vertex irradiance of the environment's light on the diffuse receivers
+    (lighting/bake.py), in one rgba32f atlas, where the frame's parameters ask for ``environment_bake``
+    and the scene has a diffuse receiver; None otherwise."""
+
+    reads = ("light_samples",)
+    writes = (Channel("environment_bake", "host", "EnvironmentBake: the light maps and per-vertex irradiance of the "
+                                                  "ambient environment on the diffuse receivers (rgba32f atlas), or None"),)
+
+    def cache_key(self, frame: Frame):
+        bake = bake_settings(frame.params)
+        # The light maps tell glass from opaque objects and hold the glass's IOR and absorption and the colours.
+        return (bake, scene_state_key(frame.scene), material_state_key(frame.scene) if bake else ())
+
+    def run(self, frame: Frame) -> None:
+        frame.write("environment_bake", self._environment_bake(frame, frame.read("light_samples")))
+
+    def _environment_bake(self, frame: Frame, samples: list[LightSample]):
+        """The light maps (environment_lights.scene_bake) where the frame's parameters ask for them and the scene
+        has a diffuse receiver, else None."""
+        size = bake_settings(frame.params)
+        scene = frame.scene
+        sun_taken = any(s.environment for s in samples)
+        bake = scene_bake(scene, sun_taken, size) if size else None
+        if bake is None or not (bake.maps or any(v is not None for v in bake.vertices)):
+            return None
+        image, rectangles, table_row, vertex_row, objects, tiles = bake_atlas(bake)
+        texture = frame.own(frame.gpu.ctx.texture(image.shape[1::-1], 4, image.tobytes(), dtype="f4"))
+        texture.repeat_x = texture.repeat_y = False
+        floor = scene_floor(scene)
+        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
+        return EnvironmentBake(texture, bake.maps, tiles, ground, table_row, vertex_row, objects,
+                               tuple((id(o), entry) for o, entry in zip(scene.objects, objects)), rectangles)
 
 

@@ -182,7 +182,7 @@ vec3 ambient_irradiance(vec3 n) {
 // into strata of equal power, each with a directional shadow map (tiles of env_shadow_atlas). Where a
 // stratum's map says its direction is blocked at p, its share max(0, n . -direction) * irradiance leaves
 // the SH ambient; unblocked, the ambient is the SH's exactly. Host define: ENVIRONMENT_SHADOWS (0 or 1,
-// ShadeSurfaces sets it where ShadowMaps drew the lobes).
+// ShadeSurfaces sets it where EnvironmentLobeMaps drew the lobes).
 #ifndef ENVIRONMENT_SHADOWS
 #define ENVIRONMENT_SHADOWS 0
 #endif
@@ -252,7 +252,7 @@ vec3 lobe_light(int k, vec3 p, vec3 n, out vec3 seen) {
 }
 #endif
 
-// The light maps (host define ENVIRONMENT_BAKE, 1 where ShadowMaps baked them: raytrace/environment_bake.py,
+// The light maps (host define ENVIRONMENT_BAKE, 1 where EnvironmentLightMaps baked them: raytrace/environment_bake.py,
 // passes/shading/environment.py scene_bake): the ambient environment's irradiance, occluded, through glass, with
 // one bounce, on the diffuse receivers, in one rgba32f atlas env_bake: the maps' tiles (rgb); from row
 // env_bake_layout.x a table of its env_bake_layout.y rectangles, one a row of five texels (rectangle_rows:

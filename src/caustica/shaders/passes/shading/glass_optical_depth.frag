@@ -1,5 +1,5 @@
 // Glass along a direction into an rgba32f target (the environment lobes' tinted glass shadows;
-// passes/shading/shadows.py ShadowMaps), cleared to (0, 0, 0, FAR): rgb its optical depth, every fragment summed with
+// passes/shading/environment.py EnvironmentLobeMaps), cleared to (0, 0, 0, FAR): rgb its optical depth, every fragment summed with
 // additive blending (a + 0 stays FAR); then, host define NEAREST_DISTANCE 1, a the nearest fragment's
 // distance along the direction by MIN blending (rgb = min(depth, FAR) stays).
 // Along the straight line through the glass, -log T = sigma (z_out - z_in) - log(1 - F_in) - log(1 - F_out)

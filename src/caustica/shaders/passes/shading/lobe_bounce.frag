@@ -1,4 +1,4 @@
-// One bounce through the environment lobes' maps (passes/shading/shadows.py ShadowMaps): per lobe texel,
+// One bounce through the environment lobes' maps (passes/shading/environment.py EnvironmentLobeMaps): per lobe texel,
 // the radiance of the nearest opaque surface facing along the lobe (the surface a receiver behind the
 // occluder sees where the lobe's sky is blocked), albedo / pi times its irradiance from the lights (the
 // environment's sun, shadowed) and from the sky above its horizon (irradiance_sh: the environment without

@@ -1,4 +1,4 @@
-// The environment lobes' early out (passes/shading/shadows.py ShadowMaps; lighting.glsl lobe_light): per texel of
+// The environment lobes' early out (passes/shading/environment.py EnvironmentLobeMaps; lighting.glsl lobe_light): per texel of
 // the lobes' atlas, the nearest opaque (r) and glass (g) distance over the 3x3 taps around it, clamped to
 // its tile as map_tap clamps them. A receiver no farther along the lobe than both is lit by every tap, and
 // its lookup stops after this one fetch with the same result as the nine.
