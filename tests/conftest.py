@@ -55,9 +55,20 @@ def _module_of(nodeid: str) -> str:
     return nodeid.split("::", 1)[0]
 
 
-def pytest_collection_modifyitems(config, items):
+def _last_seconds(config) -> dict:
     cache = getattr(config, "cache", None)
-    seconds = cache.get(MODULE_SECONDS, {}) if cache is not None else {}
+    return cache.get(MODULE_SECONDS, {}) if cache is not None else {}
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    """pytest-xdist's controller hands each worker the same times, so that every worker collects one order."""
+    node.workerinput[MODULE_SECONDS] = _last_seconds(node.config)
+
+
+def pytest_collection_modifyitems(config, items):
+    worker = getattr(config, "workerinput", None)
+    seconds = worker.get(MODULE_SECONDS, {}) if worker is not None else _last_seconds(config)
     if seconds:
         items.sort(key=lambda item: -seconds.get(_module_of(item.nodeid), 0.0))  # stable: in-module order kept
 
