@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from caustica.errors import TechniqueError
-from caustica.passes.shading.surfaces import ShadeSurfaces
+from caustica.passes.shading.surfaces import ShadeBackground, ShadeSurfaces
 from caustica.scene import Camera, Diffuse, Glass, PointLight, Scene, SceneObject, Transform, procedural_environment
 from caustica.scene.shapes import plane, sphere
 from caustica.techniques import get_technique
@@ -85,6 +85,7 @@ def test_buffers_are_made_once_and_one_run_draws_the_background():
     shades = [p for p in passes if isinstance(p, ShadeSurfaces)]
     assert [p.background for p in shades] == [True, False, False]
     assert len({p.label for p in shades}) == 3  # each run timed on its own
+    assert [isinstance(p, ShadeBackground) for p in passes].count(True) == 1 and isinstance(passes[-1], ShadeBackground)
 
 
 def test_composes_with_caustics(renderer, scene):

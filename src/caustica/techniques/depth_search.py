@@ -52,7 +52,7 @@ from ..passes.nearby.planes import NearbyParams, chain_defines, chain_uniforms, 
 from ..passes.shading.convex_exits import MAX_CONVEX_PLANES, MAX_CONVEX_QUADRICS, bind_convex_shape, convex_defines
 from ..passes.shading.glass_contact import bind_contact_plane, contact_defines
 from ..passes.shading.lights import light_passes
-from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -133,4 +133,5 @@ class DepthSearch(RasterTechnique):
                           captures_front_surface=True,
                           # Back faces first: the search runs in a second resolve stage, only where needed.
                           staged=("glass",) if params.assume_back_first else ()),
+            ShadeBackground(),
         ]

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from ..lighting.bake import MAX_BAKE_SIZE
 from ..lighting.environment import MAX_LOBES
 from ..passes.shading.lights import light_passes
-from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from ..scene.materials import Diffuse
 from .base import Params, param
 from .raster import RasterTechnique
@@ -50,7 +50,7 @@ class EnvMap(RasterTechnique):
     def build_passes(self, params):
         # The back faces only give the Beer-Lambert thickness: skipped when no glass absorbs.
         return [*light_passes(params.shadow_map_size), RefractorSurfaces("back", "farthest", absorbing_only=True),
-                ShadeSurfaces()]
+                ShadeSurfaces(), ShadeBackground()]
 
 
 class Plain(RasterTechnique):
@@ -62,4 +62,5 @@ class Plain(RasterTechnique):
 
     def build_passes(self, params):
         # Everything diffuse: no refractor buffer to draw or read.
-        return [*light_passes(params.shadow_map_size), ShadeSurfaces(material_override=Diffuse(), inputs=())]
+        return [*light_passes(params.shadow_map_size), ShadeSurfaces(material_override=Diffuse(), inputs=()),
+                ShadeBackground()]

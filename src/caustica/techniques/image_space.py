@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from ..passes.nearby.planes import NearbyParams, nearby_option
 from ..passes.shading.image_space import FrontDistanceAlongNormal
 from ..passes.shading.lights import light_passes
-from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from .base import param
 from .env_map import ShadowedParams
 from .raster import RasterTechnique
@@ -79,4 +79,5 @@ class ImageSpace(RasterTechnique):
         passes.append(ShadeSurfaces("passes/shading/image_space.frag", defines, inputs=inputs + nearby.inputs,
                                     set_uniforms=nearby.set_uniforms, deferred=("glass",),
                                     frame_defines=nearby.frame_defines))
+        passes.append(ShadeBackground())
         return passes

@@ -49,6 +49,7 @@ from dataclasses import dataclass
 from ..passes.nearby.impostors import BuildImpostors, impostor_defines, world_index
 from ..passes.nearby.planes import chain_defines, chain_uniforms
 from ..passes.shading.lights import without_light_passes
+from ..passes.shading.surfaces import ShadeSurfaces
 from ..render.bindings import MAX_IMPOSTORS, bind_impostors
 from ..scene.rules import MAX_COORDINATE
 from .base import param
@@ -94,7 +95,8 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     """Depth-search's passes with the impostors: the light passes, refractor buffers, BuildImpostors,
     ShadeSurfaces (NEARBY impostors). ``output``/``photon``: NEARBY_OUTPUT, PHOTON_BUFFER."""
     passes = DepthSearch().build_passes(params)
-    shade = passes[-1]
+    at = next(i for i, stage in enumerate(passes) if isinstance(stage, ShadeSurfaces))
+    shade = passes[at]
     shade.defines = {**shade.defines, "NEARBY": 1, "NEARBY_OUTPUT": output, "PHOTON_BUFFER": int(photon),
                      "IMPOSTOR_ITERATIONS": params.impostor_iterations, "IMPOSTOR_SAMPLES": params.initial_samples,
                      "IMPOSTOR_REFLECTIONS": int(params.reflections)}
@@ -112,7 +114,7 @@ def impostor_view_passes(params: ImpostorParams, depth: int, output: int = 0, ph
     shade.reads = (*shade.reads, "impostors")  # bound by set_impostors
     build = BuildImpostors(lambda d: texture_passes(params, d), params.impostor_size, depth, params.rect_offset,
                            params.distance_factor, params.max_impostors, params.merge_planes)
-    return passes[:-1] + [build, shade]
+    return passes[:at] + [build, shade] + passes[at + 1:]
 
 
 def texture_passes(params: ImpostorParams, depth: int) -> list:

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import TechniqueError, closest_name
-from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from ..render.frame import Pass
 from .base import param
 from .env_map import ShadowedParams
@@ -153,11 +153,11 @@ class PerObject(RasterTechnique):
                     made.add(key)
                     before.append(stage)
             shades.append(_restricted(passes[at], technique, params, first=not shades))
-        return before + shades
+        return before + shades + [ShadeBackground()]
 
 
 def _restricted(shade: ShadeSurfaces, technique: str, params: PerObjectParams, first: bool) -> ShadeSurfaces:
-    """``shade`` limited to the objects ``technique`` shades; only the first run clears and draws the background."""
+    """``shade`` limited to the objects ``technique`` shades; only the first run clears the targets."""
     return ShadeSurfaces(shade.fragment, shade.defines, shade.material_override, shade.inputs, shade.set_uniforms,
                          objects=lambda obj: params.technique_of(obj) == technique, background=first, tag=technique,
                          vertex=shade.vertex, frame_defines=shade.frame_defines, deferred=shade.deferred,

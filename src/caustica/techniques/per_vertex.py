@@ -68,7 +68,7 @@ from ..cache import LruCache, material_state_key, scene_state_key, state_key
 from ..gpu.meshes import set_object_transform, set_uniform
 from ..passes.caustics.maps import maps_reaching
 from ..passes.shading.lights import light_passes
-from ..passes.shading.surfaces import RefractorSurfaces, ShadeSurfaces
+from ..passes.shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from ..per_vertex.patches import Patch, split_patches
 from ..per_vertex.preparation import (Reflector, lens_lines, refine_mirror, reflector_kind, screen_pixels,
                                       texture_coordinates, volume_fit)
@@ -287,7 +287,7 @@ def view_passes(params: PerVertexParams, depth: int) -> list:
     per vertex (reflectors are, while ``depth`` > 0), then the reflectors per vertex."""
     shaded = None if depth == 0 else (lambda obj: reflector_kind(obj, params) is None)
     return [RefractorSurfaces("back", "farthest", absorbing_only=True), ShadeSurfaces(objects=shaded),
-            PerVertexReflectors(params, depth)]
+            ShadeBackground(), PerVertexReflectors(params, depth)]
 
 
 def scene_without(scene: Scene, index: int) -> Scene:

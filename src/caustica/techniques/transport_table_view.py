@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..passes.shading.lights import light_passes
-from ..passes.shading.surfaces import ShadeSurfaces
+from ..passes.shading.surfaces import ShadeBackground, ShadeSurfaces
 from ..raytrace.optics import dot, fresnel_dielectric, normalize
 from ..scene.transform import normal_matrix
 from .raster import RasterTechnique
@@ -93,4 +93,4 @@ class TransportTableView(RasterTechnique):
     def build_passes(self, params):
         return [*light_passes(params.shadow_map_size),
                 ShadeSurfaces("passes/shading/transport_view.frag", inputs=(), set_uniforms=_view_attributes(params),
-                              vertex="passes/shading/transport_view.vert")]
+                              vertex="passes/shading/transport_view.vert"), ShadeBackground()]

@@ -14,7 +14,7 @@ from ...render.frame import Channel, Frame, Pass
 from ...render.offscreen import offscreen_channels, scene_subset
 from ...scene import rules
 from ...scene.textures import texture_of
-from ..shading.surfaces import ShadeSurfaces
+from ..shading.surfaces import RefractorSurfaces, ShadeBackground, ShadeSurfaces
 from .impostors import pack_texture
 from .rectangles import planar_rectangle
 
@@ -81,12 +81,11 @@ class NearbyView(Pass):
     writes = (Channel("nearby_view", "rgba32f", "camera view without refractors: radiance rgb, eye distance a (0: none)"),)
 
     def run(self, frame: Frame) -> None:
-        from ..shading.surfaces import RefractorSurfaces
-
         scene = frame.scene
         keep = [i for i, o in enumerate(scene.objects) if o.material.kind != "glass"]
         with offscreen_channels(frame, scene_subset(scene, keep), frame.camera,
-                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces()], keep=("color", "depth"),
+                                [RefractorSurfaces("back", "farthest"), ShadeSurfaces(), ShadeBackground()],
+                                keep=("color", "depth"),
                                 share=("environment_bake",)) as kept:
             packed = pack_texture(frame, kept["color"], kept["depth"], frame.camera, frame.camera.position,
                                   np.zeros(3), radial=True)

@@ -1,4 +1,4 @@
-"""Camera-view passes shared by techniques: refractor surface buffers, background, surface shading."""
+"""Camera-view passes shared by techniques: refractor surface buffers, surface shading, the environment behind."""
 from __future__ import annotations
 
 import dataclasses
@@ -98,7 +98,7 @@ class ShadeOptions:
     inputs: tuple[str, ...] = ("back_surface",)  # channels bound as samplers of the same name
     set_uniforms: Callable | None = None  # set_uniforms(program, frame, obj): own uniforms (obj None: per frame)
     objects: Any = None  # object names or a predicate f(obj) -> bool: the objects drawn (None: all)
-    background: bool = True  # False: draw over an earlier run's color, exit_direction, depth (per-object)
+    background: bool = True  # True: this run starts the targets (cleared); False: draws over an earlier run's (per-object)
     tag: str = ""  # names the run in pass timings
     vertex: str = "common/mesh_vertex.glsl"  # the vertex stage (writes world_position, world_normal as this one)
     frame_defines: Callable | None = None  # frame_defines(frame) -> dict: defines from the frame's channels
@@ -123,7 +123,8 @@ class ShadeOptions:
 
 
 class ShadeSurfaces(Pass):
-    """Environment background, then every object shaded by a surface fragment shader.
+    """Every object shaded by a surface fragment shader, into targets this run clears (``background``) or an
+    earlier run's; ShadeBackground then fills the pixels no object covers.
 
     The default shader is the env-map baseline; techniques pass their own
     fragment shader and extra uniforms for refractors. Each ShadeOptions field is an attribute too.
@@ -215,32 +216,13 @@ class ShadeSurfaces(Pass):
                 deferred.resolve(frame, self, later, color, exit_direction, g_buffer)
         else:
             self._draw_objects(frame, drawn)
-        if self.background:  # after the objects: only where none was drawn
-            fbo.use()
-            self._draw_background(frame)
         frame.write("color", color)
         frame.write("exit_direction", exit_direction)
         frame.write("depth", depth)
 
-    def _draw_background(self, frame: Frame) -> None:
-        """The environment through every pixel no object covers: a triangle on the far plane, depth
-        tested (not written) after the objects, so that the early depth test skips covered pixels."""
-        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<="
-        ctx.fbo.depth_mask = False
-        background = gpu.shaders.program("common/fullscreen.vert", "passes/shading/background.frag")
-        set_uniform(background, "environment", 0)
-        set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
-        set_uniform(background, "intensity_scale", float(scene.intensity_scale))
-        set_uniform(background, "environment_pixel_angle", camera.pixel_angle())
-        gpu.draw_fullscreen(background)
-        ctx.fbo.depth_mask = True
-        ctx.depth_func = "<"
-
     def _draw_objects(self, frame: Frame, drawn: list, deferring_targets: dict | None = None) -> list:
         """This run's objects (``drawn``: (object, material) pairs), depth tested against what earlier
-        runs drew (the background comes after).
+        runs drew (ShadeBackground comes after).
 
         Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``
         (deferred.gbuffer_targets);
@@ -354,6 +336,33 @@ class ShadeSurfaces(Pass):
             bind_caustic_tiles(program, frame.optional("caustic_tiles"))
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, None)
+
+
+class ShadeBackground(Pass):
+    """The environment through every pixel no object covers: a triangle on the far plane, depth tested (not
+    written) after the objects, so that the early depth test skips covered pixels."""
+
+    reads = ("color", "exit_direction", "depth")
+    writes = ShadeSurfaces.writes
+
+    def run(self, frame: Frame) -> None:
+        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
+        color, exit_direction, depth = (frame.read(name) for name in self.reads)
+        gpu.targets.framebuffer([color, exit_direction], depth).use()
+        gpu.environment_texture(scene.environment).use(0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<="
+        ctx.fbo.depth_mask = False
+        background = gpu.shaders.program("common/fullscreen.vert", "passes/shading/background.frag")
+        set_uniform(background, "environment", 0)
+        set_uniform(background, "world_from_clip", np.linalg.inv(camera.clip_from_world()))
+        set_uniform(background, "intensity_scale", float(scene.intensity_scale))
+        set_uniform(background, "environment_pixel_angle", camera.pixel_angle())
+        gpu.draw_fullscreen(background)
+        ctx.fbo.depth_mask = True
+        ctx.depth_func = "<"
+        for name, value in zip(self.reads, (color, exit_direction, depth)):
+            frame.write(name, value)
 
 
 def _distance_to_bounds(point, bounds: np.ndarray) -> float:
