@@ -1,5 +1,5 @@
 """Drawing helpers every pass shares: objects with the shared vertex stage, back-face culling of solids,
-full-screen passes."""
+the refractors' face buffers, full-screen passes."""
 from __future__ import annotations
 
 from contextlib import contextmanager
@@ -90,3 +90,27 @@ def screen_rect(bounds: np.ndarray, camera) -> np.ndarray:
     ndc = clip[:, :2] / clip[:, 3:]
     pixel = 2.0 / np.asarray(camera.size, np.float64)
     return np.clip(np.concatenate([ndc.min(axis=0) - pixel, ndc.max(axis=0) + pixel]), -1.0, 1.0).astype("f4")
+
+
+def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest",
+                          objects=None):
+    """Draw the glass objects' (or ``objects``') ``face`` faces, keeping the ``order`` one per pixel,
+    into a pooled camera-sized ``fmt`` target cleared to 0; returns the target."""
+    gpu, ctx = frame.gpu, frame.gpu.ctx
+    target = frame.texture(frame.camera.size, fmt)
+    with frame.scratch(frame.camera.size, "depth") as depth:
+        fbo = gpu.targets.framebuffer([target], depth)
+        fbo.use()
+        farthest = order == "farthest"
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
+        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.front_face = "ccw"
+        ctx.cull_face = "front" if face == "back" else "back"
+        ctx.depth_func = ">" if farthest else "<"
+        objects = frame.scene.objects_of("glass") if objects is None else objects
+        if objects:
+            draw_objects(frame, program, objects, frame.camera.clip_from_world())
+        ctx.depth_func = "<"
+        ctx.cull_face = "back"
+        ctx.disable(moderngl.CULL_FACE)
+    return target

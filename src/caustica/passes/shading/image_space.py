@@ -15,8 +15,8 @@ import numpy as np
 
 from ...cache import LruCache
 from ...gpu.meshes import set_uniform
+from ...render.draw import draw_refractor_buffer
 from ...render.frame import Channel, Frame, Pass
-from .surfaces import draw_refractor_buffer
 
 DN_ATTRIBUTE = "in_dn"
 MEMORY_ENTRIES = 64  # an animated refractor has new geometry each frame

@@ -14,7 +14,7 @@ from ...lighting.samples import MAX_LIGHTS
 from ...render.bindings import (MAX_CAUSTIC_TILES, MAX_INPUTS, bind_baked_object, bind_caustic_maps, bind_caustic_tiles,
                                 bind_environment_bake, bind_environment_shadows, bind_lights, bind_receiver_tiles,
                                 first_unit)
-from ...render.draw import culled_back_faces, culls_back_faces, draw_objects
+from ...render.draw import culled_back_faces, culls_back_faces, draw_objects, draw_refractor_buffer
 from ...render.frame import Channel, Frame, Pass
 from ...scene.codes import MATERIAL_CODES
 from ...scene.textures import texture_of
@@ -62,30 +62,6 @@ def refractor_surfaces(frame: Frame, face: str, order: str, objects) -> object:
     program = frame.gpu.shaders.program("common/mesh_vertex.glsl", "passes/shading/surface_normal_distance.frag")
     set_uniform(program, "origin", frame.camera.position.astype("f4"))
     return draw_refractor_buffer(frame, program, "rgba32f", face, order, objects)
-
-
-def draw_refractor_buffer(frame: Frame, program, fmt: str, face: str = "front", order: str = "nearest",
-                          objects=None):
-    """Draw the glass objects' (or ``objects``') ``face`` faces, keeping the ``order`` one per pixel,
-    into a pooled camera-sized ``fmt`` target cleared to 0; returns the target."""
-    gpu, ctx = frame.gpu, frame.gpu.ctx
-    target = frame.texture(frame.camera.size, fmt)
-    with frame.scratch(frame.camera.size, "depth") as depth:
-        fbo = gpu.targets.framebuffer([target], depth)
-        fbo.use()
-        farthest = order == "farthest"
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0 if farthest else 1.0)
-        ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.front_face = "ccw"
-        ctx.cull_face = "front" if face == "back" else "back"
-        ctx.depth_func = ">" if farthest else "<"
-        objects = frame.scene.objects_of("glass") if objects is None else objects
-        if objects:
-            draw_objects(frame, program, objects, frame.camera.clip_from_world())
-        ctx.depth_func = "<"
-        ctx.cull_face = "back"
-        ctx.disable(moderngl.CULL_FACE)
-    return target
 
 
 @dataclass
@@ -227,7 +203,7 @@ class ShadeSurfaces(Pass):
         Deferring, each DEFERRED_SHADING mode draws into its framebuffer of ``deferring_targets``
         (deferred.gbuffer_targets);
         returns the deferred (object, material, defines), in G-buffer id order."""
-        gpu, ctx, camera, scene = frame.gpu, frame.gpu.ctx, frame.camera, frame.scene
+        gpu, ctx, camera = frame.gpu, frame.gpu.ctx, frame.camera
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.depth_func = "<"
         caustic_maps = frame.optional("caustic_maps")
