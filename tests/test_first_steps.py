@@ -71,8 +71,8 @@ def test_listings_print_plain_text_whole_sentences(capsys):
     assert "caustics-point under a directional light" in presets
     code, graph, _ = run(["graph", "depth-search+caustic-mapping"], capsys)
     assert code == 0 and "`" not in graph
-    shadow_maps = next(line for line in graph.splitlines() if line.startswith("1. ShadowMaps"))
-    assert "directional maps side by side in one atlas" in shadow_maps  # was cut after 'and, where'
+    lobes = next(line for line in graph.splitlines() if line.startswith("2. EnvironmentLobeMaps"))
+    assert "the occluders' bounce and the nearest distances" in lobes  # its paragraph's third line, not cut
 
 
 def test_show_outside_a_notebook_says_so_up_front_and_returns_the_image(monkeypatch, capsys):
