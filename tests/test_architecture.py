@@ -1,6 +1,7 @@
 """The layout's own rules: no import cycle in caustica (function-level imports included) and no texture unit
 or binding point claimed twice (docs/architecture.md)."""
 import ast
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "caustica"
@@ -86,14 +87,22 @@ def test_no_import_cycle():
 
 def test_no_texture_unit_or_binding_point_is_claimed_twice():
     """The shading programs' texture units (render/bindings.py) do not overlap, and stay under the 48 combined
-    units every GL 3.3 context has; the storage binding points are distinct."""
-    from caustica.render.bindings import STORAGE_BINDINGS, TEXTURE_UNITS
+    units every GL 3.3 context has; the storage binding points are distinct, and the shaders declare them: a
+    shared include's at its table entry, every other shader's among DISPATCH_BINDINGS."""
+    from caustica.render.bindings import DISPATCH_BINDINGS, STORAGE_BINDINGS, TEXTURE_UNITS
 
     claimed = [(unit, name) for name, units in TEXTURE_UNITS.items() for unit in units]
     units = [unit for unit, _ in claimed]
     assert len(units) == len(set(units)), sorted(claimed)
     assert min(units) == 0 and max(units) < 48
-    assert len(set(STORAGE_BINDINGS.values())) == len(STORAGE_BINDINGS)
+    shared = list(STORAGE_BINDINGS.values())
+    assert len(set(shared)) == len(shared) and not set(shared) & set(DISPATCH_BINDINGS)
+    declared = {}
+    for path in (p for p in (PACKAGE / "shaders").rglob("*") if p.is_file()):
+        for binding in re.findall(r"std430,\s*binding\s*=\s*(\d+)", path.read_text()):
+            declared.setdefault(path.stem, set()).add(int(binding))
+    assert declared.pop("fixed_point_flux") == {STORAGE_BINDINGS["fixed_point_flux"]}
+    assert all(bindings <= set(DISPATCH_BINDINGS) for bindings in declared.values()), declared
 
 
 def test_binders_take_their_units_from_the_table():

@@ -38,13 +38,14 @@ TEXTURE_UNITS: dict[str, range] = {
 }
 """Texture units of the surface-shading programs by what they hold; no two ranges overlap."""
 
+DISPATCH_BINDINGS = range(0, 3)
+"""Storage binding points each compute shader declares for its own buffers (photons, their inputs, a parent
+level), bound again at every dispatch."""
+
 STORAGE_BINDINGS: dict[str, int] = {
-    "photons": 0,  # a compute pass's photon buffer (caustic_trace, photon_land, caustic_splat, ...)
-    "photon_inputs": 1,  # its second buffer: initial photons, footprints, a count
-    "photon_parents": 2,  # caustic_trace.comp's level - 1
-    "fixed_point_flux": 3,  # fixed_point_flux.glsl's flux_words
+    "fixed_point_flux": 3,  # fixed_point_flux.glsl's flux_words, beside any splat shader's own buffers
 }
-"""Shader storage binding points of the compute passes; no two share a number."""
+"""Storage binding points a shared include declares: none among DISPATCH_BINDINGS, no two alike."""
 
 
 def first_unit(name: str) -> int:

@@ -24,8 +24,8 @@ from __future__ import annotations
 
 from ...gpu.meshes import set_uniform
 from ...gpu.shaders import run_compute
+from ...render.bindings import STORAGE_BINDINGS
 
-FLUX_BINDING = 3  # the shader storage binding of fixed_point_flux.glsl's flux_words
 CHANNELS = 3
 
 
@@ -48,7 +48,7 @@ def _splat(frame, words, width: int, height: int, dispatch) -> list:
     words.clear()
 
     def bind(program) -> None:
-        words.bind_to_storage_buffer(FLUX_BINDING)
+        words.bind_to_storage_buffer(STORAGE_BINDINGS["fixed_point_flux"])
         set_uniform(program, "flux_size", (width, height))
 
     # Bound, then adds: every add of the second dispatch sees the final bound.
