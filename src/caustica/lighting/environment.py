@@ -157,6 +157,12 @@ def scene_floor(scene):
     return None
 
 
+def ground_sh(scene, sun_taken: bool) -> np.ndarray | None:
+    """floor_bounce_sh under the scene's floor (scene_floor, its mean albedo); None without a floor."""
+    floor = scene_floor(scene)
+    return None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
+
+
 def floor_bounce_sh(environment: Environment, sun_taken: bool, albedo: np.ndarray) -> np.ndarray:
     """(9, 3) SH irradiance for diffuse surfaces where a floor of ``albedo`` lies under the scene: the
     environment (its rest when ``sun_taken``) with the light from below the horizon replaced by the open

@@ -35,11 +35,15 @@ class LightSample:
     environment: bool = False  # the environment's sun (passes/shading/environment.py), not one of scene.lights
 
 
+def scene_sphere(scene) -> tuple[np.ndarray, float]:
+    """(centre, radius) of the sphere around the scene's bounds that the light samples' maps are fitted to."""
+    return scene.bounds().mean(axis=0), 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+
+
 def light_samples(scene) -> list[LightSample]:
     """Expand the scene's lights into point/directional/spot samples, then the environment's sun as a
     directional sample (passes/shading/environment.py) where it has one and a sample is free."""
-    center = scene.bounds().mean(axis=0)
-    radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+    center, radius = scene_sphere(scene)
     samples: list[LightSample] = []
     for light in scene.lights:
         if isinstance(light, DirectionalLight):

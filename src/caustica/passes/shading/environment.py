@@ -31,8 +31,8 @@ from ...gpu.meshes import set_uniform
 from ...gpu.shaders import run_compute
 from ...lighting.bake import MAX_BAKE_SIZE, MAX_OBJECT_RECTS, TABLE_TEXELS, bake_atlas, scene_bake
 from ...lighting.environment import (LOBE_MAP_SIZE, MAX_LOBES, EnvironmentLobes, environment_lobes, floor_bounce_sh,
-                                     mean_albedo, scene_floor)
-from ...lighting.samples import MAX_LIGHTS, LightSample, directional_sample
+                                     ground_sh, mean_albedo)
+from ...lighting.samples import MAX_LIGHTS, LightSample, directional_sample, scene_sphere
 from ...render.bindings import bind_lights
 from ...render.draw import draw_objects
 from ...render.frame import Channel, Frame, Pass, frame_setting
@@ -164,10 +164,8 @@ class EnvironmentLobeMaps(Pass):
         scene = frame.scene
         sun_taken = any(s.environment for s in samples)
         lobes = environment_lobes(scene.environment, sun_taken, count)
-        floor = scene_floor(scene)
-        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
-        center = scene.bounds().mean(axis=0)
-        radius = 0.5 * np.linalg.norm(np.ptp(scene.bounds(), axis=0)) + 1e-6
+        ground = ground_sh(scene, sun_taken)
+        center, radius = scene_sphere(scene)
         tiles = [directional_sample(DirectionalLight(d, np.ones(3)), center, radius) for d in lobes.directions]
         # Opaque casters stop a lobe; glass lets through its transmittance (tinted, soft shadows): the glass's
         # nearest distance and its optical depth along each lobe, in one more atlas.
@@ -284,8 +282,7 @@ class EnvironmentLightMaps(Pass):
         image, rectangles, table_row, vertex_row, objects, tiles = bake_atlas(bake)
         texture = frame.own(frame.gpu.ctx.texture(image.shape[1::-1], 4, image.tobytes(), dtype="f4"))
         texture.repeat_x = texture.repeat_y = False
-        floor = scene_floor(scene)
-        ground = None if floor is None else floor_bounce_sh(scene.environment, sun_taken, mean_albedo(floor))
+        ground = ground_sh(scene, sun_taken)
         return EnvironmentBake(texture, bake.maps, tiles, ground, table_row, vertex_row, objects,
                                tuple((id(o), entry) for o, entry in zip(scene.objects, objects)), rectangles)
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...cache import scene_state_key
 from ...gpu.meshes import set_uniform
-from ...lighting.samples import CUBE_FORWARD, CUBE_UP, LightSample, light_samples
+from ...lighting.samples import CUBE_FORWARD, CUBE_UP, LightSample, light_samples, scene_sphere
 from ...render.draw import draw_objects
 from ...render.frame import Channel, Frame, Pass
 from ...scene.codes import LIGHT_DIRECTIONAL, LIGHT_POINT
@@ -58,13 +58,13 @@ def distance_map(frame: Frame, samples: list[LightSample], objects, n: int):
     fbo.clear(1e30, 1e30, 1e30, 1e30, depth=1.0)
     ctx.enable(moderngl.DEPTH_TEST)
     ctx.disable(moderngl.CULL_FACE)
-    radius = 0.5 * np.linalg.norm(np.ptp(frame.scene.bounds(), axis=0)) + 1e-6
+    center, radius = scene_sphere(frame.scene)
     for face in range(faces):
         fbo.viewport = (face * n, 0, n, n)
         if sample.type == LIGHT_POINT:
             p = sample.position
             view = look_at_view_from_world(p, p + CUBE_FORWARD[face], CUBE_UP[face])
-            far = np.linalg.norm(p - frame.scene.bounds().mean(axis=0)) + 2 * radius
+            far = np.linalg.norm(p - center) + 2 * radius
             clip = perspective_clip_from_view(90.0, 1.0, 1e-3 * radius, far) @ view
         else:
             sample = samples[face]
