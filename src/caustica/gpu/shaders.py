@@ -214,7 +214,7 @@ class ShaderLibrary:
                 if name:
                     sources[stage], tables[stage] = self.source(name, defines)
             self._programs[key] = self._shared(tuple(sorted(sources.items())), lambda: self.ctx.program(**sources),
-                                               tables, frozenset().union(*map(uniform_names, sources.values())))
+                                               tables)
         return self._programs[key]
 
     def compute(self, name: str, defines: dict | None = None):
@@ -223,23 +223,23 @@ class ShaderLibrary:
         if key not in self._programs:
             source, table = self.source(name, defines)
             self._programs[key] = self._shared((("compute_shader", source),),
-                                               lambda: self.ctx.compute_shader(source), {"compute_shader": table},
-                                               uniform_names(source))
+                                               lambda: self.ctx.compute_shader(source), {"compute_shader": table})
         return self._programs[key]
 
-    def _shared(self, sources: tuple, make, tables: dict, declared: frozenset):
-        """The context's program for these stage sources, compiled by ``make`` if it has none."""
-        program = self._context.acquire(sources, lambda: self._build(make, tables))
+    def _shared(self, sources: tuple, make, tables: dict):
+        """The context's program for these (stage, source) pairs, compiled by ``make`` if it has none."""
+        program = self._context.acquire(sources, lambda: self._build(make, sources, tables))
         self._held.append(sources)
-        _declared[program] = declared
         return program
 
     @staticmethod
-    def _build(make, tables: dict):
+    def _build(make, sources: tuple, tables: dict):
         try:
-            return make()
+            program = make()
         except Exception as exc:  # moderngl.Error carries the driver log
             raise ShaderError(_translate_log(str(exc), tables)) from None
+        _declared[program] = frozenset().union(*(uniform_names(source) for _, source in sources))
+        return program
 
     def count(self) -> int:
         """Programs this library holds (one per shader files and defines)."""
