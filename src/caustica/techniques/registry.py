@@ -54,7 +54,6 @@ def view_technique_names() -> tuple[str, ...]:
 def get_technique(name: str) -> Technique:
     """A technique by name; ``view+caustics`` composes a view technique with a caustic technique. A
     Technique instance (one built in code, e.g. a Composite) is returned as it is."""
-    techniques = registered()
     if isinstance(name, Technique):
         return name
     if not isinstance(name, str):
@@ -62,6 +61,7 @@ def get_technique(name: str) -> Technique:
                              "run 'caustica techniques' to list them")
     if "+" in name:
         return _composite(name)
+    techniques = registered()
     if name not in techniques:
         raise TechniqueError(
             f"unknown technique {short(name)}{closest_name(name, techniques)}; run 'caustica techniques' to list them"
