@@ -124,6 +124,9 @@ def test_shade_options_declare_and_check_the_options():
         surfaces.ShadeOptions(inputs=tuple(f"c{i}" for i in range(8)))
     with pytest.raises(ValueError, match="a free input unit"):
         surfaces.ShadeSurfaces(inputs=tuple(f"c{i}" for i in range(7)), deferred=("glass",))
+    with pytest.raises(ValueError, match="two free input units"):  # the refine flags would take shadow map 0's unit
+        surfaces.ShadeSurfaces(inputs=tuple(f"c{i}" for i in range(6)), deferred=("glass",), staged=("glass",))
+    assert surfaces.ShadeSurfaces(inputs=tuple(f"c{i}" for i in range(5)), deferred=("glass",), staged=("glass",)).staged == ("glass",)
     with pytest.raises(ValueError, match="captures_front_surface needs"):
         surfaces.ShadeSurfaces("passes/shading/depth_search.frag", captures_front_surface=True, deferred=("glass",))
     shade = surfaces.ShadeSurfaces(inputs=("front_surface", "back_surface"), deferred=("glass",),

@@ -83,16 +83,17 @@ class ShadeOptions:
     staged: tuple[str, ...] = ()  # deferred kinds resolved in two stages (passes/shading/deferred.py)
 
     def __post_init__(self):
-        max_inputs = MAX_INPUTS
-        if len(self.inputs) > max_inputs:
+        if len(self.inputs) > MAX_INPUTS:
             raise ValueError(f"ShadeSurfaces binds at most {MAX_INPUTS} input channels")
         self.defines = self.defines or {}
         self.inputs = tuple(self.inputs)
         self.objects = self.objects if self.objects is None or callable(self.objects) else frozenset(self.objects)
         self.background = bool(self.background)
         self.deferred, self.staged = tuple(self.deferred), tuple(self.staged)
-        if self.deferred and (self.vertex != "common/mesh_vertex.glsl" or len(self.inputs) + 1 > max_inputs):
+        if self.deferred and (self.vertex != "common/mesh_vertex.glsl" or len(self.inputs) + 1 > MAX_INPUTS):
             raise ValueError("deferred shading needs the shared vertex stage and a free input unit")
+        if self.staged and len(self.inputs) + 2 > MAX_INPUTS:  # the G-buffer, then the second stage's flags
+            raise ValueError("a two-stage resolve needs two free input units")
         self.captures_front_surface = bool(self.captures_front_surface)
         if self.captures_front_surface and ("front_surface" not in self.inputs or "glass" not in self.deferred):
             raise ValueError("captures_front_surface needs 'front_surface' among the inputs and glass deferred")
