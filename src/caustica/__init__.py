@@ -60,6 +60,7 @@ _LAZY = {
     "Glass": ".scene.materials",
     "Diffuse": ".scene.materials",
     "Mirror": ".scene.materials",
+    "Principled": ".scene.materials",
     "water": ".scene.materials",
     "PointLight": ".scene.lights",
     "DirectionalLight": ".scene.lights",

@@ -1,4 +1,5 @@
-"""Materials: diffuse receivers, mirrors, and dielectrics (glass, water)."""
+"""Materials: glTF 2.0's metallic-roughness model (:class:`Principled`) and its special cases, the papers'
+diffuse receivers, perfect mirrors and smooth dielectrics (glass, water)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -31,6 +32,11 @@ class Diffuse:
             rules.once_per_arrays(self, ("texture",),
                                   lambda: setattr(self, "texture", rules.texture(self.texture, "texture")))
 
+    def as_principled(self) -> "Principled":
+        """The same surface in the metallic-roughness model: a dielectric base with no specular layer."""
+        return Principled(base_color=self.color, base_color_texture=self.texture, metallic=0.0, roughness=1.0,
+                          specular=0.0)
+
 
 @dataclass
 class Mirror:
@@ -45,6 +51,10 @@ class Mirror:
     def validate(self) -> None:
         """Check and normalize the fields (the loader and Scene.validate share these rules)."""
         self.color = rules.rgb(self.color, "color", rules.MAX_COLOR)
+
+    def as_principled(self) -> "Principled":
+        """The same surface in the metallic-roughness model: a smooth metal whose F0 is ``color``."""
+        return Principled(base_color=self.color, metallic=1.0, roughness=0.0)
 
 
 INVISIBLE_TOLERANCE = 1e-6  # an IOR and a transmittance this close to 1 count as air's (Glass.invisible)
@@ -115,6 +125,181 @@ class Glass:
         lam_rgb = np.array([0.6100, 0.5500, 0.4650])
         return a + b / lam_rgb**2
 
+    def as_principled(self) -> "Principled":
+        """The same surface in the metallic-roughness model (KHR_materials_transmission, _ior, _volume and
+        _dispersion, whose dispersion is 20 / abbe)."""
+        clear = bool(np.all(self.absorption_color >= 1.0))
+        return Principled(base_color=np.ones(3), metallic=0.0, roughness=0.0, transmission=1.0, ior=self.ior,
+                          attenuation_color=self.absorption_color,
+                          attenuation_distance=None if clear else self.absorption_distance,
+                          dispersion=20.0 / self.abbe if self.abbe else 0.0, thickness=self.thickness)
+
+
+TRANSMISSION_GLASS = 0.5  # a Principled transmission from which the surface is drawn as glass
+MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.05  # a Principled metal this smooth is drawn as a perfect mirror
+DIELECTRIC_F0 = 0.04  # glTF's normal-incidence reflectance of a dielectric base (IOR 1.5), before specular
+
+
+@dataclass
+class Principled:
+    """glTF 2.0's metallic-roughness material with the extensions caustica draws (docs/materials.md).
+
+    ``base_color`` (linear RGB) times ``base_color_texture``; ``metallic`` and ``roughness`` (perceptual,
+    GGX alpha = roughness^2) times ``metallic_roughness_texture``'s blue and green channels;
+    ``normal_texture`` (tangent space, scaled by ``normal_scale``); ``occlusion_texture``'s red channel
+    (by ``occlusion_strength``); ``emission`` (W/sr/m^2 per unit, times ``emission_texture``);
+    KHR_materials_specular's ``specular`` and ``specular_color`` (the dielectric F0 = 0.04 scaled);
+    KHR_materials_transmission's ``transmission`` with KHR_materials_ior's ``ior``, _volume's
+    ``attenuation_color``/``attenuation_distance``/``thickness`` and _dispersion's ``dispersion``.
+    Textures are (H, W, 3) linear images in [0, 1] (row 0 at the top) looked up at the mesh's uvs.
+
+    ``kind`` is how the surface is drawn: ``"glass"`` from ``transmission`` >= 0.5, ``"mirror"`` for a
+    metal this smooth (metallic >= 0.9, roughness <= 0.05), else ``"diffuse"``: an opaque receiver, which
+    takes caustics, shadows and the environment bake on its diffuse part and shades its specular lobe with
+    GGX. :meth:`shorthand` gives the Diffuse, Mirror or Glass a surface is exactly, when it is one.
+    """
+
+    base_color: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
+    base_color_texture: np.ndarray | None = field(default=None, repr=False)
+    metallic: float = 0.0
+    roughness: float = 0.5
+    metallic_roughness_texture: np.ndarray | None = field(default=None, repr=False)
+    normal_texture: np.ndarray | None = field(default=None, repr=False)
+    normal_scale: float = 1.0
+    occlusion_texture: np.ndarray | None = field(default=None, repr=False)
+    occlusion_strength: float = 1.0
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emission_texture: np.ndarray | None = field(default=None, repr=False)
+    specular: float = 1.0
+    specular_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    transmission: float = 0.0
+    ior: float = 1.5
+    attenuation_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    attenuation_distance: float | None = None
+    thickness: float | None = None
+    dispersion: float = 0.0
+
+    TEXTURES = ("base_color_texture", "metallic_roughness_texture", "normal_texture", "occlusion_texture",
+                "emission_texture")
+
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        """Check and normalize the fields (the loader and Scene.validate share these rules)."""
+        self.base_color = rules.rgb(self.base_color, "base_color", 1.0)
+        self.metallic = rules.number(self.metallic, "metallic", 0.0, 1.0)
+        self.roughness = rules.number(self.roughness, "roughness", 0.0, 1.0)
+        self.normal_scale = rules.number(self.normal_scale, "normal_scale", -1e3, 1e3)
+        self.occlusion_strength = rules.number(self.occlusion_strength, "occlusion_strength", 0.0, 1.0)
+        self.emission = rules.rgb(self.emission, "emission", rules.MAX_INTENSITY)
+        self.specular = rules.number(self.specular, "specular", 0.0, 1.0)
+        self.specular_color = rules.rgb(self.specular_color, "specular_color", rules.MAX_COLOR)
+        self.transmission = rules.number(self.transmission, "transmission", 0.0, 1.0)
+        self.ior = rules.ior(self.ior)
+        self.attenuation_color = rules.rgb(self.attenuation_color, "attenuation_color", 1.0)
+        if self.attenuation_distance is not None:
+            self.attenuation_distance = rules.number(self.attenuation_distance, "attenuation_distance",
+                                                     rules.MIN_LENGTH, 1e12, hint=" scene units")
+        if self.thickness is not None:
+            self.thickness = rules.number(self.thickness, "thickness", 0.0, 1e12, hint=" scene units")
+        self.dispersion = rules.number(self.dispersion, "dispersion", 0.0, 1e6)
+        present = tuple(name for name in self.TEXTURES if getattr(self, name) is not None)
+        if present:  # read once per array, as meshes are (renders validate every frame)
+            rules.once_per_arrays(self, present, lambda: self._check_textures(present))
+
+    def _check_textures(self, names: tuple[str, ...]) -> None:
+        for name in names:
+            setattr(self, name, rules.texture(getattr(self, name), name))
+
+    @property
+    def kind(self) -> str:
+        if self.transmission >= TRANSMISSION_GLASS:
+            return "glass"
+        smooth = self.roughness <= MIRROR_ROUGHNESS and self.metallic_roughness_texture is None
+        if self.metallic >= MIRROR_METALLIC and smooth:
+            return "mirror"
+        return "diffuse"
+
+    @property
+    def textured(self) -> bool:
+        return any(getattr(self, name) is not None for name in self.TEXTURES)
+
+    @property
+    def glossy(self) -> bool:
+        """Whether the surface has a specular lobe to shade (a Diffuse shorthand has none)."""
+        return self.metallic > 0.0 or self.specular > 0.0 or self.metallic_roughness_texture is not None
+
+    @property
+    def f0(self) -> np.ndarray:
+        """Normal-incidence reflectance of the untextured surface: glTF's mix of the dielectric's
+        0.04 x specular_color x specular (capped at 1) and the metal's base colour."""
+        dielectric = np.minimum(DIELECTRIC_F0 * self.specular_color, 1.0) * self.specular
+        return (1.0 - self.metallic) * dielectric + self.metallic * self.base_color
+
+    @property
+    def diffuse_color(self) -> np.ndarray:
+        """The Lambertian albedo of the untextured base: the base colour of the dielectric share."""
+        return (1.0 - self.metallic) * self.base_color
+
+    # What the drawing roles read (Diffuse's, Mirror's and Glass's fields) ----------------
+
+    @property
+    def color(self) -> np.ndarray:
+        return self.base_color
+
+    @property
+    def texture(self) -> np.ndarray | None:
+        return self.base_color_texture
+
+    @property
+    def absorption_color(self) -> np.ndarray:
+        return self.as_glass().absorption_color
+
+    @property
+    def absorption_distance(self) -> float:
+        return self.as_glass().absorption_distance
+
+    @property
+    def abbe(self) -> float | None:
+        return self.as_glass().abbe
+
+    @property
+    def absorption_coefficient(self) -> np.ndarray:
+        return self.as_glass().absorption_coefficient
+
+    @property
+    def ior_rgb(self) -> np.ndarray:
+        return self.as_glass().ior_rgb
+
+    @property
+    def invisible(self) -> bool:
+        return self.as_glass().invisible
+
+    def as_glass(self) -> Glass:
+        """The smooth dielectric a ``"glass"`` surface is drawn as (roughness and base colour aside)."""
+        clear = self.attenuation_distance is None or bool(np.all(self.attenuation_color >= 1.0))
+        return Glass(ior=self.ior, absorption_color=np.ones(3) if clear else self.attenuation_color,
+                     absorption_distance=1.0 if clear else self.attenuation_distance,
+                     abbe=20.0 / self.dispersion if self.dispersion > 0 else None, thickness=self.thickness)
+
+    def shorthand(self) -> Diffuse | Mirror | Glass | None:
+        """The Diffuse, Mirror or Glass this surface is exactly, or None."""
+        untextured = all(getattr(self, name) is None for name in self.TEXTURES if name != "base_color_texture")
+        no_emission = not np.any(self.emission > 0)
+        if not (untextured and no_emission):
+            return None
+        if self.transmission == 1.0 and self.roughness == 0.0 and np.all(self.base_color >= 1.0) \
+                and self.base_color_texture is None:
+            return self.as_glass()
+        if self.transmission > 0.0:
+            return None
+        if self.metallic == 1.0 and self.roughness == 0.0 and self.base_color_texture is None:
+            return Mirror(color=self.base_color)
+        if self.metallic == 0.0 and self.specular == 0.0:
+            return Diffuse(color=self.base_color, texture=self.base_color_texture)
+        return None
+
 
 def water(**kwargs) -> Glass:
     """Water: glass with IOR 1.33."""
@@ -122,4 +307,4 @@ def water(**kwargs) -> Glass:
     return Glass(**kwargs)
 
 
-Material = Diffuse | Mirror | Glass
+Material = Diffuse | Mirror | Glass | Principled

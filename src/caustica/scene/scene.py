@@ -13,7 +13,7 @@ from . import rules
 from .camera import Camera
 from .environment import Environment, procedural_environment
 from .lights import DirectionalLight, Light, LineLight, PointLight, SpotLight
-from .materials import Diffuse, Glass, Material, Mirror
+from .materials import Diffuse, Glass, Material, Mirror, Principled
 from .mesh import Mesh
 from .transform import Transform
 
@@ -51,7 +51,8 @@ class SceneObject:
                 raise SceneError(f"name {_type_name(self.name)} must be a string")
             mesh = _part(self.mesh, (Mesh,), "mesh", "a caustica.scene.Mesh")
             rules.once_per_arrays(mesh, ("vertices", "normals", "faces"), mesh.validate)
-        _validated(self.material, (Glass, Diffuse, Mirror), f"{where}.material", "a Glass, Diffuse or Mirror")
+        _validated(self.material, (Glass, Diffuse, Mirror, Principled), f"{where}.material",
+                   "a Glass, Diffuse, Mirror or Principled")
         _validated(self.transform, (Transform,), f"{where}.transform", "a Transform")
         # The object's world box: the corners of its object-space box through world_from_object.
         corners = np.array(np.meshgrid(*self.mesh.bounds.T.astype(np.float64))).reshape(3, -1).T
