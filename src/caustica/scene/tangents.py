@@ -44,3 +44,19 @@ def vertex_tangents(vertices: np.ndarray, normals: np.ndarray, uvs: np.ndarray, 
     tangent = np.where(length > 1e-12, tangent / np.maximum(length, 1e-30), fallback)
     w = np.where(np.sum(np.cross(n, tangent) * -bitangent, axis=1) < 0.0, -1.0, 1.0)
     return np.ascontiguousarray(np.c_[tangent, w], dtype=np.float32)
+
+
+def mesh_tangents(mesh) -> np.ndarray | None:
+    """The mesh's tangent frames (N, 4): the file's own (``mesh.tangents``) where it has them, else generated
+    from its uvs and kept on the mesh for its vertices, normals, uvs and faces; None without uvs."""
+    given = getattr(mesh, "tangents", None)
+    if given is not None:
+        return given
+    if mesh.uvs is None:
+        return None
+    key = (id(mesh.vertices), id(mesh.normals), id(mesh.uvs), id(mesh.faces))
+    cached = getattr(mesh, "_generated_tangents", None)
+    if cached is None or cached[0] != key:
+        cached = (key, vertex_tangents(mesh.vertices, mesh.normals, mesh.uvs, mesh.faces))
+        mesh._generated_tangents = cached
+    return cached[1]
