@@ -54,9 +54,9 @@ def mesh_tangents(mesh) -> np.ndarray | None:
         return given
     if mesh.uvs is None:
         return None
-    key = (id(mesh.vertices), id(mesh.normals), id(mesh.uvs), id(mesh.faces))
+    key = (mesh.vertices, mesh.normals, mesh.uvs, mesh.faces)
     cached = getattr(mesh, "_generated_tangents", None)
-    if cached is None or cached[0] != key:
+    if cached is None or any(a is not b for a, b in zip(cached[0], key)):
         cached = (key, vertex_tangents(mesh.vertices, mesh.normals, mesh.uvs, mesh.faces))
         mesh._generated_tangents = cached
     return cached[1]
