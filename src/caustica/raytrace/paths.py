@@ -41,11 +41,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scene.codes import MATERIAL_CODES, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
+from ..lighting.microfacet import schlick
 from ..scene.lights import DirectionalLight, SpotLight
+from ..scene.materials import Principled
 from ..scene.mesh import Mesh
 from ..scene.textures import sample_texture, texture_of
+from . import principled as brdf
 from .embree_scene import RayScene, ray_scene_for
-from .environment_light import cosine_directions, rotated_pattern
+from .environment_light import cosine_directions, point_offsets, rotated_pattern
 from .optics import dot, fresnel_dielectric, normalize, reflect, refract
 
 BATCH_SIZE = 1 << 20
@@ -80,6 +83,11 @@ class Materials:
     sigma: np.ndarray  # (K,3) absorption coefficient, 0 for non-glass
     # object index -> (texture (H, W, 3), uvs of each world-mesh face's corners (M, 3, 2)): textured receivers
     textures: dict = field(default_factory=dict)
+    # (K+1,) bool: receivers shaded with the metallic-roughness BRDF (a Principled with a specular lobe)
+    glossy: np.ndarray | None = None
+    # object index -> principled.SurfaceTable: those, and the Principled receivers without a specular lobe
+    # whose normal map or emission the Lambertian shading reads
+    surfaces: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, scene) -> "Materials":
@@ -94,7 +102,15 @@ class Materials:
             if texture is not None:
                 world = obj.world_mesh()  # its faces are the ones hit (reversed under a mirroring transform)
                 textures[k] = (texture, world.uvs[world.faces])
-        return cls(kind, color, ior, sigma, textures)
+        glossy = np.zeros(len(mats) + 1, bool)
+        surfaces = {}
+        for k, obj in enumerate(scene.objects):
+            m = obj.material
+            if isinstance(m, Principled) and m.kind == "diffuse" and (
+                    m.glossy or m.normal_texture is not None or np.any(m.emission > 0)):
+                surfaces[k] = brdf.SurfaceTable.of(obj)
+                glossy[k] = m.glossy
+        return cls(kind, color, ior, sigma, textures, glossy, surfaces)
 
     def albedo(self, hits, where: np.ndarray) -> np.ndarray:
         """Diffuse albedo (n, 3) at the ``where`` hits: colour times the texture (scene/textures.py's
@@ -263,24 +279,10 @@ def cosine_gather(ray_scene, scene, position, normal, geometric_normal, sampling
     return out
 
 
-def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
-                  object_index=None, footprint=None, environment: EnvironmentSampling | None = None,
-                  materials=None, ior=None) -> np.ndarray:
-    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + the environment's
-    light, + the caustic irradiance of ``caustics``, a :class:`~caustica.raytrace.caustic_gather.CausticGather`,
-    on the objects ``object_index``, over at least the radii ``footprint``).
-
-    The environment's light is its unoccluded SH irradiance, or, with ``environment`` (an
-    :class:`EnvironmentSampling`; ``materials`` and the per-object ``ior`` of this pass trace its rays),
-    sampled with occlusion. ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
-    ``scene.intensity_scale``.
-    """
-    if environment is None:
-        irradiance = scene.environment.irradiance(normal).astype(np.float64)
-    else:
-        irradiance = np.zeros((len(position), 3))
-    if caustics is not None:
-        irradiance += caustics.irradiance(position, normal, object_index, footprint)
+def light_samples(ray_scene: RayScene, scene, position, normal, geometric_normal):
+    """The light of every point sample of every light at points with shading ``normal`` (facing the viewer),
+    shadowed (every object occludes): yields (lit (n,) bool, unit directions to the light at the lit points,
+    the irradiance there (m, 3): cos times the falloff times the intensity, before intensity_scale)."""
     shadow_origin = position + geometric_normal * ray_scene.epsilon
     for light in scene.lights:
         if isinstance(light, DirectionalLight):
@@ -304,7 +306,29 @@ def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal
             if not lit.any():
                 continue
             lit[lit] = ~ray_scene.occluded(shadow_origin[lit], to_light[lit], distance[lit] - ray_scene.epsilon)
-            irradiance[lit] += (cos * falloff)[lit, None] * intensity
+            yield lit, to_light[lit], (cos * falloff)[lit, None] * intensity
+
+
+def shade_diffuse(ray_scene: RayScene, scene, position, normal, geometric_normal, albedo, caustics=None,
+                  object_index=None, footprint=None, environment: EnvironmentSampling | None = None,
+                  materials=None, ior=None) -> np.ndarray:
+    """Radiance leaving Lambertian points: albedo / pi * (direct light with shadows + the environment's
+    light, + the caustic irradiance of ``caustics``, a :class:`~caustica.raytrace.caustic_gather.CausticGather`,
+    on the objects ``object_index``, over at least the radii ``footprint``).
+
+    The environment's light is its unoccluded SH irradiance, or, with ``environment`` (an
+    :class:`EnvironmentSampling`; ``materials`` and the per-object ``ior`` of this pass trace its rays),
+    sampled with occlusion. ``normal`` and ``geometric_normal`` face the viewer; all light is scaled by
+    ``scene.intensity_scale``.
+    """
+    if environment is None:
+        irradiance = scene.environment.irradiance(normal).astype(np.float64)
+    else:
+        irradiance = np.zeros((len(position), 3))
+    if caustics is not None:
+        irradiance += caustics.irradiance(position, normal, object_index, footprint)
+    for lit, _, received in light_samples(ray_scene, scene, position, normal, geometric_normal):
+        irradiance[lit] += received
     out = albedo / np.pi * irradiance * scene.intensity_scale
     if environment is not None:
         out += _environment_radiance(ray_scene, scene, position, normal, geometric_normal, albedo, environment,
@@ -363,8 +387,9 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
                  caustics=None, sample_angle: float = 0.0, environment: EnvironmentSampling | None = None,
                  escape=None, diffuse: bool = True, medium=None) -> np.ndarray:
     """The wavefront loop over one batch of primary rays and one IOR per object. Escaped rays read
-    ``escape`` (default: the scene's environment); ``diffuse`` False: diffuse hits bring nothing; ``medium``
-    (n,): the glass object each ray starts in, -1 air (the default)."""
+    ``escape`` (default: the scene's environment), those leaving a glossy surface whose environment's bright
+    part it sampled as a light read the rest; ``diffuse`` False: diffuse and glossy hits bring nothing;
+    ``medium`` (n,): the glass object each ray starts in, -1 air (the default)."""
     n = len(o)
     out = np.zeros((n, 3))
     pixel = np.arange(n)
@@ -372,8 +397,10 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
     # glass object the ray travels in, -1 for air
     medium = np.full(n, -1, np.int64) if medium is None else np.asarray(medium, np.int64).copy()
     travelled = np.zeros(n)  # path length from the eye (the footprint of caustic estimates)
+    reads_rest = np.zeros(n, bool)  # continues a glossy bounce whose bright environment was sampled as a light
     scale = scene.intensity_scale
     escape = scene.environment if escape is None else escape
+    bright = environment is not None and environment.bright_samples > 0 and environment.light.has_bright
     for depth in range(max_depth + 1):
         if len(pixel) == 0:
             break
@@ -386,52 +413,129 @@ def _trace_batch(ray_scene, scene, materials, ior, channel_weight, o, d, max_dep
         # Escaped rays read the environment.
         miss = ~hits.hit
         if miss.any():
-            _accumulate(out, pixel[miss], weight[miss] * escape.lookup(d[miss]) * scale)
+            seen = escape.lookup(d[miss])
+            rest = reads_rest[miss]
+            if rest.any():
+                seen[rest] = environment.light.rest.lookup(d[miss][rest])
+            _accumulate(out, pixel[miss], weight[miss] * seen * scale)
         kind = materials.kind[hits.object_index]
+        glossy = materials.glossy[hits.object_index] & diffuse
         # Diffuse surfaces: direct shading, end of the path.
-        on_diffuse = kind == MATERIAL_DIFFUSE
+        on_diffuse = (kind == MATERIAL_DIFFUSE) & ~materials.glossy[hits.object_index]
         if diffuse and on_diffuse.any():
-            _, ns, ng = facing(d[on_diffuse], hits.normal[on_diffuse], hits.geometric_normal[on_diffuse])
+            normal, emission = _mapped_receiver(materials, hits, on_diffuse)
+            _, ns, ng = facing(d[on_diffuse], normal, hits.geometric_normal[on_diffuse])
             albedo = materials.albedo(hits, on_diffuse)
             footprint = None if caustics is None else caustic_footprint(d[on_diffuse], ng, travelled[on_diffuse],
                                                                         sample_angle)
             radiance = shade_diffuse(ray_scene, scene, hits.position[on_diffuse], ns, ng, albedo, caustics,
                                      hits.object_index[on_diffuse], footprint, environment, materials, ior)
+            if emission is not None:
+                radiance += emission * scale
             _accumulate(out, pixel[on_diffuse], weight[on_diffuse] * radiance)
-        specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS)
+        # Glossy surfaces: direct shading, and the path goes on along a direction the BRDF samples.
+        if glossy.any():
+            surface = brdf.read_surface(materials.surfaces, hits, glossy, hits.normal[glossy])
+            _, ns_glossy, ng_glossy = facing(d[glossy], surface.normal, hits.geometric_normal[glossy])
+            footprint = None if caustics is None else caustic_footprint(d[glossy], ng_glossy, travelled[glossy],
+                                                                        sample_angle)
+            radiance = shade_glossy(ray_scene, scene, hits.position[glossy], -d[glossy], ns_glossy, ng_glossy,
+                                    surface, caustics, hits.object_index[glossy], footprint,
+                                    environment if bright else None)
+            _accumulate(out, pixel[glossy], weight[glossy] * radiance)
+        specular = (kind == MATERIAL_MIRROR) | (kind == MATERIAL_GLASS) | glossy
         if depth == max_depth:
             stats.by_depth_limit[depth + 1] += weight[specular].mean(axis=1).sum()
             break
-        # Spawn the children of mirror and glass hits.
-        children = []  # (pixel, origin, direction, weight, medium, travelled)
+        # Spawn the children of mirror, glass and glossy hits.
+        children = []  # (pixel, origin, direction, weight, medium, travelled, reads_rest)
         mirror = kind == MATERIAL_MIRROR
         if mirror.any():
             _, ns, ng = facing(d[mirror], hits.normal[mirror], hits.geometric_normal[mirror])
             color = materials.color[hits.object_index[mirror]]
             r = reflect_above(d[mirror], ns, ng)
             children.append((pixel[mirror], hits.position[mirror], r, weight[mirror] * color, medium[mirror],
-                             travelled[mirror]))
+                             travelled[mirror], reads_rest[mirror]))
         glass = kind == MATERIAL_GLASS
         if glass.any():
             obj = hits.object_index[glass]
             it = interface(d[glass], hits.normal[glass], hits.geometric_normal[glass], ior[obj])
             w, p, f = weight[glass], hits.position[glass], it.reflectance[:, None]
-            children.append((pixel[glass], p, it.reflected, w * f, medium[glass], travelled[glass]))
+            children.append((pixel[glass], p, it.reflected, w * f, medium[glass], travelled[glass],
+                             reads_rest[glass]))
             tr = ~it.tir
             new_medium = np.where(it.entering, obj, -1)[tr]
             children.append((pixel[glass][tr], p[tr], it.refracted[tr], (w * (1.0 - f))[tr], new_medium,
-                             travelled[glass][tr]))
+                             travelled[glass][tr], reads_rest[glass][tr]))
+        if glossy.any():
+            p = hits.position[glossy]
+            u = np.c_[point_offsets(p, salt=5), point_offsets(p, salt=6)[:, :1]]
+            direction, throughput = brdf.sample(surface, ns_glossy, -d[glossy], u)
+            throughput[dot(direction, ng_glossy) <= 0] = 0.0  # below the face: the surface is opaque
+            children.append((pixel[glossy], p, direction, weight[glossy] * throughput, medium[glossy],
+                             travelled[glossy], np.full(len(p), bright)))
         if not children:
             break
-        pixel, o, d, weight, medium, travelled = (np.concatenate(parts) for parts in zip(*children))
+        pixel, o, d, weight, medium, travelled, reads_rest = (np.concatenate(parts) for parts in zip(*children))
         # Drop faint branches.
         faint = weight.max(axis=1) < min_weight
         if faint.any():
             stats.by_min_weight[depth + 1] += weight[faint].mean(axis=1).sum()
             keep = ~faint
-            pixel, o, d, weight, medium, travelled = (pixel[keep], o[keep], d[keep], weight[keep], medium[keep],
-                                                      travelled[keep])
+            pixel, o, d, weight, medium, travelled, reads_rest = (
+                pixel[keep], o[keep], d[keep], weight[keep], medium[keep], travelled[keep], reads_rest[keep])
     return out
+
+
+def _mapped_receiver(materials, hits, where):
+    """The interpolated normals (n, 3) of the ``where`` diffuse hits, normal-mapped on Principled receivers
+    without a specular lobe, and their emission (n, 3; None where no hit emits)."""
+    normal = hits.normal[where]
+    if not materials.surfaces:
+        return normal, None
+    index = hits.object_index[where]
+    mapped = np.isin(index, list(materials.surfaces))
+    if not mapped.any():
+        return normal, None
+    rows = np.zeros(len(hits.hit), bool)
+    rows[np.flatnonzero(where)[mapped]] = True
+    surface = brdf.read_surface(materials.surfaces, hits, rows, normal[mapped])
+    normal = normal.copy()
+    normal[mapped] = surface.normal
+    emission = np.zeros((len(normal), 3))
+    emission[mapped] = surface.emission
+    return normal, emission
+
+
+def shade_glossy(ray_scene: RayScene, scene, position, view, normal, geometric_normal, surface, caustics=None,
+                 object_index=None, footprint=None, environment: EnvironmentSampling | None = None) -> np.ndarray:
+    """Radiance (n, 3) leaving points of a metallic-roughness surface (:mod:`caustica.raytrace.principled`)
+    towards ``view`` before the sampled bounce: its emission, the BRDF times the light of every light
+    (shadowed), the caustic irradiance of ``caustics`` times its diffuse part (at the half vector of the
+    normal), and with ``environment`` the BRDF times its bright part (``bright_samples`` shadow rays;
+    the bounce then reads the rest). ``normal`` and ``geometric_normal`` face the viewer; times
+    ``scene.intensity_scale``."""
+    out = surface.emission.copy()
+    for lit, to_light, received in light_samples(ray_scene, scene, position, normal, geometric_normal):
+        out[lit] += brdf.evaluate(surface.rows(lit), normal[lit], view[lit], to_light) * received
+    if caustics is not None:
+        fresnel = schlick(surface.f0_dielectric, dot(normal, view)[:, None])
+        out += surface.diffuse_color / np.pi * (1.0 - fresnel) * caustics.irradiance(position, normal, object_index,
+                                                                                    footprint)
+    if environment is not None:
+        k = environment.bright_samples
+        light = environment.light
+        d, radiance, pdf = light.sample_bright(rotated_pattern(position, k, salt=2))
+        d, radiance, pdf = d.reshape(-1, 3), radiance.reshape(-1, 3), pdf.reshape(-1)
+        at = np.repeat(np.arange(len(position)), k)
+        lit = (dot(d, normal[at]) > 0) & (dot(d, geometric_normal[at]) > 0)
+        origin = position + geometric_normal * ray_scene.epsilon
+        lit[lit] = ~ray_scene.occluded(origin[at[lit]], d[lit], np.inf)
+        f = brdf.evaluate(surface.rows(at[lit]), normal[at[lit]], view[at[lit]], d[lit])
+        contribution = np.zeros((len(d), 3))
+        contribution[lit] = f * (dot(d[lit], normal[at[lit]]) / pdf[lit])[:, None] * radiance[lit]
+        out += contribution.reshape(-1, k, 3).mean(axis=1)
+    return out * scene.intensity_scale
 
 
 @dataclass

@@ -72,6 +72,7 @@ import numpy as np
 from ..cache import atomic_write_bytes
 from ..errors import OutputError
 from ..raytrace.embree_scene import world_sphere
+from ..scene.materials import DIELECTRIC_F0
 from ..scene.mesh import Mesh
 from ..scene.transform import look_at_view_from_world, up_hint
 
@@ -177,8 +178,58 @@ def _diffuse_reflectance(material, mesh: Mesh):
     return {"type": "bitmap", "bitmap": Bitmap(image, "texture"), "filter_type": "bilinear", "wrap_mode": "repeat"}
 
 
+PRINCIPLED_F0_PER_SPECULAR = 0.08  # Mitsuba's principled: a dielectric's F0 is 0.08 times its ``specular``
+
+
+def _texture_or_value(texture, value, mesh: Mesh, raw: bool = False, channel: int | None = None):
+    """A Principled factor ``value`` (a number or an RGB) times ``texture`` (one of its channels, repeated in
+    all three, where ``channel`` is given) as a Mitsuba value or bitmap; the value alone without a texture
+    or uvs. ``raw``: data, not colour (Mitsuba reads it unchanged)."""
+    if texture is None or mesh.uvs is None:
+        return float(value) if np.ndim(value) == 0 else _rgb(value)
+    image = np.asarray(texture, dtype=np.float32)
+    if channel is not None:
+        image = np.repeat(image[..., channel:channel + 1], 3, axis=2)
+    image = image * np.asarray(value, dtype=np.float32)
+    bitmap = {"type": "bitmap", "bitmap": Bitmap(np.ascontiguousarray(image), "texture"), "filter_type": "bilinear",
+              "wrap_mode": "repeat"}
+    return bitmap | ({"raw": True} if raw else {})
+
+
+def principled_bsdf(material, mesh: Mesh) -> dict:
+    """A glossy Principled as Mitsuba's ``principled`` (the module docstring), twosided, in its normal map."""
+    f0_dielectric = float(np.minimum(DIELECTRIC_F0 * np.asarray(material.specular_color), 1.0).mean()
+                          * material.specular)
+    bsdf = {"type": "principled",
+            "base_color": _texture_or_value(material.base_color_texture, material.base_color, mesh),
+            "roughness": _texture_or_value(material.metallic_roughness_texture, material.roughness, mesh,
+                                           raw=True, channel=1),
+            "metallic": _texture_or_value(material.metallic_roughness_texture, material.metallic, mesh,
+                                          raw=True, channel=2),
+            "specular": f0_dielectric / PRINCIPLED_F0_PER_SPECULAR}
+    if material.normal_texture is not None and mesh.uvs is not None:
+        bsdf = {"type": "normalmap", "bsdf": bsdf,
+                "normalmap": _texture_or_value(material.normal_texture, np.ones(3), mesh, raw=True)}
+    return {"type": "twosided", "bsdf": bsdf}
+
+
+def emitter_of(material, mesh: Mesh, scale: float) -> dict | None:
+    """The ``area`` emitter of a Principled's emission (times ``scale``), or None where it emits nothing."""
+    emission = np.asarray(getattr(material, "emission", np.zeros(3)), np.float64)
+    if not np.any(emission > 0):
+        return None
+    return {"type": "area", "radiance": _texture_or_value(getattr(material, "emission_texture", None),
+                                                          emission * scale, mesh)}
+
+
 def _material(material, channel: int | None, mesh: Mesh) -> tuple[dict, dict | None]:
     """(bsdf dict, interior medium dict or None) for one of our materials on ``mesh``."""
+    if material.kind == "diffuse" and getattr(material, "glossy", False):
+        return principled_bsdf(material, mesh), None
+    if material.kind == "diffuse" and getattr(material, "normal_texture", None) is not None and mesh.uvs is not None:
+        return {"type": "twosided", "bsdf": {"type": "normalmap", "normalmap": _texture_or_value(
+            material.normal_texture, np.ones(3), mesh, raw=True), "bsdf": {
+                "type": "diffuse", "reflectance": _diffuse_reflectance(material, mesh)}}}, None
     if material.kind == "diffuse":
         return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": _diffuse_reflectance(material, mesh)}}, None
     if material.kind == "mirror":
@@ -315,6 +366,9 @@ def scene_description(
                 "face_normals": False,
             }
         shape["bsdf"] = bsdf
+        emitter = emitter_of(obj.material, obj.mesh, scene.intensity_scale) if emitters != "environment" else None
+        if emitter is not None:
+            shape["emitter"] = emitter
         if medium is not None:
             shape["interior"] = medium
         result[f"object{i}"] = shape
@@ -359,6 +413,7 @@ _TAGS = {
     "independent": "sampler", "hdrfilm": "film", "box": "rfilter", "envmap": "emitter", "point": "emitter",
     "directional": "emitter", "spot": "emitter", "ply": "shape", "sphere": "shape", "twosided": "bsdf",
     "diffuse": "bsdf", "conductor": "bsdf", "dielectric": "bsdf", "homogeneous": "medium", "bitmap": "texture",
+    "principled": "bsdf", "normalmap": "bsdf", "area": "emitter",
 }
 _VECTORS = ("direction",)  # three numbers that are a direction (<vector>); the others are points
 _FILES = re.compile(r"(mesh|environment|texture)-[0-9a-f]{16}\.(ply|exr)")
