@@ -37,27 +37,16 @@ BLENDER_SCRIPT = r'''
 import json, sys, time
 import bpy
 
-glb, env, out, width, height, spps, repeats, threads = sys.argv[-8:]
+glb, env, out, width, height, spps, repeats, threads, settings_dir = sys.argv[-9:]
+sys.path.insert(0, settings_dir)
+from cycles_reference import configure  # the product shots' Cycles settings: one place for both
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.ops.import_scene.gltf(filepath=glb)
 scene = bpy.context.scene
 scene.camera = next(o for o in scene.objects if o.type == "CAMERA")
-scene.render.engine = "CYCLES"
-scene.cycles.device = "CPU"
-scene.render.threads_mode, scene.render.threads = "FIXED", int(threads)
+configure(scene, 1, int(threads))
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = int(width), int(height), 100
 c = scene.cycles
-c.use_denoising = False
-c.use_adaptive_sampling = False
-c.pixel_filter_type, c.filter_width = "BOX", 1.0
-c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-c.blur_glossy = 0.0
-c.max_bounces = c.transmission_bounces = c.glossy_bounces = c.transparent_max_bounces = 16
-c.diffuse_bounces = 4
-c.caustics_reflective = c.caustics_refractive = True
-scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
-scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
-scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
 for material in bpy.data.materials:  # the importer's glass: keep it a smooth dielectric
     bsdf = material.node_tree and material.node_tree.nodes.get("Principled BSDF")
     if bsdf is not None and bsdf.inputs["Transmission Weight"].default_value > 0.5:
@@ -115,7 +104,8 @@ def main() -> None:
     script = folder / "render.py"
     script.write_text(BLENDER_SCRIPT)
     subprocess.run([args.blender_python, str(script), str(folder / "scene.glb"), str(folder / "env.exr"), str(folder),
-                    str(size[0]), str(size[1]), args.spp, str(args.repeats), str(args.threads)], check=True)
+                    str(size[0]), str(size[1]), args.spp, str(args.repeats), str(args.threads),
+                    str(Path(__file__).resolve().parent / "product_shots")], check=True)
     cycles = json.loads((folder / "times.json").read_text())
     reference = render_reference(scene, size=size, spp=args.reference_spp, progress=False, analytic_spheres=False)
     with caustica.Renderer(size) as renderer:
