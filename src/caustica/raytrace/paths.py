@@ -31,6 +31,12 @@ Conventions and limits:
   technique does so by default). The rest of the environment reaches them through glass along the
   cosine rays.
 
+A receiver with glTF's metallic-roughness specular lobe (a Principled, :mod:`caustica.raytrace.principled`)
+is shaded with its BRDF: every light and the environment's bright part evaluated through it (shadow rays),
+the caustic photons through its diffuse part, and the path goes on along one direction its BRDF samples (the
+rest of the environment and the other objects seen in the glossy reflection), so that it converges with the
+samples per pixel.
+
 :func:`exit_directions` follows only the refracted branch (the angular-error
 oracle), and :func:`distance_along_negative_normal` computes Wyman's d_N.
 """

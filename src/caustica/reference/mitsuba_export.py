@@ -44,6 +44,13 @@ What maps to what (every radiometric value times ``scene.intensity_scale``):
   integrator: :func:`scene_to_mitsuba` switches ``path`` to ``volpath`` then.
   ``ptracer`` ignores media, so light-traced caustics through absorbing
   glass are not attenuated (a stated limit of the reference).
+- Principled with a specular lobe (drawn as an opaque receiver): ``twosided`` ``principled`` with
+  ``base_color``, ``roughness`` (Mitsuba's alpha is roughness^2, as glTF's), ``metallic`` (bitmaps of the
+  base colour and of the metallic-roughness map's green and blue channels) and ``specular`` = the
+  dielectric F0 / 0.08; inside a ``normalmap`` where it has a normal map (Mitsuba's frame: +u, and
+  cross(n, +u), which is glTF's bitangent for w = +1). Both use GGX and Schlick's Fresnel; Mitsuba's
+  diffuse lobe is Disney's, not glTF's Lambertian less Fresnel (measured: a glossy plastic floor about
+  3 % brighter). Emission: an ``area`` emitter with the lights.
 - Dispersion (a glass with differing ``ior_rgb``): pass ``channel`` = 0, 1 or 2
   to export every glass with that channel's IOR; the reference renders the
   three and keeps one channel of each (:mod:`caustica.reference.render`).
