@@ -20,6 +20,7 @@ from caustica.errors import MeshError, OutputError, SceneError
 from caustica.images import srgb_to_linear
 from caustica.metrics import psnr_linear
 from caustica.scene import DirectionalLight, Diffuse, Glass, Mirror, PointLight, SpotLight
+from caustica.scene.materials import Principled
 from caustica.scene.gltf.matrices import euler_degrees_from_rotation, matrix_from_quaternion, quaternion_from_matrix
 from caustica.scene.io import export_scene, load_scene
 from caustica.scene.shapes import box, plane, sphere
@@ -59,6 +60,10 @@ class Doc:
         return len(self.gltf.meshes) - 1
 
     def material(self, base=(1, 1, 1, 1), metallic=0.0, roughness=1.0, extensions=None, **fields) -> int:
+        """A material; ``lambertian=True`` adds KHR_materials_specular's specularFactor 0, without which
+        glTF's dielectric has a specular layer (F0 0.04): the glTF twin of a TOML diffuse."""
+        if fields.pop("lambertian", False):
+            extensions = {**(extensions or {}), "KHR_materials_specular": {"specularFactor": 0.0}}
         pbr = g.PbrMetallicRoughness(baseColorFactor=list(base), metallicFactor=metallic, roughnessFactor=roughness)
         for key, value in fields.pop("pbr", {}).items():
             setattr(pbr, key, value)
@@ -174,7 +179,7 @@ material = { type = "mirror", color = [0.9, 0.9, 0.8] }
 
 def twin_gltf(path: Path) -> Path:
     doc = Doc()
-    floor = doc.material(base=(0.7, 0.6, 0.5, 1.0))
+    floor = doc.material(base=(0.7, 0.6, 0.5, 1.0), lambertian=True)
     glass = doc.material(metallic=0.0, roughness=0.0, extensions={"KHR_materials_transmission": {"transmissionFactor": 1.0},
                                                                   "KHR_materials_ior": {"ior": 1.5}})
     mirror = doc.material(base=(0.9, 0.9, 0.8, 1.0), metallic=1.0, roughness=0.0)
@@ -224,7 +229,8 @@ def test_textured_floor_matches_its_toml_twin(tmp_path, technique):
     floor = plane((4.0, 4.0))
     doc = Doc()
     texture = doc.image(codes)
-    material = doc.material(base=(0.9, 0.8, 0.7, 1), pbr={"baseColorTexture": g.TextureInfo(index=texture)})
+    material = doc.material(base=(0.9, 0.8, 0.7, 1), pbr={"baseColorTexture": g.TextureInfo(index=texture)},
+                            lambertian=True)
     doc.node(mesh=doc.mesh(floor, material, uvs=floor.uvs), name="floor")
     doc.light({"type": "point", "intensity": 10 * 683.0}, translation=[1, 3, 2])
     doc.camera(translation=[0, 1, 4], rotation=quaternion_x(CAMERA_PITCH))
@@ -316,7 +322,8 @@ def test_blender_style_glass_renders_as_glass(tmp_path):
     glass = doc.material(base=(1, 1, 1, 1), metallic=0.0, roughness=0.3, name="Glass", doubleSided=False,
                          extensions={"KHR_materials_transmission": {"transmissionFactor": 1.0},
                                      "KHR_materials_ior": {"ior": 1.45}})
-    floor = doc.material(base=(0.8, 0.8, 0.8, 1), metallic=0.0, roughness=0.5, name="Floor")
+    # A Lambertian floor (no specular layer): exact's glossy floor would be sampled, and its noise hide the ball.
+    floor = doc.material(base=(0.8, 0.8, 0.8, 1), metallic=0.0, roughness=0.5, name="Floor", lambertian=True)
     ball = sphere(0.5, 3)
     ball.analytic_sphere = None  # the file holds triangles only; so does the scene built to compare
     doc.node(mesh=doc.mesh(ball, glass, name="Sphere"), name="Sphere", translation=[0, 0.5, 0])
@@ -325,21 +332,26 @@ def test_blender_style_glass_renders_as_glass(tmp_path):
     doc.camera(translation=[0, 1, 4], rotation=quaternion_x(CAMERA_PITCH), name="Camera")
     with pytest.warns(UserWarning, match=r"roughness on glass.*'Sphere'"):
         scene = load_scene(doc.save(tmp_path / "blender.glb"))
-    material = {o.name: o.material for o in scene.objects}["Sphere"]
-    assert isinstance(material, Glass) and material.ior == pytest.approx(1.45)
+    materials = {o.name: o.material for o in scene.objects}
+    material = materials["Sphere"]
+    assert material.kind == "glass" and material.roughness == pytest.approx(0.3)
+    assert material.ior == pytest.approx(1.45)
     renderer = caustica.Renderer(SIZE)
     image = render(renderer, scene, "exact")
     built = caustica.scene.Scene(camera=scene.camera, lights=scene.lights, objects=[
         caustica.scene.SceneObject("ball", ball, Glass(ior=1.45), caustica.scene.Transform(position=[0, 0.5, 0])),
         caustica.scene.SceneObject("floor", plane((4, 4)), Diffuse([0.8] * 3))])
+    assert isinstance(materials["Plane"], Diffuse)
     assert psnr_linear(image, render(renderer, built, "exact")) > 50.0
     built.objects[0].material = Diffuse()
     assert psnr_linear(image, render(renderer, built, "exact")) < 25.0
 
 
-def test_materials_map_to_diffuse_mirror_and_glass(tmp_path):
-    """Base colour and texture (sRGB PNG to linear, TEXCOORD_0 kept), a mirror from metallic >= 0.9 and
-    roughness <= 0.05, glass with KHR_materials_ior, _volume and _dispersion (V_d = 20 / dispersion)."""
+def test_materials_map_to_principled_and_its_shorthands(tmp_path):
+    """Base colour and texture (sRGB PNG to linear, TEXCOORD_0 kept) on glTF's dielectric, which has a
+    specular layer (a glossy Principled, not a Diffuse); a smooth metal drawn as a mirror; rough metal drawn
+    as itself (no warning); glass with KHR_materials_ior, _volume and _dispersion (V_d = 20 / dispersion);
+    exactly clear smooth glass is the Glass shorthand."""
     doc = Doc()
     codes = np.array([[[188, 0, 255], [0, 0, 0]], [[255, 255, 255], [64, 128, 32]]], np.uint8)
     textured = doc.material(base=(0.5, 1, 1, 1), pbr={"baseColorTexture": g.TextureInfo(index=doc.image(codes))})
@@ -357,22 +369,28 @@ def test_materials_map_to_diffuse_mirror_and_glass(tmp_path):
     for name, material in (("floor", textured), ("mirror", mirror), ("metal", rough_metal), ("amber", amber),
                            ("clear", clear)):
         doc.node(mesh=doc.mesh(quad, material, uvs=uvs if name == "floor" else None), name=name)
-    with pytest.warns(UserWarning, match=r"rough metal.*'metal'"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing here is left undrawn
         objects = {o.name: o for o in load_scene(doc.save(tmp_path / "materials.glb")).objects}
     floor = objects["floor"].material
-    assert isinstance(floor, Diffuse)
-    np.testing.assert_allclose(floor.color, [0.5, 1, 1])
-    np.testing.assert_allclose(floor.texture, srgb_to_linear(codes / 255.0), atol=1e-6)
+    assert isinstance(floor, Principled) and floor.kind == "diffuse" and floor.glossy
+    assert (floor.metallic, floor.roughness, floor.specular) == (0.0, 1.0, 1.0)
+    np.testing.assert_allclose(floor.base_color, [0.5, 1, 1])
+    np.testing.assert_allclose(floor.base_color_texture, srgb_to_linear(codes / 255.0), atol=1e-6)
     np.testing.assert_allclose(objects["floor"].mesh.uvs, uvs)
-    assert isinstance(objects["mirror"].material, Mirror)
-    np.testing.assert_allclose(objects["mirror"].material.color, [0.9, 0.8, 0.7])
-    assert isinstance(objects["metal"].material, Diffuse)
+    mirror = objects["mirror"].material
+    assert mirror.kind == "mirror" and (mirror.metallic, mirror.roughness) == (0.95, 0.02)
+    np.testing.assert_allclose(mirror.color, [0.9, 0.8, 0.7])
+    metal = objects["metal"].material
+    assert isinstance(metal, Principled) and metal.kind == "diffuse" and (metal.metallic, metal.roughness) == (1, 0.5)
+    np.testing.assert_allclose(metal.f0, [0.9, 0.8, 0.7])
     amber = objects["amber"].material
-    assert isinstance(amber, Glass) and amber.ior == pytest.approx(1.6) and amber.abbe == pytest.approx(40.0)
+    assert amber.kind == "glass" and amber.transmission == 0.9
+    assert amber.ior == pytest.approx(1.6) and amber.abbe == pytest.approx(40.0)
     np.testing.assert_allclose(amber.absorption_color, [0.9, 0.6, 0.2])
     assert amber.absorption_distance == pytest.approx(0.5) and amber.thickness == pytest.approx(0.4)
     clear = objects["clear"].material
-    assert clear.ior == 1.5 and clear.abbe is None and clear.thickness is None
+    assert isinstance(clear, Glass) and clear.ior == 1.5 and clear.abbe is None and clear.thickness is None
     np.testing.assert_allclose(clear.absorption_color, 1.0)
 
 

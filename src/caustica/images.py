@@ -150,8 +150,9 @@ def _library_messages():
             lines.extend(line for line in text.splitlines() if line.strip())
 
 
-def decode_8bit(source) -> np.ndarray:
-    """PNG/JPEG (a path or a binary file object) through Pillow, decoded from sRGB to linear."""
+def decode_8bit(source, srgb: bool = True) -> np.ndarray:
+    """PNG/JPEG (a path or a binary file object) through Pillow, decoded from sRGB to linear (``srgb``), else
+    its codes scaled to [0, 1] (data such as normal or roughness maps)."""
     from PIL import Image
 
     with Image.open(source) as img:
@@ -161,7 +162,7 @@ def decode_8bit(source) -> np.ndarray:
             encoded = np.repeat(gray[..., None], 3, axis=-1)
         else:
             encoded = np.asarray(img.convert("RGB"), dtype=np.float64) / 255.0
-    return srgb_to_linear(encoded).astype(np.float32)
+    return (srgb_to_linear(encoded) if srgb else encoded).astype(np.float32)
 
 
 _RESOLUTION = re.compile(rb"^([-+])Y\s+(\d+)\s+\+X\s+(\d+)\s*$")

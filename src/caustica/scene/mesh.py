@@ -23,7 +23,9 @@ class Mesh:
     ``vertices`` (N,3) float32, ``normals`` (N,3) float32 unit length (smooth: the
     exact oracle interpolates them), ``faces`` (M,3) int32 counter-clockwise seen
     from outside, ``uvs`` (N,2) float32 texture coordinates or None (glTF's TEXCOORD_0
-    convention: (0, 0) is the image's top-left corner).
+    convention: (0, 0) is the image's top-left corner), ``tangents`` (N,4) float32 or None: a file's own
+    tangent frames for normal maps (glTF's TANGENT: unit xyz along +u, w = +-1 the handedness;
+    scene/tangents.py generates them from the uvs where the file has none).
     """
 
     vertices: np.ndarray
@@ -34,6 +36,7 @@ class Mesh:
     # the exact oracle then intersects the true sphere (raytrace/embree_scene.py).
     analytic_sphere: tuple | None = None
     uvs: np.ndarray | None = None
+    tangents: np.ndarray | None = None
     _hash: str | None = field(default=None, repr=False, compare=False)
     _bounds: np.ndarray | None = field(default=None, repr=False, compare=False)
     _open: bool | None = field(default=None, repr=False, compare=False)
@@ -67,6 +70,8 @@ class Mesh:
                 raise MeshError(f"{label} has {short(uvs.shape)} texture coordinates for {len(vertices)} vertices; "
                                 "give one finite (u, v) per vertex or none")
             self.uvs = np.ascontiguousarray(uvs, dtype=np.float32)
+        if self.tangents is not None:
+            self.tangents = _checked_tangents(self.tangents, len(vertices), label)
         self._bounds = bounds.astype(np.float32)
 
     @property
@@ -87,6 +92,9 @@ class Mesh:
             if self.uvs is not None:  # a textured mesh is drawn with its uvs (GPU meshes are kept by this hash)
                 h.update(b"uvs")
                 h.update(self.uvs.tobytes())
+            if self.tangents is not None:  # a file's own tangent frames shade its normal maps
+                h.update(b"tangents")
+                h.update(self.tangents.tobytes())
             self._hash = h.hexdigest()[:16]
         return self._hash
 
@@ -364,8 +372,33 @@ class Mesh:
         v = self.vertices @ m[:3, :3].T + m[:3, 3]
         n = self.normals @ normal_matrix(m).T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
-        faces = self.faces if np.linalg.det(m[:3, :3]) > 0 else self.faces[:, ::-1]
-        return Mesh(v, n, faces, name=self.name, uvs=self.uvs)
+        mirrored = np.linalg.det(m[:3, :3]) < 0
+        faces = self.faces[:, ::-1] if mirrored else self.faces
+        tangents = None
+        if self.tangents is not None:  # along the surface: by the matrix itself, then square to the new normal
+            t = self.tangents[:, :3] @ m[:3, :3].T
+            t -= n * np.sum(n * t, axis=1, keepdims=True)
+            t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-20)
+            tangents = np.c_[t, -self.tangents[:, 3] if mirrored else self.tangents[:, 3]]
+        return Mesh(v, n, faces, name=self.name, uvs=self.uvs, tangents=tangents)
+
+
+TANGENT_HANDEDNESS_TOLERANCE = 1e-3  # a tangent's w must be +-1 within this (quantized files round it)
+
+
+def _checked_tangents(value, count: int, label: str) -> np.ndarray:
+    """(N, 4) float32 tangents: ``count`` finite rows whose w is +-1 (within the tolerance; stored as exactly
+    +-1); MeshError otherwise."""
+    tangents = _numeric(value, label, "tangents")
+    if tangents.shape != (count, 4) or not np.all(np.isfinite(tangents)) \
+            or not np.all(np.abs(np.abs(tangents[:, 3]) - 1.0) <= TANGENT_HANDEDNESS_TOLERANCE):
+        raise MeshError(f"{label} has invalid tangents (shape {short(tangents.shape)} for {count} vertices; each "
+                        "must be four finite numbers with w = +1 or -1); drop them so caustica generates them")
+    if tangents.dtype == np.float32 and np.all(np.abs(tangents[:, 3]) == 1.0):
+        return np.ascontiguousarray(tangents)  # already checked: kept as the very array
+    tangents = np.array(tangents, dtype=np.float32)
+    tangents[:, 3] = np.where(tangents[:, 3] < 0, -1.0, 1.0)
+    return tangents
 
 
 def quadric_excess(quadrics: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -39,8 +39,9 @@ def procedural_texture(name: str) -> np.ndarray:
     return PROCEDURAL_TEXTURES[name]()
 
 
-def load_texture(path: str | Path, name: str = "texture") -> np.ndarray:
-    """A PNG or JPEG file as a texture: sRGB decoded to linear RGB in [0, 1], (H, W, 3) float32.
+def load_texture(path: str | Path, name: str = "texture", srgb: bool = True) -> np.ndarray:
+    """A PNG or JPEG file as a texture: sRGB decoded to linear RGB in [0, 1], (H, W, 3) float32 (``srgb``
+    False: its codes scaled to [0, 1], for data textures: metallic-roughness, normal and occlusion maps).
 
     SceneError (one line, naming ``name`` and the file) when the file is missing, not PNG/JPEG,
     unreadable, or larger than MAX_TEXTURE_PIXELS or rules.MAX_IMAGE_SIZE a side (read from its
@@ -50,16 +51,16 @@ def load_texture(path: str | Path, name: str = "texture") -> np.ndarray:
         raise SceneError(f"{name} {path} is not a PNG or JPEG file; give one of {', '.join(TEXTURE_SUFFIXES)}")
     if not path.is_file():
         raise SceneError(f"{name} file not found: {path}; check the path (relative to the scene file)")
-    return _decoded(path, f"{name} {path}", name)
+    return _decoded(path, f"{name} {path}", name, srgb)
 
 
-def decode_texture(data: bytes, label: str, name: str = "texture") -> np.ndarray:
+def decode_texture(data: bytes, label: str, name: str = "texture", srgb: bool = True) -> np.ndarray:
     """PNG or JPEG bytes (e.g. an image embedded in a glTF file) as :func:`load_texture` gives them;
     ``label`` names the image in errors."""
-    return _decoded(io.BytesIO(bytes(data)), label, name)
+    return _decoded(io.BytesIO(bytes(data)), label, name, srgb)
 
 
-def _decoded(source, label: str, name: str) -> np.ndarray:
+def _decoded(source, label: str, name: str, srgb: bool = True) -> np.ndarray:
     """The image at ``source`` (a path or a binary file), its size checked from the header first."""
     from PIL import Image
 
@@ -82,7 +83,7 @@ def _decoded(source, label: str, name: str) -> np.ndarray:
     if hasattr(source, "seek"):
         source.seek(0)
     try:
-        image = decode_8bit(source)
+        image = decode_8bit(source, srgb)
     except Exception as exc:  # a truncated file fails only when decoded
         raise SceneError(f"cannot read {label}: {first_line(exc)}; give a valid PNG or JPEG image") from None
     return rules.texture(np.clip(image, 0.0, 1.0), name)

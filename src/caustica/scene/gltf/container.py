@@ -215,9 +215,10 @@ class GltfFile:
 
     # Images -----------------------------------------------------------------------
 
-    def image(self, index, where: str) -> np.ndarray:
+    def image(self, index, where: str, srgb: bool = True) -> np.ndarray:
         """Image ``index`` (PNG or JPEG, from a URI or a bufferView) as a texture: (H, W, 3) float32 linear
-        RGB decoded from sRGB, its size checked from the header before decoding (scene/textures.py)."""
+        RGB decoded from sRGB (``srgb`` False: the codes scaled to [0, 1], for data textures), its size
+        checked from the header before decoding (scene/textures.py)."""
         entry = self.item("images", index, where)
         here = f"images[{index}]"
         if "uri" in entry:
@@ -231,7 +232,7 @@ class GltfFile:
         uri = entry.get("uri")
         label = f"{self.path.name}: {here}" + (f" ({short(uri, 40)})" if isinstance(uri, str)
                                                   and not uri.startswith("data:") else "")
-        return decode_texture(data, label, f"{here} texture")
+        return decode_texture(data, label, f"{here} texture", srgb)
 
 
 def _json_finite(value) -> bool:

@@ -1,10 +1,10 @@
 """glTF 2.0 document to caustica objects, lights and cameras (the mapping is in docs/gltf.md).
 
-One :class:`SceneObject` per triangle primitive, placed by the node hierarchy; materials become
-Diffuse (base colour and texture), Mirror (metallic >= 0.9, roughness <= 0.05) or Glass
-(KHR_materials_transmission >= 0.5, with KHR_materials_ior, _volume and _dispersion);
-KHR_lights_punctual lights and perspective cameras keep their node's place. What caustica does not
-render is collected and reported once, as one warning naming the nodes.
+One :class:`SceneObject` per triangle primitive (TANGENT kept as ``Mesh.tangents``), placed by the node
+hierarchy; materials become :class:`Principled` (glTF 2.0's metallic-roughness with its textures,
+KHR_materials_specular, _emissive_strength, _transmission, _ior, _volume and _dispersion), or the Diffuse,
+Mirror or Glass a material is exactly; KHR_lights_punctual lights and perspective cameras keep their node's
+place. What caustica does not render is collected and reported once, as one warning naming the nodes.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from ...errors import MeshError, SceneError, closest_name, first_line, short
 from .. import budget, rules
 from ..camera import Camera
 from ..lights import DirectionalLight, PointLight, SpotLight
-from ..materials import Diffuse, Glass, Mirror
+from ..materials import Diffuse, Principled
 from ..mesh import Mesh
 from ..scene import SceneObject
 from ..transform import Transform
@@ -28,19 +28,18 @@ from .matrices import transform_of, trs_matrix
 from .origin import CameraOrigin, GltfOrigin, LightOrigin, MaterialOrigin, NodeOrigin
 from .units import radiometric
 
-SUPPORTED_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                        "KHR_materials_dispersion", "KHR_lights_punctual", "KHR_mesh_quantization")
-TRANSMISSION_GLASS = 0.5  # KHR_materials_transmission factor from which a material is glass
-MIRROR_METALLIC, MIRROR_ROUGHNESS = 0.9, 0.05
+GLASS_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                    "KHR_materials_dispersion")  # what caustica's Glass models (export writes them from it)
+MATERIAL_EXTENSIONS = GLASS_EXTENSIONS + ("KHR_materials_specular", "KHR_materials_emissive_strength")  # Principled's
+SUPPORTED_EXTENSIONS = MATERIAL_EXTENSIONS + ("KHR_lights_punctual", "KHR_mesh_quantization")
 GLASS_ROUGHNESS = 0.05  # rougher glass is rendered smooth, with a warning
+DIELECTRIC_IOR = 1.5  # the IOR whose F0 (0.04) glTF's dielectric base has without KHR_materials_ior
 DEFAULT_HEIGHT = 512  # pixels of an imported camera's image height (width from its aspect ratio)
 MIN_SPOT_INNER = 0.01  # degrees: caustica's spot needs a positive inner cone; glTF's default is 0
 MAX_SPOT_OUTER = 89.9  # degrees: caustica's outer cone stays below 90
 FLOAT, BYTE, UBYTE, SHORT, USHORT, UINT = 5126, 5120, 5121, 5122, 5123, 5125
 TRIANGLES = 4
 DEGENERATE_DETERMINANT = 1e-24  # a node world matrix scaling volumes by less draws nothing (scale 0 hides a node)
-GLASS_EXTENSIONS = ("KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                    "KHR_materials_dispersion")  # what caustica's Glass models (export writes them from it)
 TRANSFORM_KEYS = ("matrix", "translation", "rotation", "scale")
 _MODES = {0: "points", 1: "lines", 2: "line loops", 3: "line strips", 5: "triangle strips", 6: "triangle fans"}
 _NAMES_SHOWN = 3
@@ -85,6 +84,7 @@ def read_gltf(path: str | Path, placement: np.ndarray | None = None) -> GltfScen
 class _Reader:
     def __init__(self, file: GltfFile):
         self.file = file
+        self.legacy = _legacy_caustica(file.doc)
         self.unsupported: dict[str, list[str]] = {}
         self.meshes: dict[tuple[int, int], Mesh] = {}
         self.materials: dict[int, tuple[object, list[str]]] = {}
@@ -319,6 +319,13 @@ class _Reader:
             if len(uvs) != len(vertices):
                 raise f.error(f"{where}: TEXCOORD_0 has {len(uvs):,} entries for {len(vertices):,} positions; "
                               "re-export the mesh", MeshError)
+        tangents = None
+        if "TANGENT" in attributes and normals is not None:  # the spec ignores tangents without normals
+            tangents = f.accessor(attributes["TANGENT"], f"{where}.TANGENT", ("VEC4",), (BYTE, SHORT, FLOAT))
+            if len(tangents) != len(vertices):
+                raise f.error(f"{where}: TANGENT has {len(tangents):,} entries for {len(vertices):,} positions; "
+                              "re-export the mesh", MeshError)
+            tangents = _unit_tangents_or_none(tangents)
         if "indices" in primitive:
             indices = f.accessor(primitive["indices"], f"{where}.indices", ("SCALAR",), (UBYTE, USHORT, UINT))
             indices = indices.reshape(-1)
@@ -334,7 +341,7 @@ class _Reader:
                         error=MeshError)
         faces = indices.astype(np.int32).reshape(-1, 3)
         try:
-            mesh = Mesh(vertices, normals, faces, name=mesh_name, uvs=uvs)
+            mesh = Mesh(vertices, normals, faces, name=mesh_name, uvs=uvs, tangents=tangents)
         except MeshError as exc:
             raise f.error(f"{where}: {first_line(exc)}", MeshError) from None
         mesh.analytic_sphere = self._analytic_sphere(primitive, mesh)
@@ -364,101 +371,106 @@ class _Reader:
         material, features = self.materials[index]
         for feature in features:
             self.note(feature, label)
-        if isinstance(material, Diffuse) and material.texture is not None and mesh.uvs is None:
-            self.note("baseColorTexture on a mesh without TEXCOORD_0", label)
+        if mesh.uvs is None and _has_textures(material):
+            self.note("textures on a mesh without TEXCOORD_0", label)
         return material
 
     def _material(self, entry: dict, where: str):
-        """(material, unsupported features it uses) of one glTF material."""
+        """(material, the features it uses that are not drawn) of one glTF material: a Principled with every
+        field the file gives, or the Diffuse, Mirror or Glass it is exactly (Principled.shorthand)."""
         f = self.file
-        features = []
+        features: list[str] = []
         pbr = f.table(entry, "pbrMetallicRoughness", where)
         here = f"{where}.pbrMetallicRoughness"
         base = f.numbers(pbr, "baseColorFactor", 4, [1.0, 1.0, 1.0, 1.0], here)
         if base.min() < 0 or base.max() > 1:
             raise f.error(f"{here}.baseColorFactor {short(base)} must lie in [0, 1]; re-export the file")
-        metallic = f.number(pbr, "metallicFactor", 1.0, here, 0.0, 1.0)
-        roughness = f.number(pbr, "roughnessFactor", 1.0, here, 0.0, 1.0)
+        emission = f.numbers(entry, "emissiveFactor", 3, [0.0, 0.0, 0.0], where)
+        if emission.min() < 0 or emission.max() > 1:
+            raise f.error(f"{where}.emissiveFactor {short(emission)} must lie in [0, 1] (brighter emission is "
+                          "KHR_materials_emissive_strength's); re-export the file")
         extensions = f.table(entry, "extensions", where)
 
-        def extension(name: str) -> dict:
-            return f.table(extensions, name, f"{where}.extensions")
+        def extension(name: str) -> tuple[dict, str]:
+            return f.table(extensions, name, f"{where}.extensions"), f"{where}.extensions.{name}"
 
         for name in extensions:
             if name not in SUPPORTED_EXTENSIONS:
                 features.append(name)
-        for key, feature in (("normalTexture", "normal maps"), ("occlusionTexture", "occlusion maps"),
-                             ("emissiveTexture", "emissive textures")):
-            if key in entry:
-                features.append(feature)
-        if "metallicRoughnessTexture" in pbr:
-            features.append("metallic-roughness textures")
-        if any(float(v) > 0 for v in f.numbers(entry, "emissiveFactor", 3, [0.0, 0.0, 0.0], where)):
-            features.append("emission")
         if entry.get("alphaMode", "OPAQUE") != "OPAQUE":
             features.append(f"alphaMode {short(entry.get('alphaMode'))}")
-        for info in [pbr.get("baseColorTexture")] + [entry.get(k) for k in ("normalTexture", "occlusionTexture",
-                                                                               "emissiveTexture")]:
-            if isinstance(info, dict) and "KHR_texture_transform" in info.get("extensions", {}):
-                features.append("KHR_texture_transform")
-        transmission = f.number(extension("KHR_materials_transmission"), "transmissionFactor", 0.0,
-                                f"{where}.extensions.KHR_materials_transmission", 0.0, 1.0)
-        textured = "baseColorTexture" in pbr
-        if transmission >= TRANSMISSION_GLASS:
-            if roughness > GLASS_ROUGHNESS:
-                features.append("roughness on glass")
-            if np.any(base[:3] < 1.0):
-                features.append("baseColorFactor tint on glass")
-            if textured or "transmissionTexture" in extension("KHR_materials_transmission"):
-                features.append("textures on glass")
-            return self._glass(extension, where), features
-        if metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS:
-            if textured:
-                features.append("textures on mirrors")
-            return self._made(Mirror, where, color=base[:3]), features
-        if metallic >= 0.5:
-            features.append("rough metal drawn diffuse")
-        texture = self._base_texture(pbr["baseColorTexture"], here, features) if textured else None
-        return self._made(Diffuse, where, color=base[:3], texture=texture), features
+        transmission, transmission_here = extension("KHR_materials_transmission")
+        specular, specular_here = extension("KHR_materials_specular")
+        strength, strength_here = extension("KHR_materials_emissive_strength")
+        if "specularTexture" in specular or "specularColorTexture" in specular:
+            features.append("KHR_materials_specular textures")
+        if "transmissionTexture" in transmission:
+            features.append("transmission textures")
+        values = dict(
+            base_color=base[:3],
+            base_color_texture=self._texture(pbr, "baseColorTexture", here, features),
+            metallic=f.number(pbr, "metallicFactor", 1.0, here, 0.0, 1.0),
+            roughness=f.number(pbr, "roughnessFactor", 1.0, here, 0.0, 1.0),
+            metallic_roughness_texture=self._texture(pbr, "metallicRoughnessTexture", here, features, srgb=False),
+            normal_texture=self._texture(entry, "normalTexture", where, features, srgb=False),
+            occlusion_texture=self._texture(entry, "occlusionTexture", where, features, srgb=False),
+            emission_texture=self._texture(entry, "emissiveTexture", where, features),
+            normal_scale=f.number(entry.get("normalTexture", {}), "scale", 1.0, f"{where}.normalTexture", -1e3, 1e3),
+            occlusion_strength=f.number(entry.get("occlusionTexture", {}), "strength", 1.0,
+                                        f"{where}.occlusionTexture", 0.0, 1.0),
+            emission=emission * f.number(strength, "emissiveStrength", 1.0, strength_here, 0.0, rules.MAX_INTENSITY),
+            # caustica's files before the metallic-roughness model wrote a Diffuse as metallic 0 alone
+            specular=f.number(specular, "specularFactor", 0.0 if self.legacy else 1.0, specular_here, 0.0, 1.0),
+            specular_color=f.numbers(specular, "specularColorFactor", 3, [1.0, 1.0, 1.0], specular_here),
+            transmission=f.number(transmission, "transmissionFactor", 0.0, transmission_here, 0.0, 1.0),
+            **self._volume(extension))
+        material = self._made(Principled, where, **values)
+        features += _undrawn(material)
+        return material.shorthand() or material, features
 
     def _made(self, kind, where: str, **values):
         """``kind(**values)``, a SceneError naming the file and ``where``."""
         with rules.context(f"{self.file.path.name}: {where}"):
             return kind(**values)
 
-    def _glass(self, extension, where: str) -> Glass:
+    def _volume(self, extension) -> dict:
+        """KHR_materials_ior's, _volume's and _dispersion's fields of a Principled (an infinite or absent
+        attenuationDistance is None: no absorption; no volume extension, no thickness: thin-walled)."""
         f = self.file
-        ior = f.number(extension("KHR_materials_ior"), "ior", 1.5, f"{where}.extensions.KHR_materials_ior")
-        volume, here = extension("KHR_materials_volume"), f"{where}.extensions.KHR_materials_volume"
-        color = f.numbers(volume, "attenuationColor", 3, [1.0, 1.0, 1.0], here)
+        ior, ior_here = extension("KHR_materials_ior")
+        volume, here = extension("KHR_materials_volume")
         distance = volume.get("attenuationDistance", math.inf)
         if distance != math.inf:
             distance = f.number(volume, "attenuationDistance", 1.0, here, rules.MIN_LENGTH, 1e12)
-        clear = distance == math.inf or bool(np.all(color >= 1.0))
-        thickness = f.number(volume, "thicknessFactor", 0.0, here, 0.0, 1e12) if volume else None
-        dispersion = f.number(extension("KHR_materials_dispersion"), "dispersion", 0.0,
-                              f"{where}.extensions.KHR_materials_dispersion", 0.0, 1e6)
-        return self._made(Glass, where, ior=ior, absorption_color=np.ones(3) if clear else color,
-                     absorption_distance=1.0 if clear else distance,
-                     abbe=20.0 / dispersion if dispersion > 0 else None, thickness=thickness)
+        dispersion, dispersion_here = extension("KHR_materials_dispersion")
+        return dict(ior=f.number(ior, "ior", 1.5, ior_here),
+                    attenuation_color=f.numbers(volume, "attenuationColor", 3, [1.0, 1.0, 1.0], here),
+                    attenuation_distance=None if distance == math.inf else distance,
+                    thickness=f.number(volume, "thicknessFactor", 0.0, here, 0.0, 1e12) if volume else None,
+                    dispersion=f.number(dispersion, "dispersion", 0.0, dispersion_here, 0.0, 1e6))
 
-    def _base_texture(self, info, where: str, features: list[str]) -> np.ndarray | None:
+    def _texture(self, owner: dict, key: str, where: str, features: list[str], srgb: bool = True):
+        """The image of texture info ``owner[key]`` (None when absent, on another uv set or without an image):
+        sRGB-decoded colour (``srgb``: base colour, emission), else linear data."""
         f = self.file
+        if key not in owner:
+            return None
+        info = owner[key]
         if not isinstance(info, dict):
-            raise f.error(f"{where}.baseColorTexture must be a JSON object; re-export the file")
+            raise f.error(f"{where}.{key} must be a JSON object; re-export the file")
+        if "KHR_texture_transform" in f.table(info, "extensions", f"{where}.{key}"):
+            features.append("KHR_texture_transform")
         if info.get("texCoord", 0) != 0:
-            features.append(f"baseColorTexture on TEXCOORD_{short(info.get('texCoord'))}")
+            features.append(f"{key} on TEXCOORD_{short(info.get('texCoord'))}")
             return None
         index = info.get("index")
-        texture = f.item("textures", index, f"{where}.baseColorTexture.index")
-        if index not in self.textures:
-            if "source" in texture:
-                self.textures[index] = f.image(texture["source"], f"textures[{index}].source")
-            else:
-                self.textures[index] = None
-        if self.textures[index] is None:
+        texture = f.item("textures", index, f"{where}.{key}.index")
+        if (index, srgb) not in self.textures:
+            self.textures[index, srgb] = (f.image(texture["source"], f"textures[{index}].source", srgb)
+                                          if "source" in texture else None)
+        if self.textures[index, srgb] is None:
             features.append("textures without a PNG or JPEG source")
-        return self.textures[index]
+        return self.textures[index, srgb]
 
     # Lights -----------------------------------------------------------------------
 
@@ -497,12 +509,54 @@ def _name_or_none(obj: dict) -> str | None:
 
 def _material_origin(entry: dict, material) -> MaterialOrigin:
     """What export keeps of a glTF material: name, doubleSided and the extensions caustica does not write
-    from ``material`` (for glass, all but GLASS_EXTENSIONS; for other kinds, all)."""
+    from ``material`` (all but MATERIAL_EXTENSIONS, which the material holds)."""
     extensions = entry.get("extensions", {})
-    glass = isinstance(material, Glass)
-    carried = {name: data for name, data in extensions.items() if not (glass and name in GLASS_EXTENSIONS)}
+    carried = {name: data for name, data in extensions.items() if name not in MATERIAL_EXTENSIONS}
     return MaterialOrigin(_name_or_none(entry), entry.get("doubleSided") is True, carried,
-                          thin_walled=glass and "KHR_materials_volume" not in extensions)
+                          thin_walled=material.kind == "glass" and "KHR_materials_volume" not in extensions)
+
+
+def _has_textures(material) -> bool:
+    return material.textured if isinstance(material, Principled) else getattr(material, "texture", None) is not None
+
+
+def _undrawn(material: Principled) -> list[str]:
+    """What of a Principled its drawing role does not draw (docs/materials.md): glass is smooth and clear,
+    a mirror perfect and untextured, an opaque surface opaque with the dielectric F0 of IOR 1.5."""
+    features = []
+    emits = bool(np.any(material.emission > 0))
+    if material.kind == "glass":
+        if material.roughness > GLASS_ROUGHNESS:
+            features.append("roughness on glass")
+        if np.any(material.base_color < 1.0):
+            features.append("baseColorFactor tint on glass")
+        if material.textured:
+            features.append("textures on glass")
+        if emits:
+            features.append("emission on glass")
+    elif material.kind == "mirror":
+        if material.textured:
+            features.append("textures on mirrors")
+        if emits:
+            features.append("emission on mirrors")
+    else:
+        if material.transmission > 0:
+            features.append("transmission below 0.5 (drawn opaque)")
+        if material.ior != DIELECTRIC_IOR and material.metallic < 1.0:
+            features.append("KHR_materials_ior on opaque surfaces (their F0 is IOR 1.5's)")
+    return features
+
+
+MATERIAL_MODEL = "metallic-roughness"  # caustica's writer marks its files' asset.extras.caustica.materials so
+
+
+def _legacy_caustica(doc: dict) -> bool:
+    """Whether caustica wrote ``doc`` before its materials were glTF's metallic-roughness model (then a
+    Diffuse was metallic 0 with no KHR_materials_specular, which glTF draws with a 0.04 specular layer)."""
+    asset = doc.get("asset")
+    generator = asset.get("generator") if isinstance(asset, dict) else None
+    return isinstance(generator, str) and generator.startswith("caustica ") \
+        and _caustica_extras(asset).get("materials") != MATERIAL_MODEL
 
 
 def _caustica_extras(obj: dict) -> dict:
@@ -518,6 +572,16 @@ def _unit_or_none(normals: np.ndarray) -> np.ndarray | None:
     if not np.all(np.isfinite(length)) or float(length.min()) < 1e-6:
         return None
     return normals / length[:, None]
+
+
+def _unit_tangents_or_none(tangents: np.ndarray) -> np.ndarray | None:
+    """Tangents with unit xyz and w snapped to +-1, or None (generate them from the uvs) when some xyz are
+    zero or not finite or some w is not +-1."""
+    xyz = _unit_or_none(tangents[:, :3])
+    w = tangents[:, 3]
+    if xyz is None or not np.all(np.abs(np.abs(w) - 1.0) <= 1e-3):
+        return None
+    return np.c_[xyz, np.where(w < 0, -1.0, 1.0)].astype(np.float32)
 
 
 def _index_in(index, items: list) -> bool:

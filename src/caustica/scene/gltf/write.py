@@ -1,8 +1,11 @@
 """A caustica Scene as glTF 2.0: the inverse of :mod:`.read`, so a round trip renders the same image.
 
 One node per object (TRS from its Transform) with one mesh primitive (POSITION, NORMAL, TEXCOORD_0,
-uint32 or uint16 indices), materials with KHR_materials_transmission / _ior / _volume / _dispersion,
-KHR_lights_punctual lights in photometric units, the camera, and textures as embedded PNG. ``.glb``
+TANGENT where the mesh has its own, uint32 or uint16 indices), materials in glTF's metallic-roughness model
+with KHR_materials_specular (a Diffuse has factor 0), _emissive_strength, _transmission, _ior, _volume and
+_dispersion, KHR_lights_punctual lights in photometric units, the camera, and textures as embedded PNG
+(colour ones sRGB-encoded, data ones linear). ``asset.extras.caustica.materials`` marks the material model
+(files without it that caustica wrote are read as its earlier model). ``.glb``
 holds one binary chunk; ``.gltf`` embeds the same buffer as a base64 data URI, so either is one
 self-contained file. A scene read from glTF keeps what its file said (scene/gltf/origin.py): names,
 doubleSided, the extensions caustica does not render, extensionsRequired. The environment goes into
@@ -25,11 +28,12 @@ from ...atomic import write_atomic
 from ...errors import OutputError
 from ..environment import PROCEDURAL_ENVIRONMENTS
 from ..lights import DirectionalLight, LineLight, PointLight, SpotLight
-from ..materials import Diffuse, Glass, Mirror
+from ..materials import Diffuse, Glass, Mirror, Principled
 from ..transform import rotation_from_euler_degrees, up_hint
 from .container import GLB_BIN, GLB_JSON, GLB_MAGIC
 from .matrices import quaternion_from_matrix
 from .origin import aspect_ratio, camera_extras, origin_of
+from .read import DIELECTRIC_IOR, MATERIAL_MODEL
 from .units import photometric
 
 FLOAT, USHORT, UINT = 5126, 5123, 5125
@@ -88,7 +92,8 @@ class _Writer:
         self.scene, self.folder = scene, folder
         self.origin = origin_of(scene)
         self.blob = bytearray()
-        self.doc: dict = {"asset": {"version": "2.0", "generator": _generator()}, "scene": 0,
+        asset = {"version": "2.0", "generator": _generator(), "extras": {"caustica": {"materials": MATERIAL_MODEL}}}
+        self.doc: dict = {"asset": asset, "scene": 0,
                           "scenes": [{"name": scene.name, "nodes": []}], "nodes": [], "meshes": [],
                           "materials": [], "accessors": [], "bufferViews": [], "buffers": []}
         self.used: set[str] = set()
@@ -96,7 +101,7 @@ class _Writer:
         self.geometry: dict[int, dict] = {}
         self.meshes: dict[tuple[int, int], int] = {}
         self.materials: dict[int, int] = {}
-        self.textures: dict[int, int] = {}
+        self.textures: dict[tuple[int, bool], int] = {}
 
     def document(self) -> tuple[dict, bytes]:
         scene, doc = self.scene, self.doc
@@ -196,6 +201,8 @@ class _Writer:
                           "NORMAL": self._accessor(mesh.normals, "VEC3", FLOAT, ARRAY_BUFFER)}
             if mesh.uvs is not None:
                 attributes["TEXCOORD_0"] = self._accessor(mesh.uvs, "VEC2", FLOAT, ARRAY_BUFFER)
+            if mesh.tangents is not None:
+                attributes["TANGENT"] = self._accessor(mesh.tangents, "VEC4", FLOAT, ARRAY_BUFFER)
             small = len(mesh.vertices) < 65536
             indices = self._accessor(mesh.faces.reshape(-1), "SCALAR", USHORT if small else UINT,
                                      ELEMENT_ARRAY_BUFFER)
@@ -221,12 +228,16 @@ class _Writer:
         elif isinstance(material, Mirror):
             entry["pbrMetallicRoughness"] = {"baseColorFactor": _clamped(material.color, where, self.notes) + [1.0],
                                              "metallicFactor": 1.0, "roughnessFactor": 0.0}
-        elif isinstance(material, Diffuse):
+        elif isinstance(material, Diffuse):  # no specular layer: KHR_materials_specular's factor 0 says so
             pbr = {"baseColorFactor": _clamped(material.color, where, self.notes) + [1.0], "metallicFactor": 0.0,
                    "roughnessFactor": 1.0}
             if material.texture is not None:
                 pbr["baseColorTexture"] = {"index": self._texture(material.texture)}
             entry["pbrMetallicRoughness"] = pbr
+            entry["extensions"] = {"KHR_materials_specular": {"specularFactor": 0.0}}
+            self.used.add("KHR_materials_specular")
+        else:
+            self._principled(entry, material, obj, where, thin_walled=bool(origin and origin.thin_walled))
         if origin:
             self._carry(entry, origin.extensions, where)
         self.doc["materials"].append(entry)
@@ -247,40 +258,99 @@ class _Writer:
             self.used.add(name)
 
     def _glass(self, glass: Glass, obj, where: str, thin_walled: bool = False) -> dict:
-        extensions = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                      "KHR_materials_ior": {"ior": float(glass.ior)}}
         absorbs = bool(np.any(glass.absorption_color < 1.0))
-        if not thin_walled or absorbs or glass.thickness is not None:  # a file's thin-walled glass stays so
+        return self._transmission(1.0, glass.ior, glass.absorption_color if absorbs else None,
+                                  glass.absorption_distance if absorbs else None,
+                                  20.0 / glass.abbe if glass.abbe is not None else 0.0, glass.thickness, obj, where,
+                                  thin_walled)
+
+    def _transmission(self, factor: float, ior: float, attenuation_color, attenuation_distance, dispersion: float,
+                      thickness, obj, where: str, thin_walled: bool) -> dict:
+        """KHR_materials_transmission, _ior, _volume (its thickness, else the object's smallest extent, unless
+        the file's material was thin-walled and still is) and _dispersion of a transmissive surface."""
+        extensions = {"KHR_materials_transmission": {"transmissionFactor": float(factor)},
+                      "KHR_materials_ior": {"ior": float(ior)}}
+        absorbs = attenuation_color is not None or attenuation_distance is not None
+        if not thin_walled or absorbs or thickness is not None:  # a file's thin-walled glass stays so
             lo, hi = obj.mesh.bounds.astype(np.float64)
-            thickness = glass.thickness if glass.thickness is not None else float((hi - lo).min())
-            volume = {"thicknessFactor": float(thickness)}
-            if absorbs:
-                volume["attenuationColor"] = [float(c) for c in glass.absorption_color]
-                volume["attenuationDistance"] = float(glass.absorption_distance)
+            volume = {"thicknessFactor": float(thickness if thickness is not None else (hi - lo).min())}
+            if attenuation_color is not None:
+                volume["attenuationColor"] = [float(c) for c in attenuation_color]
+            if attenuation_distance is not None:
+                volume["attenuationDistance"] = float(attenuation_distance)
             extensions["KHR_materials_volume"] = volume
-        if glass.ior < 1.0:
-            self.notes.append(f"{where}: ior {glass.ior:g} is below KHR_materials_ior's minimum of 1 (caustica reads "
+        if ior < 1.0:
+            self.notes.append(f"{where}: ior {ior:g} is below KHR_materials_ior's minimum of 1 (caustica reads "
                               "it back; other viewers may not)")
-        if glass.abbe is not None:
-            extensions["KHR_materials_dispersion"] = {"dispersion": 20.0 / float(glass.abbe)}
+        if dispersion > 0:
+            extensions["KHR_materials_dispersion"] = {"dispersion": float(dispersion)}
         self.used.update(extensions)
         return extensions
 
-    def _texture(self, texture: np.ndarray) -> int:
-        if id(texture) not in self.textures:
+    def _principled(self, entry: dict, material: Principled, obj, where: str, thin_walled: bool) -> None:
+        """Every field of a Principled: the metallic-roughness factors and textures (colour ones as sRGB PNG,
+        data ones as linear PNG), normal and occlusion maps, emission (above 1 by
+        KHR_materials_emissive_strength), KHR_materials_specular where it differs from glTF's default, and
+        transmission, ior, volume and dispersion."""
+        m = material
+        pbr = {"baseColorFactor": [float(c) for c in m.base_color] + [1.0], "metallicFactor": float(m.metallic),
+               "roughnessFactor": float(m.roughness)}
+        if m.base_color_texture is not None:
+            pbr["baseColorTexture"] = {"index": self._texture(m.base_color_texture)}
+        if m.metallic_roughness_texture is not None:
+            pbr["metallicRoughnessTexture"] = {"index": self._texture(m.metallic_roughness_texture, srgb=False)}
+        entry["pbrMetallicRoughness"] = pbr
+        for key, texture, scalar, value in (("normalTexture", m.normal_texture, "scale", m.normal_scale),
+                                            ("occlusionTexture", m.occlusion_texture, "strength",
+                                             m.occlusion_strength)):
+            if texture is not None:
+                entry[key] = {"index": self._texture(texture, srgb=False)}
+                if value != 1.0:
+                    entry[key][scalar] = float(value)
+        extensions: dict = {}
+        brightest = float(m.emission.max())
+        if brightest > 0:
+            entry["emissiveFactor"] = [float(c) for c in (m.emission / brightest if brightest > 1 else m.emission)]
+            if brightest > 1:
+                extensions["KHR_materials_emissive_strength"] = {"emissiveStrength": brightest}
+        if m.emission_texture is not None:
+            entry["emissiveTexture"] = {"index": self._texture(m.emission_texture)}
+        specular = {}
+        if m.specular != 1.0:
+            specular["specularFactor"] = float(m.specular)
+        if np.any(m.specular_color != 1.0):
+            specular["specularColorFactor"] = [float(c) for c in m.specular_color]
+        if specular:
+            extensions["KHR_materials_specular"] = specular
+        if m.transmission > 0:
+            extensions.update(self._transmission(
+                m.transmission, m.ior, m.attenuation_color if np.any(m.attenuation_color < 1.0) else None,
+                m.attenuation_distance, m.dispersion, m.thickness, obj, where, thin_walled))
+        elif m.ior != DIELECTRIC_IOR:
+            extensions["KHR_materials_ior"] = {"ior": float(m.ior)}
+        self.used.update(extensions)
+        if extensions:
+            entry["extensions"] = extensions
+
+    def _texture(self, texture: np.ndarray, srgb: bool = True) -> int:
+        """The glTF texture of ``texture``: an embedded 8-bit PNG, sRGB-encoded (colour: base colour,
+        emission) or its linear values (``srgb`` False: data such as normal or roughness maps)."""
+        key = (id(texture), srgb)
+        if key not in self.textures:
             from PIL import Image
 
             from ...images import linear_to_srgb
 
-            codes = np.rint(np.clip(linear_to_srgb(texture), 0.0, 1.0) * 255.0).astype(np.uint8)
+            encoded = linear_to_srgb(texture) if srgb else texture
+            codes = np.rint(np.clip(encoded, 0.0, 1.0) * 255.0).astype(np.uint8)
             encoded = io.BytesIO()
             Image.fromarray(codes, "RGB").save(encoded, format="PNG")
             doc = self.doc
             doc.setdefault("images", []).append({"bufferView": self._view(encoded.getvalue()), "mimeType": "image/png"})
             doc.setdefault("samplers", [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
             doc.setdefault("textures", []).append({"source": len(doc["images"]) - 1, "sampler": 0})
-            self.textures[id(texture)] = len(doc["textures"]) - 1
-        return self.textures[id(texture)]
+            self.textures[key] = len(doc["textures"]) - 1
+        return self.textures[key]
 
     # Camera and lights ------------------------------------------------------------
 
