@@ -159,10 +159,11 @@ def _round(x) -> list:
 
 
 def _material_value(key: str, value):
-    """A material field as the cache key holds it: a texture by its hash, numbers rounded."""
+    """A material field as the cache key holds it: a texture (any ``*texture`` field) by its hash, numbers
+    rounded."""
     if isinstance(value, str):
         return value
-    return image_hash(value) if key == "texture" else _round(value)
+    return image_hash(value) if key.endswith("texture") else _round(value)
 
 
 def cache_key(scene, camera, spp: int, max_depth: int, variant: str, analytic_spheres: bool) -> str:
@@ -183,7 +184,7 @@ def cache_key(scene, camera, spp: int, max_depth: int, variant: str, analytic_sp
                 else [_round(o.mesh.analytic_sphere[0]), _round(o.mesh.analytic_sphere[1])],
                 "transform": _round(o.world_from_object()),
                 "material": {k: _material_value(k, v) for k, v in sorted(vars(o.material).items())
-                             if v is not None} | {"kind": o.material.kind},
+                             if v is not None and not k.startswith("_")} | {"kind": o.material.kind},
             }
             for o in scene.objects
         ],
