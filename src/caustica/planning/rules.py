@@ -39,6 +39,8 @@ from ..lighting.environment import LOBES, environment_sun
 from ..passes.shading.convex_exits import convex_shape
 from ..raytrace.environment_bake import BAKE_SIZE, FACE_SIZE, VERTEX_CAP
 from ..scene.gltf.origin import thin_walled_glass, thin_walled_note
+from ..scene.gltf.read import GLASS_ROUGHNESS
+from ..scene.materials import Principled
 from ..scene.scene import invisible_objects, without_invisible_glass
 from .probes import (BOUNCE_VIEW, CAUSTIC_SHARE, PLAN_PHOTONS, baked_receivers, bounces_that_pay, caustic_paths,
                      lit_lights, occluded_ambient, per_vertex_fails, sheds_light)
@@ -61,6 +63,7 @@ class PlanEntry:
     kind: str  # the object's material kind
     handled_by: str
     reason: str
+    material: str = ""  # how its material is drawn (drawn_as)
 
 
 @dataclass
@@ -78,7 +81,7 @@ class Plan:
         params = ", ".join(f"{k}={v}" for k, v in self.params.items()) or "defaults"
         lines = [f"technique: {self.technique} ({params}; quality {self.quality})"]
         for entry in self.objects:
-            lines.append(f"  {entry.object} ({entry.kind}): {entry.handled_by}: {entry.reason}")
+            lines.append(f"  {entry.object} ({entry.material or entry.kind}): {entry.handled_by}: {entry.reason}")
         lines.extend(f"  note: {note}" for note in self.notes)
         return "\n".join(lines)
 
@@ -104,14 +107,53 @@ def plan(scene, quality: str = "balanced", frame_size=None) -> Plan:
         raise TechniqueError(f"unknown quality {quality!r}{closest_name(str(quality), QUALITY)}; "
                              f"use one of {', '.join(QUALITY)}")
     if not invisible_objects(scene):
-        return _plan_visible(scene, quality, frame_size)
-    visible = without_invisible_glass(scene)
-    chosen = _plan_visible(visible, quality, frame_size)
-    chosen.params["drop_invisible_glass"] = True
-    planned = {id(o): entry for o, entry in zip(visible.objects, chosen.objects)}
-    chosen.objects = [planned.get(id(o)) or PlanEntry(o.name, o.material.kind, "left out", INVISIBLE)
-                      for o in scene.objects]
+        chosen = _plan_visible(scene, quality, frame_size)
+    else:
+        visible = without_invisible_glass(scene)
+        chosen = _plan_visible(visible, quality, frame_size)
+        chosen.params["drop_invisible_glass"] = True
+        planned = {id(o): entry for o, entry in zip(visible.objects, chosen.objects)}
+        chosen.objects = [planned.get(id(o)) or PlanEntry(o.name, o.material.kind, "left out", INVISIBLE)
+                          for o in scene.objects]
+    for entry, obj in zip(chosen.objects, scene.objects, strict=True):
+        entry.material = drawn_as(obj.material)
     return chosen
+
+
+def drawn_as(material) -> str:
+    """How ``material`` is drawn, in a few words (docs/materials.md): the shorthands by their kind; a
+    Principled by its drawing role, its GGX lobe and maps, and what of it is not drawn yet."""
+    if not isinstance(material, Principled):
+        return material.kind
+    m = material
+    if m.kind == "glass":
+        undrawn = [f"roughness {m.roughness:g} not drawn"] if m.roughness > GLASS_ROUGHNESS else []
+        if np.any(m.base_color < 1.0):
+            undrawn.append("base colour tint not drawn")
+        if m.transmission < 1.0:
+            undrawn.append(f"transmission {m.transmission:g} drawn as 1")
+        return f"glass, smooth: {'; '.join(undrawn)}" if undrawn else "glass"
+    if m.kind == "mirror":
+        return "mirror" if m.roughness == 0.0 else f"mirror, perfectly smooth: roughness {m.roughness:g} not drawn"
+    if m.glossy:
+        if m.metallic == 1.0:
+            what = "glossy metal"
+        elif m.metallic == 0.0:
+            what = "glossy dielectric"
+        else:
+            what = f"glossy, metallic {m.metallic:g}"
+        parts = [f"{what}, GGX roughness {m.roughness:g}"]
+    else:
+        parts = ["diffuse"]
+    for name, texture in (("metallic-roughness map", m.metallic_roughness_texture),
+                          ("normal map", m.normal_texture), ("occlusion map", m.occlusion_texture)):
+        if texture is not None:
+            parts.append(name)
+    if np.any(m.emission > 0):
+        parts.append("emissive")
+    if m.transmission > 0:
+        parts.append(f"transmission {m.transmission:g} not drawn")
+    return ", ".join(parts)
 
 
 INVISIBLE = ("IOR 1 and no absorption: it neither reflects (Fresnel 0), bends nor tints light, so a path tracer "

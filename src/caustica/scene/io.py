@@ -11,6 +11,7 @@ that names the key as ``table[index].key`` and says how to fix it. The format:
     [[lights]]                     # type = "point" | "directional" | "spot" | "line"
     [[objects]]                    # shape = "sphere" (+ its parameters) or mesh = "file.obj";
                                    # position (alias center), rotation (degrees), scale, material = {type = ...}
+                                   # (diffuse, mirror, glass, water or principled: docs/materials.md)
                                    # or gltf = "model.glb" (its objects and lights; position, rotation, scale, lights)
 
 ``.glb``/``.gltf`` files load as whole scenes (scene/gltf, docs/gltf.md); :func:`export_scene` writes
@@ -34,7 +35,7 @@ from .camera import Camera, fov_y_from_fov_x
 from .environment import PROCEDURAL_ENVIRONMENTS, Environment, load_environment, procedural_environment
 from .gltf import GLTF_SUFFIXES
 from .lights import DirectionalLight, LineLight, PointLight, SpotLight
-from .materials import Diffuse, Glass, Mirror, water
+from .materials import Diffuse, Glass, Mirror, Principled, water
 from .mesh import Mesh
 from .mesh_files import load_mesh
 from .scene import Scene, SceneObject
@@ -63,12 +64,21 @@ LIGHT_KEYS = {
     "line": {"start": VEC3, "end": VEC3, "intensity": RGB, "samples": INTEGER},
 }
 _GLASS_KEYS = {"ior": NUMBER, "absorption_color": RGB, "absorption_distance": NUMBER, "abbe": NUMBER}
+PRINCIPLED_KEYS = {"base_color": RGB, "base_color_texture": STRING, "metallic": NUMBER, "roughness": NUMBER,
+                   "metallic_roughness_texture": STRING, "normal_texture": STRING, "normal_scale": NUMBER,
+                   "occlusion_texture": STRING, "occlusion_strength": NUMBER, "emission": RGB,
+                   "emission_texture": STRING, "specular": NUMBER, "specular_color": RGB, "transmission": NUMBER,
+                   "ior": NUMBER, "attenuation_color": RGB, "attenuation_distance": NUMBER, "thickness": NUMBER,
+                   "dispersion": NUMBER}
 MATERIALS = {
     "glass": (Glass, _GLASS_KEYS),
     "water": (water, _GLASS_KEYS),
     "diffuse": (Diffuse, {"color": RGB, "texture": STRING}),
     "mirror": (Mirror, {"color": RGB}),
+    "principled": (Principled, PRINCIPLED_KEYS),
 }
+TEXTURE_KEYS = ("texture",) + Principled.TEXTURES  # image files (or procedural textures) of the materials
+DATA_TEXTURES = ("metallic_roughness_texture", "normal_texture", "occlusion_texture")  # linear, not sRGB
 OBJECT_KEYS = {"name": STRING, "shape": STRING, "mesh": STRING, "center": VEC3, "position": VEC3,
                "rotation": VEC3, "scale": "scale", "material": "material"}
 GLTF_OBJECT_KEYS = {"gltf": STRING, "position": VEC3, "rotation": VEC3, "scale": "scale", "lights": BOOLEAN}
@@ -401,8 +411,9 @@ def _light(data: dict, where: str):
 
 
 def _material(data, where: str, base_dir: Path = Path(".")):
-    """A material table (or just its type name as a string); diffuse grey when absent. A diffuse
-    ``texture`` is a PNG/JPEG file relative to ``base_dir`` or a procedural texture's name."""
+    """A material table (or just its type name as a string); diffuse grey when absent. A texture key
+    (a diffuse ``texture``, a principled ``*_texture``) is a PNG/JPEG file relative to ``base_dir`` or a
+    procedural texture's name; colour textures are sRGB-decoded, the DATA_TEXTURES read as linear values."""
     if data is None:
         return Diffuse()
     if isinstance(data, str):
@@ -410,20 +421,22 @@ def _material(data, where: str, base_dir: Path = Path(".")):
     kind, keys = _typed(data, where, {k: v[1] for k, v in MATERIALS.items()}, "material")
     table = _Table(data, where, keys)
     values = {key: table.get(key, keys[key]) for key in data if key != "type"}
-    if "texture" in values:
-        values["texture"] = _texture(values["texture"], base_dir, table.name("texture"))
+    for key in TEXTURE_KEYS:
+        if key in values:
+            values[key] = _texture(values[key], base_dir, table.name(key), srgb=key not in DATA_TEXTURES)
     with rules.context(where, keys):
         return MATERIALS[kind][0](**values)
 
 
-def _texture(value: str, base_dir: Path, where: str):
-    """A ``texture`` key's image: a procedural texture's name, else a file relative to ``base_dir``."""
+def _texture(value: str, base_dir: Path, where: str, srgb: bool = True):
+    """A texture key's image: a procedural texture's name, else a file relative to ``base_dir`` (decoded
+    from sRGB, or with ``srgb`` False read as linear data)."""
     if value in PROCEDURAL_TEXTURES:
         return procedural_texture(value)
     if Path(value).suffix == "":
         raise SceneError(f"{where} {short(value)} is no procedural texture{closest_name(value, PROCEDURAL_TEXTURES)} "
                          f"nor an image file; give one of {', '.join(PROCEDURAL_TEXTURES)} or a .png/.jpg file")
-    return load_texture(base_dir / _path(value, where), where)
+    return load_texture(base_dir / _path(value, where), where, srgb)
 
 
 @functools.cache
@@ -534,9 +547,10 @@ def _object(data: dict, where: str, base_dir: Path, meshes: dict) -> SceneObject
             scale=table.get("scale", _numbers(3), np.ones(3)),
         )
     material = _material(data.get("material"), f"{where}.material", base_dir)
-    if getattr(material, "texture", None) is not None and mesh.uvs is None:
-        raise SceneError(f"{where}.material.texture needs texture coordinates, which {short(shape or data['mesh'])} "
-                         "has none; texture a plane or a box, or a mesh file with uvs")
+    textured = [key for key in TEXTURE_KEYS if key in vars(material) and getattr(material, key) is not None]
+    if textured and mesh.uvs is None:
+        raise SceneError(f"{where}.material.{textured[0]} needs texture coordinates, which "
+                         f"{short(shape or data['mesh'])} has none; texture a plane or a box, or a mesh file with uvs")
     name = table.get("name", STRING, shape or Path(data.get("mesh", "mesh")).stem)
     return SceneObject(name, mesh, material, transform)
 
