@@ -4,7 +4,8 @@ binders that fill them.
 A surface-shading program (ShadeSurfaces and every program including common/lighting.glsl, caustics.glsl or
 impostors.glsl) reads the environment, its pass's input channels, the light samples' shadow maps, the caustic
 maps (or tiles), the impostor atlas, a receiver's albedo texture, the environment lobes' atlases, the
-environment's light maps and the nearby planes' textures at once: each has its own units below, and
+environment's light maps, the nearby planes' textures and a glossy receiver's split-sum table, prefiltered
+environment and material maps at once: each has its own units below, and
 tests/test_architecture.py fails if two of them overlap. Programs of a single pass (full-screen resolves,
 compute dispatches) bind their own few textures from unit 0 and are not in the table. Unit numbers need not
 stay under GL_MAX_TEXTURE_IMAGE_UNITS (32 on llvmpipe and NVIDIA: the samplers one stage may use); they stay
@@ -25,6 +26,9 @@ MAX_PLANES = 8  # nearby planes (impostors.glsl's NEARBY_PLANES)
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 
+MATERIAL_MAPS = ("metallic_roughness_texture", "normal_texture", "occlusion_texture", "emission_texture")
+"""A Principled receiver's maps besides its base colour's (the albedo unit), each the sampler of its name."""
+
 TEXTURE_UNITS: dict[str, range] = {
     "environment": range(0, 1),
     "inputs": range(1, 1 + MAX_INPUTS),  # a pass's input channels, then a deferred G-buffer and its refine flags
@@ -35,6 +39,9 @@ TEXTURE_UNITS: dict[str, range] = {
     "environment_shadows": range(26, 30),  # the lobes' shadow atlas, their glass's, the bounce's, the nearest distances'
     "environment_bake": range(30, 31),
     "plane_textures": range(31, 31 + MAX_PLANE_TEXTURES),
+    "brdf_table": range(35, 36),  # the split-sum (A, B) table of glossy receivers
+    "prefiltered_environment": range(36, 37),  # the environment prefiltered per roughness level
+    "material_maps": range(37, 37 + len(MATERIAL_MAPS)),  # a glossy receiver's maps, in MATERIAL_MAPS' order
 }
 """Texture units of the surface-shading programs by what they hold; no two ranges overlap."""
 
@@ -179,6 +186,24 @@ def bind_baked_object(program, baked, scene, obj) -> None:
     write_uniform_array(program, "env_bake_rect", rows)
     set_uniform(program, "env_bake_rect_count", count)
     set_uniform(program, "env_bake_vertex_first", vertex)
+
+
+def bind_split_sum(program, table, prefiltered, levels: int) -> None:
+    """Bind common/microfacet.glsl's brdf_table and the prefiltered environment (``levels`` bands) to their
+    units (passes/shading/prefiltered.py makes both)."""
+    table.use(first_unit("brdf_table"))
+    set_uniform(program, "brdf_table", first_unit("brdf_table"))
+    prefiltered.use(first_unit("prefiltered_environment"))
+    set_uniform(program, "prefiltered_environment", first_unit("prefiltered_environment"))
+    set_uniform(program, "prefiltered_levels", int(levels))
+
+
+def bind_material_maps(program, gpu, material, names) -> None:
+    """Bind ``material``'s maps ``names`` (of MATERIAL_MAPS) to their units, each to the sampler of its name."""
+    for unit, name in zip(TEXTURE_UNITS["material_maps"], MATERIAL_MAPS):
+        if name in names:
+            gpu.albedo_texture(getattr(material, name)).use(unit)
+            set_uniform(program, name, unit)
 
 
 def bind_impostors(program, impostors, reflector: int | None, params) -> None:

@@ -8,7 +8,10 @@ import moderngl
 import numpy as np
 
 from ..gpu.meshes import set_object_transform, set_uniform
+from ..scene.tangents import mesh_tangents
 from .frame import Frame
+
+TANGENT_ATTRIBUTE = "in_tangent"  # a normal-mapped mesh's tangent frames (common/albedo_vertex.glsl)
 
 
 def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) -> None:
@@ -17,6 +20,16 @@ def draw_objects(frame: Frame, program, objects, clip_from_world: np.ndarray) ->
     for obj in objects:
         set_object_transform(program, obj.world_from_object())
         frame.gpu.meshes.get(obj.mesh).render(program)
+
+
+def attach_tangents(gpu, mesh) -> None:
+    """Give ``mesh``'s GPU copy its tangent frames (scene/tangents.py mesh_tangents) as TANGENT_ATTRIBUTE,
+    once; a mesh without uvs has none."""
+    gpu_mesh = gpu.meshes.get(mesh)
+    if TANGENT_ATTRIBUTE not in gpu_mesh.attributes:
+        tangents = mesh_tangents(mesh)
+        if tangents is not None:
+            gpu_mesh.set_attribute(TANGENT_ATTRIBUTE, tangents)
 
 
 @contextmanager

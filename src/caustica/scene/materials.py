@@ -231,11 +231,15 @@ class Principled:
         return self.metallic > 0.0 or self.specular > 0.0 or self.metallic_roughness_texture is not None
 
     @property
+    def dielectric_f0(self) -> np.ndarray:
+        """The dielectric share's normal-incidence reflectance: 0.04 x specular_color (capped at 1) x specular."""
+        return np.minimum(DIELECTRIC_F0 * self.specular_color, 1.0) * self.specular
+
+    @property
     def f0(self) -> np.ndarray:
         """Normal-incidence reflectance of the untextured surface: glTF's mix of the dielectric's
-        0.04 x specular_color x specular (capped at 1) and the metal's base colour."""
-        dielectric = np.minimum(DIELECTRIC_F0 * self.specular_color, 1.0) * self.specular
-        return (1.0 - self.metallic) * dielectric + self.metallic * self.base_color
+        (dielectric_f0) and the metal's base colour."""
+        return (1.0 - self.metallic) * self.dielectric_f0 + self.metallic * self.base_color
 
     @property
     def diffuse_color(self) -> np.ndarray:

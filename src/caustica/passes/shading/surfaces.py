@@ -11,16 +11,18 @@ import numpy as np
 from ...gpu.meshes import bind_samplers, set_uniform
 from ...lighting.environment import ambient_sh
 from ...lighting.samples import MAX_LIGHTS
-from ...render.bindings import (MAX_CAUSTIC_TILES, MAX_INPUTS, bind_baked_object, bind_caustic_maps, bind_caustic_tiles,
-                                bind_environment_bake, bind_environment_shadows, bind_lights, bind_receiver_tiles,
-                                first_unit)
-from ...render.draw import culled_back_faces, culls_back_faces, draw_objects, draw_refractor_buffer
+from ...render.bindings import (MATERIAL_MAPS, MAX_CAUSTIC_TILES, MAX_INPUTS, bind_baked_object, bind_caustic_maps,
+                                bind_caustic_tiles, bind_environment_bake, bind_environment_shadows, bind_lights,
+                                bind_material_maps, bind_receiver_tiles, bind_split_sum, first_unit)
+from ...render.draw import attach_tangents, culled_back_faces, culls_back_faces, draw_objects, draw_refractor_buffer
 from ...render.frame import Channel, Frame, Pass
 from ...scene.codes import MATERIAL_CODES
+from ...scene.materials import Principled
 from ...scene.textures import texture_of
 from ..post.adaptive import FLAGS, preset_depth
 from . import deferred
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW
+from .prefiltered import PREFILTER_LEVELS, brdf_table_texture, prefiltered_environment
 
 BAKED_VERTEX_STAGES = ("common/mesh_vertex.glsl", "passes/shading/transport_view.vert")  # they pass baked_vertex_irradiance
 
@@ -158,7 +160,7 @@ class ShadeSurfaces(Pass):
             depth = frame.texture(camera.size, "depth")
         else:  # draw over an earlier run's image
             color, exit_direction, depth = (frame.read(c.name) for c in self.writes)
-        drawn = [(obj, self.material_override or obj.material) for obj in scene.objects if self.draws(obj)]
+        drawn = [(obj, self.material_of(obj)) for obj in scene.objects if self.draws(obj)]
         deferring = deferred.defers(drawn, self.deferred)
         front = None  # the front-surface buffer the glass G-buffer draw fills (captures_front_surface)
         if self.captures_front_surface:
@@ -184,6 +186,9 @@ class ShadeSurfaces(Pass):
             if frame.optional(FLAGS.name) is not None:  # before the environment takes unit 0
                 preset_depth(frame, depth, frame.optional(FLAGS.name))
                 fbo.use()
+        if any(dict(principled_defines(obj, material)).get("GLOSSY") for obj, material in drawn):
+            prefiltered_environment(gpu, scene.environment)  # before the targets are bound (a pass of its own)
+            fbo.use()
         environment = gpu.environment_texture(scene.environment)
         environment.use(0)
         if deferring:
@@ -220,19 +225,22 @@ class ShadeSurfaces(Pass):
         clip_from_world = camera.clip_from_world()
         # Front to back, so that a CPU rasterizer's early depth test skips hidden fragments.
         drawn.sort(key=lambda item: _distance_to_bounds(camera.position, item[0].world_mesh().bounds))
-        # One program variant per material kind, dispersion and texture (SURFACE_KIND, DISPERSION,
-        # ALBEDO_TEXTURE): CPU rasterizers pay for every side of a branch, even one on a uniform.
+        # One program variant per material kind, dispersion, texture and PBR features (SURFACE_KIND,
+        # DISPERSION, ALBEDO_TEXTURE, principled_defines): CPU rasterizers pay for every side of a branch,
+        # even one on a uniform.
         variants = sorted({self.variant_of(obj, material) for obj, material in drawn})
         capturing = bool(deferring_targets) and "glass" in deferring_targets
         if capturing:  # glass first: the front-surface buffer must hold the refractors alone
             variants.sort(key=lambda variant: variant[0] != "glass")
         later = []  # the deferred (object, material, variant defines) in G-buffer id order
-        for kind, dispersion, textured in variants:
+        for variant in variants:
+            kind, dispersion, textured, features = variant
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion),
-                               **({"ALBEDO_TEXTURE": 1} if textured else {}),
+                               **({"ALBEDO_TEXTURE": 1} if textured else {}), **dict(features),
                                **({"ENVIRONMENT_BAKE_VERTICES": 1} if baked_vertices and kind == "diffuse" else {})}
             program_defines = variant_defines
-            defer = kind in self.deferred and not textured  # the G-buffer holds no uvs
+            # The G-buffer holds no uvs, and no face orientation (a normal map's frame).
+            defer = kind in self.deferred and not textured and "SURFACE_UV" not in variant_defines
             if deferring_targets:
                 mode = DEFER_GBUFFER if defer else DEFER_SHADE_NOW
                 variant_defines["DEFERRED_SHADING"] = mode
@@ -246,8 +254,10 @@ class ShadeSurfaces(Pass):
             if deferring_targets:
                 deferred.set_ray_uniforms(program, camera)
             for obj, material in drawn:
-                if self.variant_of(obj, material) != (kind, dispersion, textured):
+                if self.variant_of(obj, material) != variant:
                     continue
+                if "NORMAL_TEXTURE" in variant_defines:
+                    attach_tangents(gpu, obj.mesh)
                 if deferring_targets and defer:
                     later.append((obj, material, variant_defines))
                     set_uniform(program, "deferred_id", float(len(later)))
@@ -268,6 +278,9 @@ class ShadeSurfaces(Pass):
         if texture is not None:
             frame.gpu.albedo_texture(texture).use(first_unit("albedo"))
             set_uniform(program, "albedo_texture", first_unit("albedo"))
+        features = dict(principled_defines(obj, material))
+        if features:
+            set_principled_uniforms(program, frame, material, features)
         tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
@@ -277,6 +290,17 @@ class ShadeSurfaces(Pass):
         if self.set_uniforms is not None:
             self.set_uniforms(program, frame, obj)
 
+    def material_of(self, obj):
+        """The material ``obj`` is drawn with: ``material_override`` where one is given, but under an
+        untextured diffuse override (plain's grey) an opaque PBR receiver keeps its own: its lobe and maps
+        belong to the surface, as a texture does (albedo_texture)."""
+        override = self.material_override
+        if override is None:
+            return obj.material
+        if override.kind == "diffuse" and override.texture is None and principled_defines(obj, obj.material):
+            return obj.material
+        return override
+
     def albedo_texture(self, obj, material):
         """The texture ``obj`` shows drawn with ``material`` (scene/textures.py texture_of); under an
         untextured diffuse ``material_override`` (plain's grey), the object's own: the texture belongs
@@ -285,9 +309,10 @@ class ShadeSurfaces(Pass):
             return texture_of(obj)
         return texture_of(obj, material)
 
-    def variant_of(self, obj, material) -> tuple[str, bool, bool]:
-        """(kind, dispersive, textured): which compiled shader variant shades ``obj`` drawn with ``material``."""
-        return (*_variant(material), self.albedo_texture(obj, material) is not None)
+    def variant_of(self, obj, material) -> tuple[str, bool, bool, tuple]:
+        """(kind, dispersive, textured, principled_defines): which compiled shader variant shades ``obj`` drawn
+        with ``material``."""
+        return (*_variant(material), self.albedo_texture(obj, material) is not None, principled_defines(obj, material))
 
     def set_frame_uniforms(self, frame: Frame, program, caustic_maps) -> None:
         """What every object of the frame shares: environment, inputs, camera, lights, caustics."""
@@ -307,6 +332,9 @@ class ShadeSurfaces(Pass):
             bind_environment_shadows(program, shadows)
         if bake is not None:
             bind_environment_bake(program, bake)
+        if "prefiltered_environment" in program:  # a glossy variant (run() prefiltered its environment)
+            bind_split_sum(program, brdf_table_texture(frame.gpu), prefiltered_environment(frame.gpu, scene.environment),
+                           PREFILTER_LEVELS)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps)
         elif frame.optional("caustic_tiles") is not None:
@@ -352,6 +380,33 @@ def _variant(material) -> tuple[str, bool]:
     """(kind, dispersive): which compiled shader variant shades a material (its texture aside)."""
     dispersive = material.kind == "glass" and bool(np.ptp(material.ior_rgb) > 0)
     return material.kind, dispersive
+
+
+def principled_defines(obj, material) -> tuple[tuple[str, int], ...]:
+    """The defines of an opaque PBR receiver's variant (common/surface_inputs.glsl), sorted: GLOSSY for its
+    specular lobe, each map's where the mesh has uvs (with SURFACE_UV), EMISSIVE for emission; () for any other
+    surface, a Principled without lobe, maps or emission included (it is drawn as its Diffuse)."""
+    if material.kind != "diffuse" or not isinstance(material, Principled):
+        return ()
+    emissive = bool(np.any(material.emission > 0))
+    maps = [name for name in MATERIAL_MAPS if obj.mesh.uvs is not None and getattr(material, name) is not None
+            and (emissive or name != "emission_texture")]
+    defines = {name.upper(): 1 for name in maps}
+    defines.update({"SURFACE_UV": 1} if maps else {})
+    defines.update({"GLOSSY": 1} if material.glossy else {})
+    defines.update({"EMISSIVE": 1} if emissive else {})
+    return tuple(sorted(defines.items()))
+
+
+def set_principled_uniforms(program, frame: Frame, material, features: dict) -> None:
+    """An opaque PBR receiver's factors and maps (``features``: its principled_defines)."""
+    set_uniform(program, "material_metallic", float(material.metallic))
+    set_uniform(program, "material_roughness", float(material.roughness))
+    set_uniform(program, "material_dielectric_f0", material.dielectric_f0.astype("f4"))
+    set_uniform(program, "material_emission", np.asarray(material.emission, "f4"))
+    set_uniform(program, "material_normal_scale", float(material.normal_scale))
+    set_uniform(program, "material_occlusion_strength", float(material.occlusion_strength))
+    bind_material_maps(program, frame.gpu, material, [name for name in MATERIAL_MAPS if name.upper() in features])
 
 
 def _material_color(material) -> np.ndarray:

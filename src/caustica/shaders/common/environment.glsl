@@ -57,12 +57,25 @@ vec3 capped_derivative(vec3 derivative, float cap) {
     return span < 1e30 ? derivative * (cap / span) : vec3(0.0);
 }
 
+// The mapping's (u, v) of the unit direction d, and its inverse.
+vec2 equirect_uv(vec3 d) {
+    return vec2(fract(atan(d.x, -d.z) / (2.0 * PI)), acos(clamp(d.y, -1.0, 1.0)) / PI);
+}
+
+vec3 equirect_direction(vec2 uv) {
+    float phi = 2.0 * PI * uv.x, theta = PI * uv.y;
+    return vec3(sin(theta) * sin(phi), cos(theta), -sin(theta) * cos(phi));
+}
+
+// The texture coordinate of mapping coordinate v in an image of ``rows`` rows (rows at v * (rows - 1)).
+float equirect_row_coordinate(float v, float rows) { return (v * (rows - 1.0) + 0.5) / rows; }
+
 vec3 environment_radiance(sampler2D environment, vec3 d) {
     d = normalize(d);
     vec2 size = vec2(textureSize(environment, 0));
-    float u = fract(atan(d.x, -d.z) / (2.0 * PI));
-    float v = acos(clamp(d.y, -1.0, 1.0)) / PI;
-    float t = (v * (size.y - 1.0) + 0.5) / size.y;
+    vec2 uv = equirect_uv(d);
+    float u = uv.x, v = uv.y;
+    float t = equirect_row_coordinate(v, size.y);
     if (textureQueryLevels(environment) == 1) return textureLod(environment, vec2(u, t), 0.0).rgb;  // bilinear
     // d(atan2(x, -z)) = (x dz - z dx) / (x^2 + z^2); d(acos y) = -dy / sqrt(1 - y^2).
     float horizontal = max(d.x * d.x + d.z * d.z, 1e-8);
@@ -76,4 +89,23 @@ vec3 environment_radiance(sampler2D environment, vec3 d) {
     vec2 gradient_x = vec2(dot(per_xz, ddx.xz), per_y * ddx.y);
     vec2 gradient_y = vec2(dot(per_xz, ddy.xz), per_y * ddy.y);
     return environment_footprint(environment, vec2(u, t), gradient_x, gradient_y);
+}
+
+// The prefiltered environment (passes/shading/prefiltered.py): ``levels`` equirect images stacked top to
+// bottom in one texture, level k the environment convolved with GGX's lobe about the mirror direction at
+// roughness k / (levels - 1) (the split-sum's first factor, Karis 2013); a lookup blends the two levels
+// about ``roughness``, each bilinear within its own rows.
+vec3 prefiltered_level(sampler2D atlas, int levels, int level, vec2 uv) {
+    vec2 size = vec2(textureSize(atlas, 0));
+    float rows = size.y / float(levels);
+    float t = (float(level) * rows + uv.y * (rows - 1.0) + 0.5) / size.y;
+    return textureLod(atlas, vec2(uv.x, t), 0.0).rgb;
+}
+
+vec3 prefiltered_radiance(sampler2D atlas, int levels, vec3 d, float roughness) {
+    vec2 uv = equirect_uv(normalize(d));
+    float level = clamp(roughness, 0.0, 1.0) * float(levels - 1);
+    int below = min(int(level), levels - 2);
+    return mix(prefiltered_level(atlas, levels, below, uv), prefiltered_level(atlas, levels, below + 1, uv),
+               level - float(below));
 }

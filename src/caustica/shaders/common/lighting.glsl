@@ -140,26 +140,33 @@ float light_visibility(int i, vec3 p, vec3 n) {
                           light_clip_from_world[i], p, n);
 }
 
+// Light i at p: the irradiance it brings to a surface facing it (a spot's falloff included, no shadow) and
+// the unit direction towards it.
+vec3 light_arrival(int i, vec3 p, out vec3 to_light) {
+    vec3 incident;
+    if (light_type[i] == LIGHT_DIRECTIONAL) {
+        to_light = -light_direction[i];
+        incident = light_intensity[i];
+    } else {
+        vec3 v = light_position[i] - p;
+        float d2 = dot(v, v);
+        to_light = v / sqrt(d2);
+        incident = light_intensity[i] / d2;
+        if (light_type[i] == LIGHT_SPOT) {
+            float c = dot(-to_light, light_direction[i]);
+            float t = clamp((c - light_cone_cos[i].y) / max(light_cone_cos[i].x - light_cone_cos[i].y, 1e-9), 0.0, 1.0);
+            incident *= t * t * (3.0 - 2.0 * t);
+        }
+    }
+    return incident;
+}
+
 // Irradiance at p with normal n from every light, shadowed.
 vec3 direct_irradiance(vec3 p, vec3 n) {
     vec3 e = vec3(0.0);
     for (int i = 0; i < light_count; ++i) {
         vec3 to_light;
-        vec3 incident;
-        if (light_type[i] == LIGHT_DIRECTIONAL) {
-            to_light = -light_direction[i];
-            incident = light_intensity[i];
-        } else {
-            vec3 v = light_position[i] - p;
-            float d2 = dot(v, v);
-            to_light = v / sqrt(d2);
-            incident = light_intensity[i] / d2;
-            if (light_type[i] == LIGHT_SPOT) {
-                float c = dot(-to_light, light_direction[i]);
-                float t = clamp((c - light_cone_cos[i].y) / max(light_cone_cos[i].x - light_cone_cos[i].y, 1e-9), 0.0, 1.0);
-                incident *= t * t * (3.0 - 2.0 * t);
-            }
-        }
+        vec3 incident = light_arrival(i, p, to_light);
         float cos_theta = dot(n, to_light);
         if (cos_theta <= 0.0) continue;
         e += incident * cos_theta * light_visibility(i, p, n);
@@ -329,17 +336,19 @@ vec3 baked_or_sh_irradiance(vec3 p, vec3 n) {
 // vertex the interpolated vertices'; elsewhere the SH's less what the
 // environment's lobes find blocked, plus what the blocked directions show instead (the occluders' bounce, over
 // each stratum's span as irradiance is).
-vec3 ambient_irradiance(vec3 p, vec3 n) {
+// ``shading_n``: the normal the irradiance is taken about (a normal map's), where n (the surface's) finds the
+// light maps and the lobes' shadow-map taps.
+vec3 ambient_irradiance(vec3 p, vec3 n, vec3 shading_n) {
     vec3 e;
     if (baked_irradiance(p, n, e)) return e;
 #if ENVIRONMENT_BAKE_VERTICES
     if (env_bake_vertex_first >= 0) return baked_vertex_irradiance;
 #endif
-    e = ambient_irradiance(n);
+    e = ambient_irradiance(shading_n);
 #if ENVIRONMENT_SHADOWS
     vec3 blocked = vec3(0.0), bounce = vec3(0.0);
     for (int k = 0; k < env_lobe_count; ++k) {
-        float c = -dot(n, env_lobe_direction[k]);
+        float c = -dot(shading_n, env_lobe_direction[k]);
         if (c <= 0.0) continue;
         vec3 seen;
         vec3 v = lobe_light(k, p, n, seen);
@@ -350,3 +359,5 @@ vec3 ambient_irradiance(vec3 p, vec3 n) {
 #endif
     return e;
 }
+
+vec3 ambient_irradiance(vec3 p, vec3 n) { return ambient_irradiance(p, n, n); }

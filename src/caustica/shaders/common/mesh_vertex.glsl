@@ -1,6 +1,7 @@
 // Shared vertex stage for meshes: object -> world -> clip. Writes world position and normal (and
-// surface_uv: host define ALBEDO_TEXTURE, common/albedo_vertex.glsl; baked_vertex_irradiance: host define
-// ENVIRONMENT_BAKE_VERTICES, common/baked_vertex.glsl).
+// surface_uv and world_tangent: host defines ALBEDO_TEXTURE, SURFACE_UV, NORMAL_TEXTURE,
+// common/albedo_vertex.glsl; baked_vertex_irradiance: host define ENVIRONMENT_BAKE_VERTICES,
+// common/baked_vertex.glsl).
 #version 430 core
 #include "common/albedo_vertex.glsl"
 #include "common/baked_vertex.glsl"
@@ -18,6 +19,7 @@ void main() {
     world_position = p.xyz;
     world_normal = world_normal_from_object * in_normal;
     pass_surface_uv();
+    pass_surface_tangent(mat3(world_from_object));
     pass_baked_irradiance();
     gl_Position = clip_from_world * p;
 }

@@ -1,4 +1,5 @@
-// main() of surface shading: diffuse (direct light with shadow maps + SH ambient + caustics),
+// main() of surface shading: diffuse (direct light with shadow maps + SH ambient + caustics; an opaque PBR
+// receiver's shade_principled in its variants, common/surface_inputs.glsl),
 // mirror (colour * environment in the reflected direction), glass (the technique's
 // shade_refractor). Include after defining shade_refractor.
 // Host defines: SURFACE_KIND (MATERIAL_DIFFUSE, _MIRROR or _GLASS): ShadeSurfaces compiles one
@@ -6,6 +7,53 @@
 // -1 (the default) selects at run time by the material_kind uniform.
 #ifndef SURFACE_KIND
 #define SURFACE_KIND -1
+#endif
+
+#if PRINCIPLED
+// An opaque glTF metallic-roughness receiver (glTF 2.0 Appendix B): per light, the diffuse
+// (1 - F_dielectric) (1 - metallic) base / pi plus GGX's F D G2 / (4 cos cos), F Schlick's at the mix of the
+// dielectric's F0 and the base colour, shadowed as a diffuse receiver (at ``n``, the surface's normal; the
+// BRDF at the shading normal); the ambient irradiance (times the occlusion) and the caustics on the diffuse
+// part, scaled by what the dielectric's lobe leaves of light from all around (1 - (F0 A + B)); the
+// environment's specular share by the split sum, prefiltered radiance in the mirror direction times the
+// compensated (F0 A + B) (common/microfacet.glsl), times the occlusion; the emission added.
+vec3 shade_principled(vec3 v, vec3 n) {
+    SurfaceMaterial m = surface_material(n);
+    vec3 to_eye = -v;
+    vec3 shading_n = m.normal;
+    vec3 diffuse_albedo = (1.0 - m.metallic) * m.base;
+#if GLOSSY
+    float n_dot_v = max(dot(shading_n, to_eye), 1e-4);
+    vec3 f0 = mix(material_dielectric_f0, m.base, m.metallic);
+    float alpha = ggx_alpha(m.roughness);
+    vec2 ab = split_sum(n_dot_v, m.roughness);
+    vec3 diffuse_share = 1.0 - (material_dielectric_f0 * ab.x + ab.y);
+#else
+    vec3 diffuse_share = vec3(1.0);
+#endif
+    vec3 radiance = vec3(0.0);
+    for (int i = 0; i < light_count; ++i) {
+        vec3 to_light;
+        vec3 incident = light_arrival(i, world_position, to_light);
+        float n_dot_l = dot(shading_n, to_light);
+        if (n_dot_l <= 0.0) continue;
+        vec3 brdf = diffuse_albedo / PI;
+#if GLOSSY
+        vec3 h = normalize(to_light + to_eye);
+        float v_dot_h = dot(to_eye, h);
+        brdf = (1.0 - schlick(material_dielectric_f0, v_dot_h)) * brdf
+               + schlick(f0, v_dot_h) * ggx_specular(n_dot_l, n_dot_v, dot(shading_n, h), alpha);
+#endif
+        radiance += brdf * incident * n_dot_l * light_visibility(i, world_position, n);
+    }
+    vec3 e = m.occlusion * ambient_irradiance(world_position, n, shading_n) + caustic_irradiance(world_position, n);
+    radiance += diffuse_share * diffuse_albedo / PI * e;
+#if GLOSSY
+    radiance += m.occlusion * compensated_specular_albedo(f0, ab)
+                * prefiltered_radiance(prefiltered_environment, prefiltered_levels, reflect(v, shading_n), m.roughness);
+#endif
+    return radiance + m.emission;
+}
 #endif
 
 void main() {
@@ -38,9 +86,13 @@ void main() {
     int kind = SURFACE_KIND < 0 ? material_kind : SURFACE_KIND;
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_DIFFUSE
     if (kind == MATERIAL_DIFFUSE) {
+#if PRINCIPLED
+        radiance = shade_principled(v, n);
+#else
         vec3 e = direct_irradiance(world_position, n) + ambient_irradiance(world_position, n)
                  + caustic_irradiance(world_position, n);
         radiance = surface_albedo() / PI * e;
+#endif
     }
 #endif
 #if SURFACE_KIND < 0 || SURFACE_KIND == MATERIAL_MIRROR

@@ -25,6 +25,7 @@ void main() {
     exit_dir_world = in_exit_dir;
     exit_t = in_exit_t;
     pass_surface_uv();
+    pass_surface_tangent(mat3(world_from_object));
     pass_baked_irradiance();
     gl_Position = clip_from_world * p;
 }
