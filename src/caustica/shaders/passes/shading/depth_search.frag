@@ -376,6 +376,11 @@ Departure departure(InsideLight light, Exit exit) {
     // Ours: a face lying on the receiver the glass stands on passes all the light to it, reflecting none.
     vec3 landing;
     if (on_contact_plane(contact_plane, contact_tolerance, exit.point, exit.normal, landing)) {
+#if NEARBY == NEARBY_PLANES
+        // Wyman's planes count hits beyond a small t only: the lookup starts contact_tolerance before the
+        // receiver's plane, so that it meets the plane it lands on.
+        landing -= contact_tolerance * exit.normal;
+#endif
         leaving = Departure(landing, exit.normal, 0.0, false);
     }
 #endif
