@@ -55,7 +55,8 @@ def load_mesh(path: str | Path) -> Mesh:
 
 
 def _gltf_mesh(path: Path, label: str) -> Mesh:
-    """A glTF file's objects, placed by their nodes, merged into one mesh (uvs where every part has them)."""
+    """A glTF file's objects, placed by their nodes, merged into one mesh (uvs, and the file's tangents, where
+    every part has them)."""
     from .gltf.read import read_gltf
 
     parts = [obj.world_mesh() for obj in read_gltf(path).objects]
@@ -64,8 +65,9 @@ def _gltf_mesh(path: Path, label: str) -> Mesh:
     offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
     faces = np.concatenate([p.faces + offset for p, offset in zip(parts, offsets)])
     uvs = None if any(p.uvs is None for p in parts) else np.concatenate([p.uvs for p in parts])
+    tangents = None if any(p.tangents is None for p in parts) else np.concatenate([p.tangents for p in parts])
     return Mesh(np.concatenate([p.vertices for p in parts]), np.concatenate([p.normals for p in parts]), faces,
-                name=path.stem, uvs=uvs)
+                name=path.stem, uvs=uvs, tangents=tangents)
 
 
 def _trimesh_mesh(path: Path, label: str) -> Mesh:
