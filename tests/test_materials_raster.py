@@ -125,3 +125,61 @@ def test_rough_metal_under_a_point_light_matches_the_brdf(renderer):
     f = specular_brdf(l @ n, v @ n, h @ n, v @ h, float(alpha_of(0.5)), base)
     expected = f * light.intensity / distance2 * (l @ n)
     np.testing.assert_allclose(image[pixel[1], pixel[0]], expected, rtol=0.03)
+
+
+def constant_map(value) -> np.ndarray:
+    return np.broadcast_to(np.asarray(value, np.float32), (4, 4, 3)).copy()
+
+
+FLOOR_CAMERA = Camera(position=[0.0, 2.0, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=45.0, size=SIZE)
+
+
+def floor_pixels(camera: Camera, half_side: float) -> np.ndarray:
+    """The pixels whose centre's ray meets y = 0 within ``half_side`` of the origin in x and z."""
+    origin, direction = (a[:, :, 0] for a in camera.primary_rays())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hit = origin - (origin[..., 1] / direction[..., 1])[..., None] * direction
+    return (direction[..., 1] < 0) & (np.abs(hit[..., 0]) < half_side) & (np.abs(hit[..., 2]) < half_side)
+
+
+def lit_floor(renderer, material, lights=True, environment="sky-checker") -> np.ndarray:
+    """An 8 x 8 floor of ``material`` under a point light (or none) and ``environment``, seen from above at an
+    angle."""
+    floor = SceneObject("floor", plane((8.0, 8.0)), material)
+    light = [PointLight([0.5, 2.0, -0.5], [10.0] * 3)] if lights else []
+    return renderer.render(scene_of([floor], FLOOR_CAMERA, light, environment), "plain")
+
+
+def test_metallic_roughness_map_reads_green_as_roughness_and_blue_as_metallic(renderer):
+    """A metallic-roughness map of (0, 0.5, 1) over factors 1 and 1 shades as roughness 0.5, metallic 1;
+    its channels the other way round (metallic 0.5, roughness 1) do not."""
+    base = [0.9, 0.6, 0.3]
+    mapped = lit_floor(renderer, Principled(base_color=base, metallic=1.0, roughness=1.0,
+                                            metallic_roughness_texture=constant_map([0.0, 0.5, 1.0])))
+    factors = lit_floor(renderer, Principled(base_color=base, metallic=1.0, roughness=0.5))
+    swapped = lit_floor(renderer, Principled(base_color=base, metallic=0.5, roughness=1.0))
+    np.testing.assert_allclose(mapped, factors, rtol=1e-4, atol=1e-6)
+    assert np.abs(swapped - factors).max() > 0.05
+
+
+def test_occlusion_dims_the_environment_not_the_lights(renderer):
+    """An occlusion map of red 0.25 (strength 1; green and blue ignored) scales the light from the
+    environment (the ambient diffuse and the split-sum specular) by 0.25 and leaves the point light's. (A
+    uniform environment: an environment's sun is a directional light of its own, not dimmed either.)"""
+    material = dict(base_color=[0.5, 0.6, 0.7], roughness=0.4)
+    occluded = lit_floor(renderer, Principled(**material, occlusion_texture=constant_map([0.25, 1.0, 0.0])),
+                         environment="white")
+    open_sky = lit_floor(renderer, Principled(**material), environment="white")
+    environment_only = lit_floor(renderer, Principled(**material), lights=False, environment="white")
+    floor = floor_pixels(FLOOR_CAMERA, 3.5)
+    assert floor.mean() > 0.5 and environment_only[floor].mean() > 0.05
+    np.testing.assert_allclose(occluded[floor], (open_sky - 0.75 * environment_only)[floor], rtol=1e-3, atol=1e-4)
+
+
+def test_emission_is_added(renderer):
+    """Emission (0.3, 0.2, 0.1) times an emission map of 0.5 adds (0.15, 0.1, 0.05) to every floor pixel."""
+    material = dict(base_color=[0.5, 0.5, 0.5], roughness=0.5)
+    glowing = lit_floor(renderer, Principled(**material, emission=[0.3, 0.2, 0.1], emission_texture=constant_map(0.5)))
+    plain = lit_floor(renderer, Principled(**material))
+    floor = floor_pixels(FLOOR_CAMERA, 3.5)
+    np.testing.assert_allclose((glowing - plain)[floor], np.broadcast_to([0.15, 0.1, 0.05], (floor.sum(), 3)), atol=1e-5)

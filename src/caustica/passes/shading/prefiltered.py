@@ -1,6 +1,7 @@
 """Image-based lighting of glossy opaque surfaces with the split-sum method (Karis, SIGGRAPH 2013 course): the
-environment prefiltered with GGX's lobe per roughness level (common/environment.glsl prefiltered_radiance), and
-the (A, B) table of lighting/microfacet.py on the GPU (common/microfacet.glsl split_sum).
+environment (less its sun where that is a light) prefiltered with GGX's lobe per roughness level
+(common/environment.glsl prefiltered_radiance), and the (A, B) table of lighting/microfacet.py on the GPU
+(common/microfacet.glsl split_sum).
 
 Both are computed once and kept in GpuDevice.cache: the prefiltered atlas by the environment image's content,
 the table once per device."""
@@ -11,10 +12,19 @@ import numpy as np
 
 from ...cache import array_digest
 from ...lighting.microfacet import brdf_table
+from ...raytrace.environment_light import environment_light
 
 PREFILTER_LEVELS = 6  # roughness 0, 0.2, ..., 1
 PREFILTER_WIDTH = 256  # each level's width (texels; half as many rows), at most the environment's own
 PREFILTER_SAMPLES = 64  # GGX half vectors per texel (filtered importance sampling)
+
+
+def reflected_environment(environment, samples):
+    """The environment a glossy receiver's split sum reflects: without its sun where the light samples hold
+    that sun (passes/shading/environment.py), whose light then comes as a directional light's, shadowed."""
+    if any(getattr(sample, "environment", False) for sample in samples):
+        return environment_light(environment).rest
+    return environment
 
 
 def prefiltered_environment(gpu, environment):

@@ -22,7 +22,7 @@ from ...scene.textures import texture_of
 from ..post.adaptive import FLAGS, preset_depth
 from . import deferred
 from .deferred import DEFER_GBUFFER, DEFER_SHADE_NOW
-from .prefiltered import PREFILTER_LEVELS, brdf_table_texture, prefiltered_environment
+from .prefiltered import PREFILTER_LEVELS, brdf_table_texture, prefiltered_environment, reflected_environment
 
 BAKED_VERTEX_STAGES = ("common/mesh_vertex.glsl", "passes/shading/transport_view.vert")  # they pass baked_vertex_irradiance
 
@@ -187,7 +187,8 @@ class ShadeSurfaces(Pass):
                 preset_depth(frame, depth, frame.optional(FLAGS.name))
                 fbo.use()
         if any(dict(principled_defines(obj, material)).get("GLOSSY") for obj, material in drawn):
-            prefiltered_environment(gpu, scene.environment)  # before the targets are bound (a pass of its own)
+            # Before the targets are bound: a pass of its own.
+            prefiltered_environment(gpu, reflected_environment(scene.environment, frame.read("light_samples")))
             fbo.use()
         environment = gpu.environment_texture(scene.environment)
         environment.use(0)
@@ -333,7 +334,8 @@ class ShadeSurfaces(Pass):
         if bake is not None:
             bind_environment_bake(program, bake)
         if "prefiltered_environment" in program:  # a glossy variant (run() prefiltered its environment)
-            bind_split_sum(program, brdf_table_texture(frame.gpu), prefiltered_environment(frame.gpu, scene.environment),
+            reflected = reflected_environment(scene.environment, samples)
+            bind_split_sum(program, brdf_table_texture(frame.gpu), prefiltered_environment(frame.gpu, reflected),
                            PREFILTER_LEVELS)
         if caustic_maps is not None:
             bind_caustic_maps(program, caustic_maps)
