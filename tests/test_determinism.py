@@ -20,9 +20,22 @@ import pytest
 
 from caustica.scene.presets import PRESETS
 
-SIZE = 96
+SIZE = 48
 TABLES_SIZE = 8  # the warm-up only fills the transport-table cache: a table depends on mesh and IOR, not on the frame
 SPLATTING = ("caustic-mapping", "photon-splats", "transport-table", "impostor-caustics")
+# Maps and photon counts a quarter of the defaults' side (those are sized for 512-pixel frames) keep both
+# processes' renders short. The photons stay dense enough for a float sum's order to show: 128^2 photons
+# (64^2 for impostor-caustics) onto a 128^2 caustic map (photon-splats: 256^2), each spread over a kernel of
+# several texels and gathered into the caustic's focus, so a texel sums the adds of many photons in an order
+# that the shader threads' scheduling sets. photon-splats keeps its default caustic and shadow maps: with a
+# 128 caustic map beside its 128 photon buffer its caustics-directional image differed from one fresh process
+# to the next on a loaded machine (docs/determinism.md, "Not guaranteed").
+SMALL_MAPS = {
+    "caustic-mapping": dict(map_size=128, photon_grid=128, shadow_map_size=256),
+    "photon-splats": dict(photon_buffer_size=128),
+    "transport-table": dict(map_size=128, photon_budget=128 * 128, shadow_map_size=256),
+    "impostor-caustics": dict(impostor_size=128, photon_buffer=64, caustic_size=128, shadow_map_size=256),
+}
 PRESET_NAMES = sorted(name for name in PRESETS if name.startswith(("caustic-", "caustics-")))
 CASES = [(name, technique, {}) for name in PRESET_NAMES for technique in SPLATTING] + [
     ("caustics-point", "caustic-mapping", {"splat": "points"}),
@@ -64,15 +77,21 @@ def case_id(case) -> str:
     return "/".join([name, technique, *(f"{k}={v}" for k, v in params.items())])
 
 
+def small_case(case):
+    """``case`` with its caustic technique's (a composite's second half's) SMALL_MAPS under its own parameters."""
+    name, technique, params = case
+    return name, technique, {**SMALL_MAPS[technique.split("+")[-1]], **params}
+
+
 @pytest.fixture(scope="module")
 def two_processes(tmp_path_factory):
     """({case id: image} of each of two fresh processes started together, {case id: why missing})."""
     folder = tmp_path_factory.mktemp("determinism")
-    cases = json.dumps({case_id(c): c for c in CASES})
+    cases = json.dumps({case_id(c): small_case(c) for c in CASES})
     # The transport tables precomputed once first, so that both processes read them from the disk cache: two
     # processes precomputing the bunny's table at once on a cold cache (CI's first run) were seen to get tables
     # that differ (docs/determinism.md, "Not guaranteed"); what this test checks is the splats.
-    tables = json.dumps({case_id(c): c for c in CASES if c[1] == "transport-table"})
+    tables = json.dumps({case_id(c): small_case(c) for c in CASES if c[1] == "transport-table"})
     warm = subprocess.run([sys.executable, "-c", CHILD, str(folder / "tables.npz"), str(TABLES_SIZE), tables],
                           capture_output=True, text=True, timeout=600)
     if warm.returncode == GL_UNAVAILABLE:
