@@ -386,9 +386,8 @@ class _Reader:
         if base.min() < 0 or base.max() > 1:
             raise f.error(f"{here}.baseColorFactor {short(base)} must lie in [0, 1]; re-export the file")
         emission = f.numbers(entry, "emissiveFactor", 3, [0.0, 0.0, 0.0], where)
-        if emission.min() < 0 or emission.max() > 1:
-            raise f.error(f"{where}.emissiveFactor {short(emission)} must lie in [0, 1] (brighter emission is "
-                          "KHR_materials_emissive_strength's); re-export the file")
+        if emission.min() < 0:  # the spec's [0, 1]; brighter is KHR_materials_emissive_strength's, taken as well
+            raise f.error(f"{where}.emissiveFactor {short(emission)} must lie in [0, 1]; re-export the file")
         extensions = f.table(entry, "extensions", where)
 
         def extension(name: str) -> tuple[dict, str]:
