@@ -286,6 +286,11 @@ def test_file_tangents_are_read_normalised_and_preferred(tmp_path):
     assert mesh_tangents(mesh) is mesh.tangents
     generated = mesh_tangents(plane())
     assert not np.allclose(generated, mesh.tangents)  # the file's own frames, not the generated ones
+    frames[:, 3] = 0.0  # no handedness: the file's frames are dropped, and generated from the uvs instead
+    doc.gltf.meshes[index].primitives[0].attributes.TANGENT = doc.accessor(frames, kind=g.VEC4)
+    mesh = quiet_load(doc.save(tmp_path / "no-handedness.glb")).objects[0].mesh
+    assert mesh.tangents is None
+    np.testing.assert_allclose(mesh_tangents(mesh), generated, atol=1e-6)
 
 
 def test_mesh_tangents_are_checked_and_hashed():
