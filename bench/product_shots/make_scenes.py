@@ -429,10 +429,54 @@ SCENES = {
 
 # ---- regions (Blender's ray cast) -----------------------------------------------------------------------
 
+GLASS_IOR = 1.5
+MAX_INTERFACES = 8
+
+
+def _lit_through_glass(scene, depsgraph, lights, regions_of, location, normal, towards) -> bool:
+    """Whether a shadow ray from an opaque point (offset to the side ``towards`` comes from) to some light meets
+    glass first."""
+    start = location + normal * 1e-4 * (1 if normal.dot(towards) > 0 else -1)
+    for lamp in lights:
+        if lamp.data.type == "SUN":
+            direction, reach = lamp.matrix_world.to_quaternion() @ Vector((0, 0, 1)), 1e4
+        else:
+            direction = lamp.matrix_world.translation - start
+            reach = direction.length
+            direction = direction.normalized()
+        blocked, _, _, _, blocker, _ = scene.ray_cast(depsgraph, start, direction, distance=reach)
+        if blocked and regions_of.get(blocker.name) == "glass":
+            return True
+    return False
+
+
+def _through_glass(scene, depsgraph, regions_of, location, normal, direction):
+    """The first opaque hit (location, normal, direction) of the refracted path from a glass hit (Snell's law
+    at IOR 1.5, total internal reflection where it applies, the reflected path ignored), or None."""
+    inside = False
+    for _ in range(MAX_INTERFACES):
+        n = normal if normal.dot(direction) < 0 else -normal
+        eta = GLASS_IOR if inside else 1.0 / GLASS_IOR
+        cos_i = -n.dot(direction)
+        k = 1.0 - eta * eta * (1.0 - cos_i * cos_i)
+        if k < 0.0:
+            direction = direction + 2.0 * cos_i * n  # total internal reflection
+        else:
+            direction = (eta * direction + (eta * cos_i - math.sqrt(k)) * n).normalized()
+            inside = not inside
+        hit, location, normal, _, obj, _ = scene.ray_cast(depsgraph, location + direction * 1e-4, direction)
+        if not hit:
+            return None
+        if regions_of[obj.name] != "glass":
+            return location, normal, direction
+    return None
+
+
 def regions(regions_of: dict, size: int) -> dict:
-    """Per pixel the first object its centre ray hits (index into ``names``, -1 none) and, for pixels whose
-    first hit is opaque, whether a shadow ray to some light meets glass first (lit through glass: the
-    caustics a path tracer cannot find from punctual lights)."""
+    """Per pixel the first object its centre ray hits (index into ``names``, -1 none); ``through_glass``: the
+    pixels whose first hit is opaque and lit through glass (a shadow ray to some light meets glass first);
+    ``seen_through_glass``: glass pixels whose refracted path ends on an opaque point lit through glass. A path
+    tracer cannot find the light of punctual lights at either (a delta light seen through specular glass)."""
     scene = bpy.context.scene
     depsgraph = bpy.context.evaluated_depsgraph_get()
     cam = scene.camera
@@ -442,33 +486,29 @@ def regions(regions_of: dict, size: int) -> dict:
     lights = [o for o in scene.objects if o.type == "LIGHT"]
     ids = np.full((size, size), -1, np.int16)
     through_glass = np.zeros((size, size), bool)
+    seen_through_glass = np.zeros((size, size), bool)
     for row in range(size):
         fy = (row + 0.5) / size
         left, right = top_left.lerp(bottom_left, fy), top_right.lerp(bottom_right, fy)
         for col in range(size):
-            target = left.lerp(right, (col + 0.5) / size)
-            hit, location, normal, _, obj, _ = scene.ray_cast(depsgraph, origin, (target - origin).normalized())
+            direction = (left.lerp(right, (col + 0.5) / size) - origin).normalized()
+            hit, location, normal, _, obj, _ = scene.ray_cast(depsgraph, origin, direction)
             if not hit:
                 continue
             ids[row, col] = names.index(obj.name)
-            if regions_of[obj.name] == "glass":
+            if regions_of[obj.name] != "glass":
+                through_glass[row, col] = _lit_through_glass(scene, depsgraph, lights, regions_of, location, normal,
+                                                             -direction)
                 continue
-            start = location + normal * 1e-4 * (1 if normal.dot(origin - location) > 0 else -1)
-            for lamp in lights:
-                if lamp.data.type == "SUN":
-                    direction, reach = lamp.matrix_world.to_quaternion() @ Vector((0, 0, 1)), 1e4
-                else:
-                    direction = lamp.matrix_world.translation - start
-                    reach = direction.length
-                    direction = direction.normalized()
-                blocked, _, _, _, blocker, _ = scene.ray_cast(depsgraph, start, direction, distance=reach)
-                if blocked and regions_of.get(blocker.name) == "glass":
-                    through_glass[row, col] = True
+            beyond = _through_glass(scene, depsgraph, regions_of, location, normal, direction)
+            if beyond is not None:
+                seen_through_glass[row, col] = _lit_through_glass(scene, depsgraph, lights, regions_of, beyond[0],
+                                                                  beyond[1], -beyond[2])
     return {"ids": ids, "names": np.array(names), "regions": np.array([regions_of[n] for n in names]),
-            "through_glass": through_glass}
+            "through_glass": through_glass, "seen_through_glass": seen_through_glass}
 
 
-def make_scene(name: str, out: Path, blend_dir: Path, size: int) -> None:
+def make_scene(name: str, out: Path, blend_dir: Path, size: int, regions_only: bool = False) -> None:
     build, environment = SCENES[name]
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -482,10 +522,12 @@ def make_scene(name: str, out: Path, blend_dir: Path, size: int) -> None:
             for modifier in list(obj.modifiers):
                 bpy.ops.object.modifier_apply(modifier=modifier.name)
     bpy.context.view_layer.update()
+    np.savez_compressed(out / f"{name}.regions.npz", **regions(regions_of, size))
+    if regions_only:
+        return
     bpy.ops.export_scene.gltf(filepath=str(out / f"{name}.glb"), export_format="GLB", export_lights=True,
                               export_cameras=True, export_apply=True, export_import_convert_lighting_mode="SPEC")
     bpy.ops.wm.save_as_mainfile(filepath=str(blend_dir / f"{name}.blend"), compress=True, relative_remap=False)
-    np.savez_compressed(out / f"{name}.regions.npz", **regions(regions_of, size))
     env = 'procedural = "black"' if environment is None else f'file = "{environment}.exr"'
     (out / f"{name}.toml").write_text(f'# made by bench/product_shots/make_scenes.py from {name}.blend\n'
                                       f'name = "{name}"\n\n[[objects]]\ngltf = "{name}.glb"\n\n'
@@ -505,14 +547,16 @@ def main() -> None:
     parser.add_argument("--blend-dir", type=Path, default=cache_folder() / "blend")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--regions-only", action="store_true", help="only recompute NAME.regions.npz")
     args = parser.parse_args(argv)
     args.out = args.out.resolve()
     args.blend_dir = args.blend_dir.resolve()
     for folder in (args.out, args.blend_dir):
         folder.mkdir(parents=True, exist_ok=True)
-    make_assets(args.out)
+    if not args.regions_only:
+        make_assets(args.out)
     for name in args.scenes.split(","):
-        make_scene(name, args.out, args.blend_dir, args.size)
+        make_scene(name, args.out, args.blend_dir, args.size, args.regions_only)
 
 
 if __name__ == "__main__":
