@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from caustica.lighting import microfacet
+from caustica.scene import microfacet
 from caustica.metrics.images import psnr_linear
 from caustica.raytrace import principled
 from caustica.raytrace.embree_scene import ray_scene_for

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scene.codes import MATERIAL_CODES, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_MIRROR
-from ..lighting.microfacet import schlick
+from ..scene.microfacet import schlick
 from ..scene.lights import DirectionalLight, SpotLight
 from ..scene.materials import Principled
 from ..scene.mesh import Mesh

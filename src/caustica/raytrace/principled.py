@@ -5,7 +5,7 @@ The BRDF is the specification's Appendix B with KHR_materials_specular's dielect
 f = (1 - F_d(v.h)) (1 - metallic) base / pi + F(v.h) D G2 / (4 cos_l cos_v), with F Schlick's Fresnel of
 f0 = (1 - metallic) f0_d + metallic base (Schlick is affine in f0, so this is the spec's mix of the dielectric
 and the metal) and F_d Schlick's of the dielectric's f0_d = min(0.04 specular_color, 1) specular. The GGX
-terms are :mod:`caustica.lighting.microfacet`'s. Sampling picks the specular lobe with a probability from
+terms are :mod:`caustica.scene.microfacet`'s. Sampling picks the specular lobe with a probability from
 Fresnel at the view (its reflectance against the diffuse part's), draws it by Heitz's visible normals and
 the diffuse one by cosine, and weighs the direction by the mixture's density (one-sample MIS over the two
 lobes). Textures: base colour, metallic-roughness (G roughness, B metallic), tangent-space normal maps
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..lighting import microfacet
+from ..scene import microfacet
 from ..scene.materials import DIELECTRIC_F0
 from ..scene.tangents import mesh_tangents
 from ..scene.textures import sample_texture

@@ -1,4 +1,4 @@
-// GGX microfacet reflection as glTF 2.0's BRDF (Appendix B) defines it, mirroring lighting/microfacet.py:
+// GGX microfacet reflection as glTF 2.0's BRDF (Appendix B) defines it, mirroring scene/microfacet.py:
 // alpha = roughness^2 (floored), the Trowbridge-Reitz distribution, height-correlated Smith masking-shadowing,
 // Schlick's Fresnel; the split-sum table (Karis 2013) and Fdez-Aguera's (JCGT 2019) energy compensation
 // for the environment. Cosines are clamped to [0, 1]. Needs PI (common/environment.glsl).
