@@ -1,6 +1,6 @@
 """Image-based lighting of glossy opaque surfaces with the split-sum method (Karis, SIGGRAPH 2013 course): the
 environment (less its sun where that is a light) prefiltered with GGX's lobe per roughness level
-(common/environment.glsl prefiltered_radiance), and the (A, B) table of lighting/microfacet.py on the GPU
+(common/environment.glsl prefiltered_radiance), and the (A, B) table of scene/microfacet.py on the GPU
 (common/microfacet.glsl split_sum).
 
 Both are computed once and kept in GpuDevice.cache: the prefiltered atlas by the environment image's content,
@@ -11,12 +11,12 @@ import moderngl
 import numpy as np
 
 from ...cache import array_digest
-from ...lighting.microfacet import brdf_table
 from ...raytrace.environment_light import environment_light
+from ...scene.microfacet import brdf_table
 
 PREFILTER_LEVELS = 6  # roughness 0, 0.2, ..., 1
 PREFILTER_WIDTH = 256  # each level's width (texels; half as many rows), at most the environment's own
-PREFILTER_SAMPLES = 64  # GGX half vectors per texel (filtered importance sampling)
+PREFILTER_SAMPLES = 128  # GGX half vectors per texel (filtered importance sampling)
 
 
 def reflected_environment(environment, samples):
@@ -63,7 +63,7 @@ def prefiltered_environment(gpu, environment):
 
 
 def brdf_table_texture(gpu):
-    """lighting/microfacet.py's split-sum table as an rg32f texture, (cos_v, roughness) its (s, t), linear,
+    """scene/microfacet.py's split-sum table as an rg32f texture, (cos_v, roughness) its (s, t), linear,
     clamped: texel centres where the table's samples are."""
     texture = gpu.cache.get(("brdf_table",))
     if texture is None:

@@ -50,7 +50,7 @@ void main() {
         // pdf(l) = D(h) cos_h / (4 v.h) = D / 4 with v = n; the sample's solid angle is 1 / (samples pdf(l)).
         float sample_angle = 4.0 / (float(samples) * ggx_distribution(cos_h, alpha));
         float pixel_angle = texel_angle * max(sqrt(max(1.0 - l.y * l.y, 0.0)), 1e-3);
-        float lod = max(0.5 * log2(sample_angle / pixel_angle) + 1.0, 0.0);
+        float lod = max(0.5 * log2(sample_angle / pixel_angle), 0.0);
         sum += n_dot_l * source_radiance(l, lod);
         weight += n_dot_l;
     }
