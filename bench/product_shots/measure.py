@@ -11,7 +11,8 @@ warm-up, the GL work finished: caustica.bench.timing) and the ratio to ``plain``
 renderer. The GL renderer string is recorded.
 
     .venv/bin/python bench/product_shots/measure.py [--size 256] [--techniques auto,exact] [--exact-spp 16]
-        [--only a,b] [--json out.json]
+        [--only a,b] [--json out.json] [--images DIR]
+    .venv/bin/python bench/product_shots/measure.py --from-json a.json b.json   # one table of earlier runs
 """
 from __future__ import annotations
 
@@ -140,7 +141,14 @@ def main() -> None:
     parser.add_argument("--only", default="")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--images", type=Path, help="a folder for each image as sRGB PNG (NAME.TECHNIQUE.png)")
+    parser.add_argument("--from-json", type=Path, nargs="+", help="print the table of earlier --json files")
     args = parser.parse_args()
+    if args.from_json:
+        results = [result for path in args.from_json for result in json.loads(path.read_text())]
+        print(f"caustica from {', '.join(sorted({r['caustica'] for r in results}))}; "
+              f"GL renderer: {', '.join(sorted({r['gl_renderer'] for r in results}))}\n")
+        print(table(results))
+        return
     only = {name for name in args.only.split(",") if name}
     if args.images is not None:
         args.images.mkdir(parents=True, exist_ok=True)
