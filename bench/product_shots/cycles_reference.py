@@ -11,7 +11,7 @@ and writes ``NAME.seed1.exr`` and ``NAME.seed2.exr`` (32-bit linear RGB, ``--spp
 ``$CAUSTICA_CACHE/product_shots`` or ``~/.cache/caustica/product_shots``). The two renders are the halves of
 the reference: their mean has twice the samples, and their difference gives its noise floor
 (caustica.metrics.floor). Settings: CPU, no denoising, no adaptive sampling, a 1-pixel box filter, no
-clamping, no glossy filter, reflective and refractive caustics on, 16 bounces (4 diffuse), the Standard view
+clamping, no glossy filter, reflective and refractive caustics on, 16 bounces (4 diffuse: ``--diffuse-bounces``), the Standard view
 transform (no Filmic/AgX look), exposure 0, gamma 1.
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ def default_out() -> Path:
     return (Path(root) if root else Path.home() / ".cache" / "caustica") / "product_shots"
 
 
-def configure(scene, spp: int, threads: int) -> None:
+def configure(scene, spp: int, threads: int, diffuse_bounces: int = 4) -> None:
     scene.render.engine = "CYCLES"
     cycles = scene.cycles
     cycles.device = "CPU"
@@ -43,7 +43,7 @@ def configure(scene, spp: int, threads: int) -> None:
     cycles.sample_clamp_direct = cycles.sample_clamp_indirect = 0.0
     cycles.blur_glossy = 0.0
     cycles.max_bounces = cycles.transmission_bounces = cycles.glossy_bounces = cycles.transparent_max_bounces = 16
-    cycles.diffuse_bounces = 4
+    cycles.diffuse_bounces = diffuse_bounces
     cycles.caustics_reflective = cycles.caustics_refractive = True
     scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
     scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
@@ -52,10 +52,10 @@ def configure(scene, spp: int, threads: int) -> None:
     settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGB"
 
 
-def render(blend: Path, out: Path, spp: int, threads: int) -> dict:
+def render(blend: Path, out: Path, spp: int, threads: int, diffuse_bounces: int) -> dict:
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
-    configure(scene, spp, threads)
+    configure(scene, spp, threads, diffuse_bounces)
     seconds = {}
     for seed in (1, 2):
         scene.cycles.seed = seed
@@ -64,7 +64,7 @@ def render(blend: Path, out: Path, spp: int, threads: int) -> dict:
         bpy.ops.render.render(write_still=True)
         seconds[seed] = time.perf_counter() - start
         print(f"{blend.stem} seed {seed}: {spp} spp in {seconds[seed]:.1f} s", flush=True)
-    info = {"spp_per_seed": spp, "seeds": [1, 2], "seconds": seconds, "threads": threads,
+    info = {"spp_per_seed": spp, "seeds": [1, 2], "seconds": seconds, "threads": threads, "diffuse_bounces": diffuse_bounces,
             "blender": bpy.app.version_string, "size": [scene.render.resolution_x, scene.render.resolution_y]}
     (out / f"{blend.stem}.cycles.json").write_text(json.dumps(info, indent=2))
     return info
@@ -78,12 +78,14 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=512)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--only", default="")
+    parser.add_argument("--diffuse-bounces", type=int, default=4,
+                        help="0 leaves out light bounced between diffuse surfaces (into another --out)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     only = {name for name in args.only.split(",") if name}
     for blend in sorted(args.blends.glob("*.blend")):
         if not only or blend.stem in only:
-            render(blend, args.out.resolve(), args.spp, args.threads)
+            render(blend, args.out.resolve(), args.spp, args.threads, args.diffuse_bounces)
 
 
 if __name__ == "__main__":
