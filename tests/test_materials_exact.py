@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from caustica.scene import microfacet
 from caustica.metrics.images import psnr_linear
 from caustica.raytrace import principled
 from caustica.raytrace.embree_scene import ray_scene_for
-from caustica.scene import Camera, Diffuse, PointLight, Scene, SceneObject, Transform
+from caustica.scene import Camera, Diffuse, PointLight, Scene, SceneObject, Transform, microfacet
 from caustica.scene.environment import procedural_environment
 from caustica.scene.materials import Principled
 from caustica.scene.shapes import box, plane, sphere
@@ -27,20 +26,11 @@ def furnace(obj, size=(32, 32), position=(0.0, 0.0, 4.0)) -> Scene:
     return Scene(camera=camera, objects=[obj], lights=[], environment=procedural_environment("white"), name="furnace")
 
 
-def table_albedo(cos_v: np.ndarray, row: int) -> np.ndarray:
-    """A white metal's single-scattering albedo A + B from microfacet.brdf_table's row ``row``, linear in cos_v."""
-    table = microfacet.brdf_table()
-    size = table.shape[0]
-    return np.interp(cos_v, (np.arange(size) + 0.5) / size, table[row, :, 0] + table[row, :, 1])
-
-
-@pytest.mark.parametrize("row", [9, 15, 24, 31])
-def test_white_furnace_rough_metal_ball_returns_what_single_scattering_keeps(row):
-    """A convex white metal (F0 = 1) in a white sky reflects E(cos_v), the single-scattering GGX albedo: the
-    environment less what single scattering loses (1 - E, from the split-sum table; no interreflection on a
-    ball). Roughness at the table's texel centres 0.30, 0.48, 0.77, 0.98, whose mean loss over the ball's
-    pixels is 1.9 %, 11 %, 37 % and 59 %."""
-    roughness = (row + 0.5) / microfacet.BRDF_TABLE_SIZE
+@pytest.mark.parametrize("roughness", [0.1, 0.3, 0.5, 0.77, 1.0])
+def test_white_furnace_rough_metal_ball_returns_the_environment(roughness):
+    """A convex white metal (F0 = 1) in a white sky returns the sky for every roughness: single-scattering GGX
+    loses up to 67 % at roughness 1 (1 - E from the split-sum table), which the compensation 1 + F0 (1/E - 1)
+    gives back exactly for F0 = 1; what is left is the table's interpolation and 16 samples' noise (1 %)."""
     scene = furnace(SceneObject("ball", ball(), Principled(base_color=[1.0] * 3, metallic=1.0, roughness=roughness)))
     assert scene.objects[0].material.kind == "diffuse" and scene.objects[0].material.glossy
     spp = 16
@@ -48,26 +38,23 @@ def test_white_furnace_rough_metal_ball_returns_what_single_scattering_keeps(row
     origins, dirs = scene.camera.primary_rays(spp)
     height, width = dirs.shape[:2]
     hits = ray_scene_for(scene).intersect(origins.reshape(-1, 3), dirs.reshape(-1, 3))
-    cos_v = np.clip(-np.sum(dirs.reshape(-1, 3) * hits.normal, axis=1), 0.0, 1.0)
     on_ball = hits.hit.reshape(height, width, spp).all(axis=2)
-    expected = table_albedo(cos_v, row).reshape(height, width, spp).mean(axis=2)[on_ball]
     measured = image[on_ball].astype(np.float64)
     assert np.allclose(measured, measured[:, :1])  # white in, white out
-    loss = 1.0 - expected.mean()
-    assert abs(measured.mean() - expected.mean()) < 0.01 * expected.mean()
-    assert 1.0 - measured.mean() <= loss + 0.01
-    if row == 9:
-        assert measured.mean() > 0.97  # a moderately rough metal keeps nearly all (98 %)
+    assert abs(measured.mean() - 1.0) < 0.01
+    a, b = microfacet.split_sum(np.full(1, 0.5), np.full(1, roughness))
+    if roughness >= 0.77:
+        assert a + b < 0.75  # the loss the compensation must give back is large here
 
 
 @pytest.mark.parametrize("roughness", [0.1, 0.3, 0.6, 1.0])
 @pytest.mark.parametrize("cos_v", [1.0, 0.7, 0.3, 0.05])
 def test_plastic_brdf_albedo_and_sampling_agree_with_evaluation(roughness, cos_v):
     """A white dielectric base under its specular layer: the importance-sampled weights f cos / pdf average to
-    the albedo that evaluating f over uniform directions gives. From cos_v 0.7 up it reflects at most what it
-    receives; towards grazing glTF's mix creates energy (its diffuse part is weighted by 1 - F(v.h), nearly 1
-    for most light directions, while the specular lobe rises to F(cos_v)): up to about 1.7 at cos_v 0.05, and
-    never more than 1 + F(cos_v) (the diffuse part at most 1 plus Fresnel at the view)."""
+    the albedo that evaluating f over uniform directions gives, and that albedo is 1 at every view (the base
+    takes what the compensated specular lobe leaves, microfacet.layer_weights), to the split-sum table's
+    accuracy (2 %) where the lobe is broad; towards grazing on a sharp lobe the table's cos_v texels are
+    coarse, so there it is bounded by 1 + 4 % (glTF's own mix, 1 - F(v.h), gave 1.7 at cos_v 0.05)."""
     n = 200_000
     rng = np.random.default_rng(7)
     surface = principled.Surface(np.tile([0.0, 0.0, 1.0], (n, 1)), np.ones((n, 3)), np.full((n, 3), 0.04),
@@ -83,15 +70,15 @@ def test_plastic_brdf_albedo_and_sampling_agree_with_evaluation(roughness, cos_v
     noise = 3.0 * weight[:, 0].std() / np.sqrt(n)
     # Four standard errors of the two estimates (uniform directions are noisy on a sharp lobe) and 1 %.
     assert abs(sampled - uniform) < 4.0 * np.hypot(noise / 3.0, values.std() / np.sqrt(n)) + 0.01 * uniform
-    assert sampled <= 1.0 + float(microfacet.schlick(0.04, cos_v)) + noise
-    if cos_v >= 0.7:
-        assert sampled <= 1.002 + noise
+    assert sampled <= 1.04 + noise
+    if cos_v >= 0.3:
+        assert abs(sampled - 1.0) < 0.02 + noise
 
 
 @pytest.mark.parametrize("metallic", [0.0, 1.0])
 def test_rough_slab_in_a_white_furnace_creates_no_energy(metallic):
     """A white rough slab (plastic, or a metal with F0 = 1) seen from above (cos_v >= 0.8 on its top) in a
-    white sky is no brighter than the sky."""
+    white sky returns the sky: neither lobe makes or loses energy (within 16 samples' noise, 1 %)."""
     slab = SceneObject("slab", box((3.0, 0.4, 3.0)), Principled(base_color=[1.0] * 3, metallic=metallic, roughness=0.5))
     scene = furnace(slab, size=(24, 24), position=(0.0, 4.0, 1.0))
     image = Exact().render(scene, scene.camera, ExactParams(), 16)
@@ -100,7 +87,7 @@ def test_rough_slab_in_a_white_furnace_creates_no_energy(metallic):
     top = hits.hit & (hits.normal[:, 1] > 0.99)
     assert top.sum() > 100 and np.all(-dirs[top, 1] > 0.8)
     on_slab = image.reshape(-1, 3)[top]
-    assert 0.9 < on_slab.mean() < 1.0
+    assert abs(on_slab.mean() - 1.0) < 0.01
     assert np.percentile(on_slab, 99) < 1.2  # single pixels carry the noise of 16 samples
 
 
@@ -142,7 +129,7 @@ def test_constant_normal_map_equals_the_tilted_plane():
 
 
 def metal_ball_scene() -> Scene:
-    obj = SceneObject("ball", ball(), Principled(base_color=[0.95, 0.64, 0.54], metallic=1.0, roughness=0.4))
+    obj = SceneObject("ball", ball(), Principled(base_color=[0.95, 0.64, 0.54], metallic=1.0, roughness=0.2))
     camera = Camera(position=[0.0, 0.6, 3.6], look_at=[0.0, 0.0, 0.0], fov_y=38.0, size=(64, 64))
     return Scene(camera=camera, objects=[obj], lights=[], environment=procedural_environment("sky-checker"),
                  name="metal-ball")
@@ -156,13 +143,16 @@ def plastic_floor_scene() -> Scene:
                  environment=procedural_environment("sky-checker"), name="plastic-floor")
 
 
-@pytest.mark.parametrize("make, exact_spp, mean_tolerance", [(metal_ball_scene, 128, 0.01),
-                                                            (plastic_floor_scene, 64, 0.05)])
-def test_exact_matches_mitsuba_within_its_noise(reference_cache, make, exact_spp, mean_tolerance):
+@pytest.mark.parametrize("make, exact_spp, mean_tolerance, psnr_margin", [(metal_ball_scene, 128, 0.01, 0.0),
+                                                                         (plastic_floor_scene, 64, 0.08, 1.0)])
+def test_exact_matches_mitsuba_within_its_noise(reference_cache, make, exact_spp, mean_tolerance, psnr_margin):
     """exact against Mitsuba's principled BSDF (256 spp, two seeds): exact differs from the seeds' mean by no more
-    than the seeds differ from each other (the noise floor), and every channel's mean agrees within
-    ``mean_tolerance`` (1 % on the metal, where both are Schlick's GGX; 5 % on the plastic, whose Mitsuba diffuse
-    is Disney's, not glTF's Lambertian less Fresnel)."""
+    than the seeds differ from each other (the noise floor) less ``psnr_margin``, and every channel's mean agrees
+    within ``mean_tolerance``. The models differ where they are meant to: Mitsuba's principled is single-scattering
+    GGX (the metal is at roughness 0.2, where exact's compensation adds under 1 %: 1 % and no margin), and its
+    diffuse is Disney's (brighter towards grazing), where exact's base takes what the compensated coat leaves
+    (Cycles' scaling, measured closer to Cycles on the product shots): 8 % and
+    1 dB on the plastic."""
     pytest.importorskip("mitsuba", reason="the Mitsuba reference needs the 'reference' extra")
     from caustica.reference.render import render_reference
 
@@ -171,6 +161,6 @@ def test_exact_matches_mitsuba_within_its_noise(reference_cache, make, exact_spp
     floor = psnr_linear(seeds[1], seeds[0])
     image = Exact().render(scene, scene.camera, ExactParams(), exact_spp)
     reference = (seeds[0] + seeds[1]) / 2.0
-    assert psnr_linear(image, reference) > floor
+    assert psnr_linear(image, reference) > floor - psnr_margin
     means, expected = image.mean(axis=(0, 1)), reference.mean(axis=(0, 1))
     assert np.all(np.abs(means - expected) < mean_tolerance * expected)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from caustica.passes.shading.prefiltered import PREFILTER_LEVELS, prefiltered_environment
-from caustica.scene.microfacet import alpha_of, reflect, sample_visible_normal, specular_brdf
+from caustica.scene.microfacet import alpha_of, layer_weights, reflect, sample_visible_normal, specular_brdf
 from caustica.scene import Camera, Diffuse, DirectionalLight, PointLight, Scene, SceneObject, Transform
 from caustica.scene import procedural_environment
 from caustica.scene.environment import Environment
@@ -111,7 +111,8 @@ def test_principled_without_lobe_is_bit_identical_to_diffuse(renderer, technique
 
 def test_rough_metal_under_a_point_light_matches_the_brdf(renderer):
     """metallic 1, roughness 0.5, in a black environment: a floor pixel's radiance is glTF's specular BRDF
-    (microfacet.specular_brdf, F0 the base colour) times the light's irradiance there, within 3%."""
+    (microfacet.specular_brdf, F0 the base colour) times its multiple-scattering compensation at the view
+    (microfacet.layer_weights) times the light's irradiance there, within 3%."""
     camera = Camera(position=[0.0, 2.0, 3.0], look_at=[0.0, 0.0, 0.0], fov_y=45.0, size=SIZE)
     light = PointLight([0.5, 2.0, -0.5], [10.0] * 3)
     base = np.array([0.9, 0.6, 0.3])
@@ -125,7 +126,9 @@ def test_rough_metal_under_a_point_light_matches_the_brdf(renderer):
     v = v / np.linalg.norm(v)
     h = (l + v) / np.linalg.norm(l + v)
     f = specular_brdf(l @ n, v @ n, h @ n, v @ h, float(alpha_of(0.5)), base)
-    expected = f * light.intensity / distance2 * (l @ n)
+    compensation, _ = layer_weights(base, np.zeros(3), np.array(v @ n), np.array(0.5))
+    assert compensation.min() > 1.03  # the compensation is part of what is checked
+    expected = f * compensation * light.intensity / distance2 * (l @ n)
     np.testing.assert_allclose(image[pixel[1], pixel[0]], expected, rtol=0.03)
 
 

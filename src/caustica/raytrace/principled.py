@@ -1,11 +1,13 @@
 """glTF 2.0's metallic-roughness BRDF at ray hits for the ``exact`` oracle: the surface read from the
 material's factors and textures, evaluated and importance-sampled (docs/materials.md).
 
-The BRDF is the specification's Appendix B with KHR_materials_specular's dielectric reflectance:
-f = (1 - F_d(v.h)) (1 - metallic) base / pi + F(v.h) D G2 / (4 cos_l cos_v), with F Schlick's Fresnel of
-f0 = (1 - metallic) f0_d + metallic base (Schlick is affine in f0, so this is the spec's mix of the dielectric
-and the metal) and F_d Schlick's of the dielectric's f0_d = min(0.04 specular_color, 1) specular. The GGX
-terms are :mod:`caustica.scene.microfacet`'s. Sampling picks the specular lobe with a probability from
+The BRDF is the specification's Appendix B with KHR_materials_specular's dielectric reflectance, its two
+lobes weighted to conserve energy (microfacet.layer_weights): f = s(v) (1 - metallic) base / pi +
+c(v) F(v.h) D G2 / (4 cos_l cos_v), with F Schlick's Fresnel of f0 = (1 - metallic) f0_d + metallic base
+(Schlick is affine in f0, so this is the spec's mix of the dielectric and the metal), f0_d =
+min(0.04 specular_color, 1) specular, c the multiple-scattering compensation and s what the dielectric's
+lobe leaves to the base. The GGX terms are :mod:`caustica.scene.microfacet`'s; the real-time shaders use the
+same weights. Sampling picks the specular lobe with a probability from
 Fresnel at the view (its reflectance against the diffuse part's), draws it by Heitz's visible normals and
 the diffuse one by cosine, and weighs the direction by the mixture's density (one-sample MIS over the two
 lobes). Textures: base colour, metallic-roughness (G roughness, B metallic), tangent-space normal maps
@@ -124,7 +126,10 @@ def evaluate(surface: Surface, normal: np.ndarray, view: np.ndarray, light: np.n
     half = normalize(view + light)
     v_dot_h, n_dot_h = dot(view, half), dot(normal, half)
     specular = microfacet.specular_brdf(n_dot_l, n_dot_v, n_dot_h, v_dot_h, surface.alpha, surface.f0)
-    diffuse = surface.diffuse_color / np.pi * (1.0 - microfacet.schlick(surface.f0_dielectric, v_dot_h[:, None]))
+    compensation, diffuse_share = microfacet.layer_weights(surface.f0, surface.f0_dielectric, n_dot_v,
+                                                           np.sqrt(surface.alpha))
+    specular = specular * compensation
+    diffuse = surface.diffuse_color / np.pi * diffuse_share
     above = (n_dot_l > 0) & (n_dot_v > 0)
     return np.where(above[:, None], specular + diffuse, 0.0)
 

@@ -103,13 +103,14 @@ def _hammersley(count: int) -> tuple[np.ndarray, np.ndarray]:
 
 @lru_cache(maxsize=4)
 def brdf_table(size: int = BRDF_TABLE_SIZE, samples: int = BRDF_TABLE_SAMPLES) -> np.ndarray:
-    """The split-sum table (size, size, 2) float32: texel [j, i] at cos_v = (i + 0.5) / size and roughness
-    (j + 0.5) / size holds (A, B) with  integral of f_spec cos_l dl = F0 A + B  for Schlick's F (so A + B is
-    the single-scattering albedo E(cos_v) of a white metal)."""
+    """The split-sum table (size, size, 2) float32: texel [j, i] at cos_v = i / (size - 1) (the first at a
+    quarter texel, since a view along the surface sees nothing) and roughness j / (size - 1), edges included,
+    holds (A, B) with  integral of f_spec cos_l dl = F0 A + B  for Schlick's F (so A + B is the
+    single-scattering albedo E(cos_v) of a white metal)."""
     u1, u2 = _hammersley(samples)
-    cos_v = (np.arange(size) + 0.5) / size
+    cos_v = np.maximum(np.arange(size) / (size - 1), 0.25 / (size - 1))
     table = np.zeros((size, size, 2), np.float32)
-    for j, roughness in enumerate((np.arange(size) + 0.5) / size):
+    for j, roughness in enumerate(np.arange(size) / (size - 1)):
         alpha = float(alpha_of(roughness))
         for i, c in enumerate(cos_v):
             view = np.broadcast_to([np.sqrt(1.0 - c * c), 0.0, c], (samples, 3))
@@ -128,3 +129,30 @@ def energy_compensation(f0, albedo) -> np.ndarray:
     """Fdez-Aguera's factor 1 + F0 (1 / E - 1) that scales single-scattering GGX (white-metal albedo ``albedo``
     = A + B) so a rough white metal keeps all the energy it receives."""
     return 1.0 + np.asarray(f0, np.float64) * (1.0 / np.maximum(np.asarray(albedo, np.float64), 1e-6) - 1.0)
+
+
+def split_sum(cos_v, roughness) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of :func:`brdf_table` at ``cos_v`` and ``roughness`` (arrays of one shape), bilinear between
+    its texels, as the shaders' linear lookup reads the table (common/microfacet.glsl's split_sum)."""
+    table = brdf_table().astype(np.float64)
+    size = table.shape[0]
+    x = np.clip(np.asarray(cos_v, np.float64), 0.0, 1.0) * (size - 1)
+    y = np.clip(np.asarray(roughness, np.float64), 0.0, 1.0) * (size - 1)
+    x0, y0 = np.minimum(np.floor(x).astype(np.int64), size - 2), np.minimum(np.floor(y).astype(np.int64), size - 2)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    value = ((1 - fy) * ((1 - fx) * table[y0, x0] + fx * table[y0, x0 + 1])
+             + fy * ((1 - fx) * table[y0 + 1, x0] + fx * table[y0 + 1, x0 + 1]))
+    return value[..., 0], value[..., 1]
+
+
+def layer_weights(f0, f0_dielectric, cos_v, roughness) -> tuple[np.ndarray, np.ndarray]:
+    """The weights of the two lobes of an opaque surface at a view (docs/materials.md): the specular lobe's
+    energy compensation 1 + F0 (1 / E - 1) and the diffuse base's share 1 - (F0_d A + B), what the
+    dielectric's compensated lobe leaves of the light (the base seen under its coat, as Cycles' Principled
+    scales it; glTF's spec formula 1 - F(v.h) creates energy at grazing views). (n, 3) each."""
+    a, b = split_sum(cos_v, roughness)
+    a, b = a[..., None], b[..., None]
+    f0_dielectric = np.asarray(f0_dielectric, np.float64)
+    compensation = energy_compensation(f0, a + b)
+    diffuse_share = 1.0 - (f0_dielectric * a + b) * energy_compensation(f0_dielectric, a + b)
+    return compensation, np.clip(diffuse_share, 0.0, 1.0)

@@ -37,15 +37,22 @@ float ggx_specular(float n_dot_l, float n_dot_v, float n_dot_h, float alpha) {
 }
 
 // The split-sum table (microfacet.brdf_table, rg32f, linear, clamped): (A, B) at (cos_v, roughness), with
-// the integral of f_spec cos_l over the hemisphere = F0 A + B; its texel centres sit where the table's do.
+// the integral of f_spec cos_l over the hemisphere = F0 A + B; its first and last texel centres sit at 0
+// and 1 of each (microfacet.split_sum reads it the same way).
 uniform sampler2D brdf_table;
 
 vec2 split_sum(float n_dot_v, float roughness) {
-    return texture(brdf_table, vec2(clamp(n_dot_v, 0.0, 1.0), roughness)).rg;
+    vec2 size = vec2(textureSize(brdf_table, 0));
+    vec2 at = clamp(vec2(n_dot_v, roughness), 0.0, 1.0);
+    return texture(brdf_table, (at * (size - 1.0) + 0.5) / size).rg;
 }
 
 // The environment's specular weight: single scattering F0 A + B, times 1 + F0 (1 / (A + B) - 1), so that a
 // rough white metal reflects all it receives (microfacet.energy_compensation).
+vec3 energy_compensation(vec3 f0, vec2 ab) {
+    return 1.0 + f0 * (1.0 / max(ab.x + ab.y, 1e-6) - 1.0);
+}
+
 vec3 compensated_specular_albedo(vec3 f0, vec2 ab) {
-    return (f0 * ab.x + ab.y) * (1.0 + f0 * (1.0 / max(ab.x + ab.y, 1e-6) - 1.0));
+    return (f0 * ab.x + ab.y) * energy_compensation(f0, ab);
 }

@@ -10,11 +10,12 @@
 #endif
 
 #if PRINCIPLED
-// An opaque glTF metallic-roughness receiver (glTF 2.0 Appendix B): per light, the diffuse
-// (1 - F_dielectric) (1 - metallic) base / pi plus GGX's F D G2 / (4 cos cos), F Schlick's at the mix of the
-// dielectric's F0 and the base colour, shadowed as a diffuse receiver (at ``n``, the surface's normal; the
-// BRDF at the shading normal); the ambient irradiance (times the occlusion) and the caustics on the diffuse
-// part, scaled by what the dielectric's lobe leaves of light from all around (1 - (F0 A + B)); the
+// An opaque glTF metallic-roughness receiver (glTF 2.0 Appendix B, its lobes weighted as
+// scene/microfacet.py's layer_weights): per light, the diffuse s (1 - metallic) base / pi plus GGX's
+// c F D G2 / (4 cos cos), F Schlick's at the mix of the dielectric's F0 and the base colour, c the
+// multiple-scattering compensation and s = 1 - (compensated F0_d A + B) what the dielectric's lobe leaves,
+// shadowed as a diffuse receiver (at ``n``, the surface's normal; the BRDF at the shading normal); the
+// ambient irradiance (times the occlusion) and the caustics on the diffuse part, by s; the
 // environment's specular share by the split sum, prefiltered radiance in the mirror direction times the
 // compensated (F0 A + B) (common/microfacet.glsl), times the occlusion; the emission added.
 vec3 shade_principled(vec3 v, vec3 n) {
@@ -27,7 +28,8 @@ vec3 shade_principled(vec3 v, vec3 n) {
     vec3 f0 = mix(material_dielectric_f0, m.base, m.metallic);
     float alpha = ggx_alpha(m.roughness);
     vec2 ab = split_sum(n_dot_v, m.roughness);
-    vec3 diffuse_share = 1.0 - (material_dielectric_f0 * ab.x + ab.y);
+    vec3 diffuse_share = clamp(1.0 - compensated_specular_albedo(material_dielectric_f0, ab), 0.0, 1.0);
+    vec3 compensation = energy_compensation(f0, ab);
 #else
     vec3 diffuse_share = vec3(1.0);
 #endif
@@ -41,8 +43,8 @@ vec3 shade_principled(vec3 v, vec3 n) {
 #if GLOSSY
         vec3 h = normalize(to_light + to_eye);
         float v_dot_h = dot(to_eye, h);
-        brdf = (1.0 - schlick(material_dielectric_f0, v_dot_h)) * brdf
-               + schlick(f0, v_dot_h) * ggx_specular(n_dot_l, n_dot_v, dot(shading_n, h), alpha);
+        brdf = diffuse_share * brdf + compensation * schlick(f0, v_dot_h) * ggx_specular(n_dot_l, n_dot_v,
+                                                                                      dot(shading_n, h), alpha);
 #endif
         radiance += brdf * incident * n_dot_l * light_visibility(i, world_position, n);
     }
