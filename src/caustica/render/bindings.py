@@ -24,6 +24,7 @@ MAX_CAUSTIC_TILES = 16  # rectangles whose caustic textures one frame can carry 
 MAX_PLANE_TEXTURES = 4  # textured nearby planes with their own texture; more take the texture's mean colour
 MAX_PLANES = 8  # nearby planes (impostors.glsl's NEARBY_PLANES)
 MAX_IMPOSTORS = 8  # rectangles per reflector (cells of its atlas)
+MAX_REFLECTION_PROBES = 4  # glossy receivers with a local probe of their own; the others share the nearest
 SHADOW_NORMAL_OFFSET = 0.5  # texel widths at the receiver (lighting.glsl's shadow_bias; tests/test_shadows.py)
 
 MATERIAL_MAPS = ("metallic_roughness_texture", "normal_texture", "occlusion_texture", "emission_texture")
@@ -40,7 +41,7 @@ TEXTURE_UNITS: dict[str, range] = {
     "environment_bake": range(30, 31),
     "plane_textures": range(31, 31 + MAX_PLANE_TEXTURES),
     "brdf_table": range(35, 36),  # the split-sum (A, B) table of glossy receivers
-    "prefiltered_environment": range(36, 37),  # the environment prefiltered per roughness level
+    "prefiltered_environment": range(36, 37),  # the environment prefiltered per roughness level, or the object's probe
     "material_maps": range(37, 37 + len(MATERIAL_MAPS)),  # a glossy receiver's maps, in MATERIAL_MAPS' order
 }
 """Texture units of the surface-shading programs by what they hold; no two ranges overlap."""
@@ -196,6 +197,16 @@ def bind_split_sum(program, table, prefiltered, levels: int) -> None:
     prefiltered.use(first_unit("prefiltered_environment"))
     set_uniform(program, "prefiltered_environment", first_unit("prefiltered_environment"))
     set_uniform(program, "prefiltered_levels", int(levels))
+
+
+def bind_reflection_probe(program, probe) -> None:
+    """Bind a glossy receiver's reflection probe (passes/shading/reflection_probes.py) in place of the
+    prefiltered environment, and set common/reflection_probe.glsl's centre and proxy box."""
+    probe.atlas.use(first_unit("prefiltered_environment"))
+    set_uniform(program, "prefiltered_environment", first_unit("prefiltered_environment"))
+    set_uniform(program, "probe_centre", probe.centre.astype("f4"))
+    set_uniform(program, "probe_box_min", probe.box[0].astype("f4"))
+    set_uniform(program, "probe_box_max", probe.box[1].astype("f4"))
 
 
 def bind_material_maps(program, gpu, material, names) -> None:

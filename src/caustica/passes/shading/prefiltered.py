@@ -37,11 +37,22 @@ def prefiltered_environment(gpu, environment):
         return atlas
     image = np.ascontiguousarray(environment.image, dtype="f4")
     height, width = image.shape[:2]
-    band = min(PREFILTER_WIDTH, max(2 * (width // 2), 4))
     source = gpu.ctx.texture((width, height), 3, image.tobytes(), dtype="f4")
     source.repeat_x, source.repeat_y = True, False
     source.build_mipmaps()
     source.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    try:
+        atlas = prefilter_atlas(gpu, source, min(PREFILTER_WIDTH, max(2 * (width // 2), 4)))
+    finally:
+        source.release()
+    gpu.cache[key] = atlas
+    return atlas
+
+
+def prefilter_atlas(gpu, source, band: int):
+    """A new atlas of PREFILTER_LEVELS bands of ``band`` x ``band`` / 2 texels (rgba32f, linear, repeating in
+    x): ``source``, a mipmapped equirect texture of the environment's mapping, prefiltered per roughness level
+    (passes/shading/prefilter_environment.frag). Draws into its own framebuffer: bind the caller's again."""
     atlas = gpu.ctx.texture((band, band // 2 * PREFILTER_LEVELS), 4, dtype="f4")
     atlas.repeat_x, atlas.repeat_y = True, False
     atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)
@@ -57,8 +68,6 @@ def prefiltered_environment(gpu, environment):
         gpu.draw_fullscreen(program)
     finally:
         fbo.release()
-        source.release()
-    gpu.cache[key] = atlas
     return atlas
 
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any, Callable
 
 import moderngl
@@ -13,7 +14,8 @@ from ...lighting.environment import ambient_sh
 from ...lighting.samples import MAX_LIGHTS
 from ...render.bindings import (MATERIAL_MAPS, MAX_CAUSTIC_TILES, MAX_INPUTS, bind_baked_object, bind_caustic_maps,
                                 bind_caustic_tiles, bind_environment_bake, bind_environment_shadows, bind_lights,
-                                bind_material_maps, bind_receiver_tiles, bind_split_sum, first_unit)
+                                bind_material_maps, bind_receiver_tiles, bind_reflection_probe, bind_split_sum,
+                                first_unit)
 from ...render.draw import attach_tangents, culled_back_faces, culls_back_faces, draw_objects, draw_refractor_buffer
 from ...render.frame import Channel, Frame, Pass
 from ...scene.codes import MATERIAL_CODES
@@ -119,7 +121,7 @@ class ShadeSurfaces(Pass):
     # adaptive anti-aliasing's flags (passes/post/adaptive.py), given by the renderer: only flagged pixels shade.
     optional = {"caustic_maps": "CAUSTICS", "caustic_tiles": "CAUSTIC_TILES",
                 "environment_shadows": "ENVIRONMENT_SHADOWS", "environment_bake": "ENVIRONMENT_BAKE",
-                FLAGS.name: None}
+                "reflection_probes": None, FLAGS.name: None}
 
     def __init__(self, *args, options: ShadeOptions | None = None, **overrides):
         """``args``, ``overrides``: ShadeOptions fields (in order, by name), over ``options`` when given.
@@ -238,7 +240,8 @@ class ShadeSurfaces(Pass):
             kind, dispersion, textured, features = variant
             variant_defines = {**defines, "SURFACE_KIND": MATERIAL_CODES[kind], "DISPERSION": int(dispersion),
                                **({"ALBEDO_TEXTURE": 1} if textured else {}), **dict(features),
-                               **({"ENVIRONMENT_BAKE_VERTICES": 1} if baked_vertices and kind == "diffuse" else {})}
+                               **({"ENVIRONMENT_BAKE_VERTICES": 1} if baked_vertices and kind == "diffuse" else {}),
+                               **probe_defines(frame, features)}
             program_defines = variant_defines
             # The G-buffer holds no uvs, and no face orientation (a normal map's frame).
             defer = kind in self.deferred and not textured and "SURFACE_UV" not in variant_defines
@@ -282,6 +285,8 @@ class ShadeSurfaces(Pass):
         features = dict(principled_defines(obj, material))
         if features:
             set_principled_uniforms(program, frame, material, features)
+            if probe_defines(frame, features):
+                bind_object_probe(program, frame, obj)
         tiles = frame.optional("caustic_tiles")
         if tiles is not None and material.kind == "diffuse":
             bind_receiver_tiles(program, tiles, obj)
@@ -398,6 +403,27 @@ def principled_defines(obj, material) -> tuple[tuple[str, int], ...]:
     defines.update({"GLOSSY": 1} if material.glossy else {})
     defines.update({"EMISSIVE": 1} if emissive else {})
     return tuple(sorted(defines.items()))
+
+
+def probe_defines(frame: Frame, features) -> dict:
+    """REFLECTION_PROBE (and PROBE_PARALLAX) for a glossy variant (``features``: its principled_defines) when the
+    frame has reflection probes (passes/shading/reflection_probes.py), else nothing."""
+    probes = frame.optional("reflection_probes")
+    if not dict(features).get("GLOSSY") or probes is None:
+        return {}
+    return {"REFLECTION_PROBE": 1, **({"PROBE_PARALLAX": 1} if probes.parallax else {})}
+
+
+def bind_object_probe(program, frame: Frame, obj) -> None:
+    """Bind the reflection probe ``obj`` reads; one without a probe of its own (a glossy material given by an
+    override) reads the prefiltered environment, through a proxy box too far to correct anything."""
+    probe = frame.optional("reflection_probes").probe_for(frame.scene, obj)
+    if probe is None:
+        reflected = reflected_environment(frame.scene.environment, frame.read("light_samples"))
+        far = np.full(3, 1e30)
+        probe = SimpleNamespace(atlas=prefiltered_environment(frame.gpu, reflected), centre=np.zeros(3),
+                                box=np.stack([-far, far]))
+    bind_reflection_probe(program, probe)
 
 
 def set_principled_uniforms(program, frame: Frame, material, features: dict) -> None:

@@ -9,6 +9,16 @@
 #define SURFACE_KIND -1
 #endif
 
+#ifndef REFLECTION_PROBE
+#define REFLECTION_PROBE 0
+#endif
+#ifndef PROBE_PARALLAX
+#define PROBE_PARALLAX 0
+#endif
+#if REFLECTION_PROBE
+#include "common/reflection_probe.glsl"
+#endif
+
 #if PRINCIPLED
 // An opaque glTF metallic-roughness receiver (glTF 2.0 Appendix B, its lobes weighted as
 // scene/microfacet.py's layer_weights): per light, the diffuse s (1 - metallic) base / pi plus GGX's
@@ -17,7 +27,8 @@
 // shadowed as a diffuse receiver (at ``n``, the surface's normal; the BRDF at the shading normal); the
 // ambient irradiance (times the occlusion) and the caustics on the diffuse part, by s; the
 // environment's specular share by the split sum, prefiltered radiance in the mirror direction times the
-// compensated (F0 A + B) (common/microfacet.glsl), times the occlusion; the emission added.
+// compensated (F0 A + B) (common/microfacet.glsl), times the occlusion (with REFLECTION_PROBE, the object's
+// local probe's, common/reflection_probe.glsl); the emission added.
 vec3 shade_principled(vec3 v, vec3 n) {
     SurfaceMaterial m = surface_material(n);
     vec3 to_eye = -v;
@@ -51,8 +62,12 @@ vec3 shade_principled(vec3 v, vec3 n) {
     vec3 e = m.occlusion * ambient_irradiance(world_position, n, shading_n) + caustic_irradiance(world_position, n);
     radiance += diffuse_share * diffuse_albedo / PI * e;
 #if GLOSSY
+    vec3 mirror = reflect(v, shading_n);
+#if REFLECTION_PROBE
+    mirror = probe_direction(world_position, mirror);  // the object's probe is bound as the prefiltered atlas
+#endif
     radiance += m.occlusion * compensated_specular_albedo(f0, ab)
-                * prefiltered_radiance(prefiltered_environment, prefiltered_levels, reflect(v, shading_n), m.roughness);
+                * prefiltered_radiance(prefiltered_environment, prefiltered_levels, mirror, m.roughness);
 #endif
     return radiance + m.emission;
 }
