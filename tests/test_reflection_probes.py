@@ -73,22 +73,24 @@ def test_probe_of_an_empty_scene_is_the_environment(renderer, monkeypatch, mater
 
 def test_probes_are_shared_past_the_limit_and_absent_without_glossy_receivers():
     """Six glossy balls in a row get MAX_REFLECTION_PROBES probes, the largest balls their own; each smaller one
-    reads the probe whose centre is nearest. A scene whose receivers are all diffuse has no probes."""
+    reads the probe whose centre is nearest; the glossy floor, planar, gets none. A scene whose receivers are all
+    diffuse has no probes."""
     camera = Camera(position=[0.0, 2.0, 8.0], look_at=[0.0, 0.0, 0.0], fov_y=50.0, size=(32, 32))
     radii, xs = [0.2, 0.6, 0.5, 0.3, 0.45, 0.4], [-4.0, -2.5, -1.0, 0.0, 1.5, 3.0]
     balls = [SceneObject(f"ball{i}", sphere(r), Principled(base_color=GOLD, metallic=1.0, roughness=0.4),
                          Transform(position=[x, r, 0.0])) for i, (r, x) in enumerate(zip(radii, xs))]
+    glossy_floor = SceneObject("floor", plane((12.0, 12.0)), Principled(base_color=[0.5] * 3, roughness=0.3))
     floor = SceneObject("floor", plane((12.0, 12.0)), Diffuse(color=[0.5] * 3))
     light = PointLight([0.0, 4.0, 2.0], [20.0] * 3)
     with Renderer(size=(32, 32), keep_channels=True) as own:
-        own.render(Scene(camera=camera, objects=[*balls, floor], lights=[light],
+        own.render(Scene(camera=camera, objects=[*balls, glossy_floor], lights=[light],
                          environment=procedural_environment("black")), "plain")
         probes = own.channels["reflection_probes"]
         assert len(probes.probes) == MAX_REFLECTION_PROBES
         owners = [1, 2, 4, 5]  # the four largest radii
         assert [probes.probe_of_object[i] for i in owners] == [0, 1, 2, 3]
         assert probes.probe_of_object[0] == 0 and probes.probe_of_object[3] == 1  # ball1's and ball2's, nearest
-        assert probes.probe_of_object[-1] == -1  # the floor
+        assert probes.probe_of_object[-1] == -1  # the glossy floor is planar: it keeps the environment's atlas
         np.testing.assert_allclose(probes.probes[0].centre, [-2.5, 0.6, 0.0], atol=1e-6)
         own.render(Scene(camera=camera, objects=[floor, SceneObject("ball", sphere(0.5), Diffuse())], lights=[light],
                          environment=procedural_environment("black")), "plain")

@@ -1,8 +1,8 @@
 """Local reflection probes of glossy receivers: what a rough metal or glossy plastic reflects of the scene around
 it, not only of the distant environment.
 
-For each glossy Principled receiver (at most MAX_REFLECTION_PROBES of them, the largest first; the others share
-the probe whose centre is nearest theirs) the scene without that object is rendered from the centre of its
+For each glossy Principled receiver that is not planar (takes_probe; at most MAX_REFLECTION_PROBES of them, the
+largest first; the others share the probe whose centre is nearest theirs) the scene without that object is rendered from the centre of its
 world bounds into six 90-degree faces, shaded as the frame's receivers are shaded (ShadeSurfaces with the
 env-map baseline's program: lights, shadow maps, the environment's ambient and lobes, glossy receivers by
 their split sum; glass by its Fresnel reflection and refraction of the environment), with the environment
@@ -32,7 +32,8 @@ from .surfaces import ShadeSurfaces, principled_defines
 
 PROBE_FACE_SIZE = 64  # texels a side of each of a probe's six faces
 PROBE_PARALLAX = True  # look probes up towards the reflected ray's exit from the proxy box (else as distant)
-OPEN_SIDE_REACH = 1000.0  # scene extents out to which proxy_box moves a side with nothing beyond the object
+OPEN_SIDE_REACH = 1000.0  # scene extents out to which proxy_box puts a side without a wall
+WALL_THINNESS = 0.1  # an object this thin along an axis, for its size, is a wall of the proxy box (proxy_box)
 _SHARED = ("environment_shadows", "environment_bake")  # the light passes' outputs a probe's faces are lit by
 
 
@@ -64,13 +65,20 @@ class ReflectionProbeSet:
         return None
 
 
-def is_glossy(obj) -> bool:
-    """Whether ``obj`` is shaded with a GGX specular lobe of its own (a glossy Principled receiver)."""
-    return bool(dict(principled_defines(obj, obj.material)).get("GLOSSY"))
+def takes_probe(obj) -> bool:
+    """Whether ``obj`` gets a reflection probe: a glossy Principled receiver (a GGX specular lobe of its own)
+    that is not planar (WALL_THINNESS along an axis: a floor, a backdrop). A probe at a plane's centre sits
+    in the objects standing on it and shows them from there: a planar receiver keeps the distant
+    environment's prefiltered atlas."""
+    if not dict(principled_defines(obj, obj.material)).get("GLOSSY"):
+        return False
+    extent = np.ptp(obj.world_mesh().bounds, axis=0)
+    return bool(extent.min() > WALL_THINNESS * extent.max())
 
 
 class ReflectionProbes(Pass):
-    """The reflection probes of the scene's glossy receivers (None when it has none: then nothing else changes)."""
+    """The reflection probes of the scene's glossy receivers (takes_probe; None when it has none: then nothing
+    else changes)."""
 
     reads = ("light_samples", "shadow_maps")
     optional = {name: None for name in _SHARED}
@@ -82,14 +90,14 @@ class ReflectionProbes(Pass):
 
     def cache_key(self, frame: Frame):
         scene = frame.scene
-        if not any(is_glossy(obj) for obj in scene.objects):
+        if not any(takes_probe(obj) for obj in scene.objects):
             return ("none",)
         return (self.face_size, self.parallax, scene_state_key(scene), material_state_key(scene), float(scene.intensity_scale),
                 tuple(frame.version(name) for name in ("light_samples", "shadow_maps", *_SHARED)))
 
     def run(self, frame: Frame) -> None:
         scene = frame.scene
-        glossy = [i for i, obj in enumerate(scene.objects) if is_glossy(obj)]
+        glossy = [i for i, obj in enumerate(scene.objects) if takes_probe(obj)]
         if not glossy:
             frame.write("reflection_probes", None)
             return
@@ -160,15 +168,27 @@ class ReflectionProbes(Pass):
 
 
 def proxy_box(scene, index: int, centre: np.ndarray) -> np.ndarray:
-    """The parallax proxy (2, 3) of object ``index``'s probe: the bounds of the other objects, each side that
-    does not lie beyond the probe's centre (nothing stands there: the open sky over a floor) moved
-    OPEN_SIDE_REACH scene extents out, so that rays leaving through it look the probe up as a distant
-    environment."""
+    """The parallax proxy (2, 3) of object ``index``'s probe: per axis and side, the nearest wall beyond the
+    centre (another object thin along that axis, WALL_THINNESS of its size, and at least as large as this
+    object: a floor, a backdrop; or a side of an object enclosing the centre, a room), else a side
+    OPEN_SIDE_REACH scene extents out, where rays look the probe up as a distant environment: the objects
+    standing around are not walls, and a box over their tops would bend the open sky's reflection."""
     own = scene.objects[index].world_mesh().bounds.astype(np.float64)
-    others = [o.world_mesh().bounds for i, o in enumerate(scene.objects) if i != index]
-    box = own.copy() if not others else np.stack([np.min([b[0] for b in others], axis=0),
-                                                  np.max([b[1] for b in others], axis=0)]).astype(np.float64)
-    reach = OPEN_SIDE_REACH * float(np.max(np.maximum(box[1], own[1]) - np.minimum(box[0], own[0])))
-    box[0] = np.where(box[0] >= centre, centre - reach, box[0])
-    box[1] = np.where(box[1] <= centre, centre + reach, box[1])
+    reach = OPEN_SIDE_REACH * float(np.max(np.ptp(scene.bounds(), axis=0)))
+    box = np.stack([centre - reach, centre + reach])
+    size = float(np.max(own[1] - own[0]))
+    for i, obj in enumerate(scene.objects):
+        if i == index:
+            continue
+        low, high = obj.world_mesh().bounds.astype(np.float64)
+        extent = high - low
+        encloses = bool(np.all(low < own[0]) and np.all(high > own[1]))  # a room around the object
+        for axis in range(3):
+            wall = encloses or (extent[axis] <= WALL_THINNESS * extent.max() and extent.max() >= size)
+            if not wall:
+                continue
+            if high[axis] <= centre[axis] or encloses:  # below (or this room's near side)
+                box[0, axis] = max(box[0, axis], high[axis] if not encloses else low[axis])
+            if low[axis] >= centre[axis] or encloses:
+                box[1, axis] = min(box[1, axis], low[axis] if not encloses else high[axis])
     return box

@@ -415,8 +415,8 @@ def probe_defines(frame: Frame, features) -> dict:
 
 
 def bind_object_probe(program, frame: Frame, obj) -> None:
-    """Bind the reflection probe ``obj`` reads; one without a probe of its own (a glossy material given by an
-    override) reads the prefiltered environment, through a proxy box too far to correct anything."""
+    """Bind the reflection probe ``obj`` reads; one without a probe (a planar receiver, reflection_probes.py
+    takes_probe) reads the prefiltered environment, through a proxy box too far to correct anything."""
     probe = frame.optional("reflection_probes").probe_for(frame.scene, obj)
     if probe is None:
         reflected = reflected_environment(frame.scene.environment, frame.read("light_samples"))
