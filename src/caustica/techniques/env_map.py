@@ -54,7 +54,8 @@ class EnvMap(RasterTechnique):
 
 
 class Plain(RasterTechnique):
-    """``plain``: every object shaded as a grey diffuse surface; the cost floor benchmarks divide by."""
+    """``plain``: every object shaded as a grey diffuse surface (textured and glossy surfaces keep their own
+    material); the cost floor benchmarks divide by."""
 
     name = "plain"
     summary = "Every object shaded diffuse with shadow maps: the cost floor for benchmarks"
