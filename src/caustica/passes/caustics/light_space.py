@@ -109,6 +109,9 @@ def dispatch_photons(frame: Frame, program, size: tuple[int, int], count: int, i
     buffer.bind_to_storage_buffer(0)
     set_uniform(program, "has_initial", int(initial is not None))
     (initial.buffer if initial is not None else buffer).bind_to_storage_buffer(1)
+    # The photon exits were rendered just before: without a barrier llvmpipe may run the dispatch while its
+    # rasterizer threads still write them (photon-splats' images then differed between processes).
+    frame.gpu.ctx.memory_barrier()
     run_compute(program, (size[0] + 7) // 8, (size[1] + 7) // 8)
     frame.gpu.ctx.memory_barrier()
     width, height = int(size[0]), int(size[1])
