@@ -22,7 +22,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import microfacet
-from ..scene.materials import DIELECTRIC_F0
 from ..scene.tangents import mesh_tangents
 from ..scene.textures import sample_texture
 from .environment_light import tangent_frame
@@ -85,7 +84,7 @@ def read_surface(tables: dict, hits, where: np.ndarray, normal: np.ndarray) -> S
         table, on = tables[int(k)], index == k
         m = table.material
         base[on], metallic[on], roughness[on] = m.base_color, m.metallic, m.roughness
-        f0_d[on] = np.minimum(DIELECTRIC_F0 * np.asarray(m.specular_color), 1.0) * m.specular
+        f0_d[on] = m.dielectric_f0
         emission[on] = m.emission
         if table.corner_uvs is None:
             continue

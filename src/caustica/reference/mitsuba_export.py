@@ -79,7 +79,6 @@ import numpy as np
 from ..cache import atomic_write_bytes
 from ..errors import OutputError
 from ..raytrace.embree_scene import world_sphere
-from ..scene.materials import DIELECTRIC_F0
 from ..scene.mesh import Mesh
 from ..scene.transform import look_at_view_from_world, up_hint
 
@@ -205,8 +204,7 @@ def _texture_or_value(texture, value, mesh: Mesh, raw: bool = False, channel: in
 
 def principled_bsdf(material, mesh: Mesh) -> dict:
     """A glossy Principled as Mitsuba's ``principled`` (the module docstring), twosided, in its normal map."""
-    f0_dielectric = float(np.minimum(DIELECTRIC_F0 * np.asarray(material.specular_color), 1.0).mean()
-                          * material.specular)
+    f0_dielectric = float(material.dielectric_f0.mean())
     bsdf = {"type": "principled",
             "base_color": _texture_or_value(material.base_color_texture, material.base_color, mesh),
             "roughness": _texture_or_value(material.metallic_roughness_texture, material.roughness, mesh,
