@@ -258,17 +258,15 @@ class _Writer:
             self.used.add(name)
 
     def _glass(self, glass: Glass, obj, where: str, thin_walled: bool = False) -> dict:
-        absorbs = bool(np.any(glass.absorption_color < 1.0))
-        return self._transmission(1.0, glass.ior, glass.absorption_color if absorbs else None,
-                                  glass.absorption_distance if absorbs else None,
-                                  20.0 / glass.abbe if glass.abbe is not None else 0.0, glass.thickness, obj, where,
-                                  thin_walled)
+        return self._transmission(glass.as_principled(), obj, where, thin_walled)
 
-    def _transmission(self, factor: float, ior: float, attenuation_color, attenuation_distance, dispersion: float,
-                      thickness, obj, where: str, thin_walled: bool) -> dict:
+    def _transmission(self, m: Principled, obj, where: str, thin_walled: bool) -> dict:
         """KHR_materials_transmission, _ior, _volume (its thickness, else the object's smallest extent, unless
         the file's material was thin-walled and still is) and _dispersion of a transmissive surface."""
-        extensions = {"KHR_materials_transmission": {"transmissionFactor": float(factor)},
+        ior, dispersion, thickness = m.ior, m.dispersion, m.thickness
+        attenuation_color = m.attenuation_color if np.any(m.attenuation_color < 1.0) else None
+        attenuation_distance = m.attenuation_distance
+        extensions = {"KHR_materials_transmission": {"transmissionFactor": float(m.transmission)},
                       "KHR_materials_ior": {"ior": float(ior)}}
         absorbs = attenuation_color is not None or attenuation_distance is not None
         if not thin_walled or absorbs or thickness is not None:  # a file's thin-walled glass stays so
@@ -323,9 +321,7 @@ class _Writer:
         if specular:
             extensions["KHR_materials_specular"] = specular
         if m.transmission > 0:
-            extensions.update(self._transmission(
-                m.transmission, m.ior, m.attenuation_color if np.any(m.attenuation_color < 1.0) else None,
-                m.attenuation_distance, m.dispersion, m.thickness, obj, where, thin_walled))
+            extensions.update(self._transmission(m, obj, where, thin_walled))
         elif m.ior != DIELECTRIC_IOR:
             extensions["KHR_materials_ior"] = {"ior": float(m.ior)}
         self.used.update(extensions)
